@@ -1,0 +1,120 @@
+"""Device choice and the threaded CPU launcher.
+
+Warp runs one CPU launch on one thread. :class:`Launcher` splits a launch of ``n`` items into
+contiguous chunks run from a thread pool (``wp.launch`` releases the GIL on the CPU), each kernel
+computing ``i = first + wp.tid()``. On CUDA the same kernel runs as a single launch with ``first = 0``.
+
+Every chunked kernel must be race-free (gather form: each thread writes only its own outputs), which
+makes results bitwise identical for any thread count. Chunk boundaries depend only on ``n`` and the
+thread count, never on timing.
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+import warp as wp
+
+from .errors import ParameterError
+
+_initialised = False
+
+
+def init_warp(quiet: bool = True) -> None:
+    """Initialise Warp once, quietly (no banner, no per-module compile messages)."""
+    global _initialised
+    if not _initialised:
+        wp.config.quiet = quiet
+        wp.init()
+        _initialised = True
+
+
+def resolve_device(name: str | None = None) -> str:
+    """Return a Warp device name: ``"cpu"`` by default, ``"cuda"``/``"cuda:N"`` when asked and present."""
+    init_warp()
+    if name is None or name == "" or name == "cpu":
+        return "cpu"
+    if not str(name).startswith("cuda"):
+        raise ParameterError("device", f"must be 'cpu', 'cuda' or 'cuda:N', got {name!r}")
+    if not wp.is_cuda_available():
+        raise ParameterError("device", f"{name!r} was asked for but no CUDA device is present; use 'cpu'")
+    try:
+        return str(wp.get_device(name))
+    except Exception as exc:  # unknown ordinal
+        raise ParameterError("device", f"{name!r} is not a CUDA device here ({exc})") from None
+
+
+def default_threads() -> int:
+    """All cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - non-Linux
+        return max(1, os.cpu_count() or 1)
+
+
+class Launcher:
+    """Launch gather kernels over ``n`` items, chunked across ``threads`` on the CPU.
+
+    Every kernel launched through here takes ``first: int`` as its first argument and computes
+    ``i = first + wp.tid()``.
+    """
+
+    def __init__(self, device: str | None = None, threads: int | None = None):
+        self.device = resolve_device(device)
+        if threads is None:
+            threads = default_threads()
+        if isinstance(threads, bool) or int(threads) != threads or int(threads) < 1:
+            raise ParameterError("threads", f"must be an integer >= 1, got {threads!r}")
+        self.threads = int(threads) if self.is_cpu else 1
+        self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        self._loaded: set = set()
+
+    @property
+    def is_cpu(self) -> bool:
+        return self.device == "cpu"
+
+    def chunks(self, n: int) -> list[tuple[int, int]]:
+        """Contiguous ``(first, count)`` chunks: deterministic in ``n`` and the thread count."""
+        k = min(self.threads, n) if n > 0 else 0
+        out = []
+        for c in range(k):
+            a = (n * c) // k
+            b = (n * (c + 1)) // k
+            if b > a:
+                out.append((a, b - a))
+        return out
+
+    def launch(self, kernel, n: int, inputs: list, outputs: list | None = None) -> None:
+        """Run ``kernel(first, *inputs, *outputs)`` over ``n`` items."""
+        n = int(n)
+        if n <= 0:
+            return
+        outputs = outputs or []
+        if kernel.module not in self._loaded:
+            # Compile/load once before threads race to do it (they would each compile the module).
+            wp.load_module(kernel.module, device=self.device)
+            self._loaded.add(kernel.module)
+        if self._pool is None:
+            wp.launch(kernel, dim=n, inputs=[0, *inputs], outputs=outputs, device=self.device)
+            return
+        futures = [
+            self._pool.submit(
+                wp.launch, kernel, dim=cnt, inputs=[first, *inputs], outputs=outputs, device=self.device
+            )
+            for first, cnt in self.chunks(n)
+        ]
+        for f in futures:
+            f.result()  # re-raise any error from a worker
+
+    def synchronize(self) -> None:
+        if not self.is_cpu:
+            wp.synchronize_device(self.device)
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
+
+    def __repr__(self) -> str:
+        return f"Launcher(device={self.device!r}, threads={self.threads})"
