@@ -9,6 +9,7 @@ import os as _os
 import warp as _wp
 
 # Quiet by default (no banner, no per-module compile lines); WARPFREE_VERBOSE=1 restores them.
-_wp.config.quiet = _os.environ.get("WARPFREE_VERBOSE", "0") in ("", "0")
+if _os.environ.get("WARPFREE_VERBOSE", "0") in ("", "0"):
+    _wp.config.log_level = _wp.LOG_WARNING
 
 __version__ = "0.1.0"

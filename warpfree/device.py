@@ -21,11 +21,10 @@ from .errors import ParameterError
 _initialised = False
 
 
-def init_warp(quiet: bool = True) -> None:
-    """Initialise Warp once, quietly (no banner, no per-module compile messages)."""
+def init_warp() -> None:
+    """Initialise Warp once (quiet unless WARPFREE_VERBOSE=1, see ``warpfree/__init__.py``)."""
     global _initialised
     if not _initialised:
-        wp.config.quiet = quiet
         wp.init()
         _initialised = True
 
