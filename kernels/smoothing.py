@@ -147,6 +147,32 @@ def kernel_shape_dq(kind: int, dim: int, q: float) -> float:
 
 
 @wp.func
+def kernel_grad_coef(kind: int, dim: int, q: float) -> float:
+    """(df/dq)/q, finite at q = 0; ∇_i W = (σ_d/h²) (df/dq)/q · r_ij avoids the divisions by r and h.
+
+    Wendland C2 and the inner cubic branch need no division at all, which matters in hot loops.
+    """
+    c = float(0.0)
+    if kind == 0:
+        if q < 1.0:
+            c = -3.0 + 2.25 * q
+        elif q < 2.0:
+            t = 2.0 - q
+            c = -0.75 * t * t / q
+    elif kind == 1:
+        if q < 2.0:
+            t = 1.0 - 0.5 * q
+            if dim == 1:
+                c = -3.0 * t * t
+            else:
+                c = -5.0 * t * t * t
+    else:
+        if q > 0.0:
+            c = kernel_shape_dq(kind, dim, q) / q
+    return c
+
+
+@wp.func
 def kernel_w(kind: int, dim: int, r: float, h: float) -> float:
     """W(r, h) in 1/m^dim."""
     return kernel_sigma(kind, dim, h) * kernel_shape(kind, dim, r / h)

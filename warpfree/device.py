@@ -25,6 +25,8 @@ def init_warp() -> None:
     """Initialise Warp once (quiet unless WARPFREE_VERBOSE=1, see ``warpfree/__init__.py``)."""
     global _initialised
     if not _initialised:
+        if os.environ.get("WARPFREE_VERBOSE", "0") in ("", "0"):
+            wp.config.log_level = wp.LOG_WARNING
         wp.init()
         _initialised = True
 
@@ -117,3 +119,23 @@ class Launcher:
 
     def __repr__(self) -> str:
         return f"Launcher(device={self.device!r}, threads={self.threads})"
+
+
+_current: Launcher | None = None
+
+
+def use(device: str | None = None, threads: int | None = None) -> Launcher:
+    """Set the launcher that solvers use when none is passed (the CLI calls this once per run)."""
+    global _current
+    if _current is not None:
+        _current.close()
+    _current = Launcher(device, threads)
+    return _current
+
+
+def current_launcher() -> Launcher:
+    """The launcher set by :func:`use`, or a CPU launcher on all cores."""
+    global _current
+    if _current is None:
+        _current = Launcher()
+    return _current

@@ -1,0 +1,223 @@
+"""The threaded CPU launcher (warpfree/device.py): chunking, argument checks, determinism, errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import warp as wp
+
+import kernels_for_tests as kt
+from warpfree.device import Launcher, default_threads, resolve_device
+from warpfree.errors import ParameterError
+from warpfree.kernels import smoothing as sm
+from warpfree.neighbours import NeighbourGrid, neighbour_list
+
+# --- chunks --------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3, 4, 7, 16])
+@pytest.mark.parametrize("n", [0, 1, 2, 3, 5, 6, 7, 15, 16, 17, 100, 1001, 123457])
+def test_chunks_cover_range_exactly_once(make_launcher, n, threads):
+    launcher = make_launcher(threads=threads)
+    chunks = launcher.chunks(n)
+    assert chunks == launcher.chunks(n)  # deterministic
+    assert len(chunks) == min(n, threads)
+    covered = np.zeros(n, dtype=np.int64)
+    expected_first = 0
+    for first, count in chunks:
+        assert isinstance(first, int) and isinstance(count, int)
+        assert first == expected_first, "chunks must be contiguous and in order"
+        assert count >= 1
+        covered[first:first + count] += 1
+        expected_first = first + count
+    assert expected_first == n
+    assert np.all(covered == 1)
+
+
+def test_launch_of_zero_items_is_a_no_op(make_launcher):
+    launcher = make_launcher(threads=3)
+    r = wp.zeros(0, dtype=float, device="cpu")
+    w = wp.zeros(0, dtype=float, device="cpu")
+    launcher.launch(kt.eval_w_dwdr, 0, [0, 3, r, 1.0, w, w])
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3, 5])
+def test_every_item_launched_once(make_launcher, threads):
+    """Each index i = first + tid is computed exactly once, whatever the thread count (n < threads too)."""
+    launcher = make_launcher(threads=threads)
+    for n in (1, 2, 3, 4, 11, 1000):
+        r_np = np.linspace(0.0, 3.0, n).astype(np.float32)
+        r = wp.array(r_np, dtype=float, device="cpu")
+        w = wp.array(np.full(n, -1.0, dtype=np.float32), dtype=float, device="cpu")
+        dw = wp.array(np.full(n, -1.0, dtype=np.float32), dtype=float, device="cpu")
+        launcher.launch(kt.eval_w_dwdr, n, [sm.kernel_id("cubic_spline"), 3, r, 1.0, w, dw])
+        ref = wp.array(np.full(n, -1.0, dtype=np.float32), dtype=float, device="cpu")
+        dref = wp.array(np.full(n, -1.0, dtype=np.float32), dtype=float, device="cpu")
+        wp.launch(kt.eval_w_dwdr, dim=n, inputs=[0, sm.kernel_id("cubic_spline"), 3, r, 1.0, ref, dref],
+                  device="cpu")
+        assert np.array_equal(w.numpy(), ref.numpy())
+        assert np.array_equal(dw.numpy(), dref.numpy())
+        assert np.all(w.numpy() >= 0.0)
+
+
+# --- parameters ----------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("threads", [0, -1, 1.5, True, False, -0.5])
+def test_bad_threads(threads):
+    with pytest.raises(ParameterError, match="threads"):
+        Launcher(device="cpu", threads=threads)
+
+
+@pytest.mark.xfail(strict=True, reason="Launcher calls int(threads) before validating: inf -> OverflowError, "
+                   "nan / 'four' -> a ValueError that does not name 'threads'")
+@pytest.mark.parametrize("threads", [float("inf"), float("nan"), "four"])
+def test_bad_threads_non_integral_values_name_threads(threads):
+    with pytest.raises(ParameterError, match="threads"):
+        Launcher(device="cpu", threads=threads)
+
+
+def test_threads_default_and_integral_float(make_launcher):
+    launcher = make_launcher(threads=None)
+    assert launcher.threads == default_threads() >= 1
+    launcher = make_launcher(threads=2.0)
+    assert launcher.threads == 2 and isinstance(launcher.threads, int)
+    assert launcher.is_cpu and launcher.device == "cpu"
+
+
+def test_cuda_without_cuda_names_device():
+    if wp.is_cuda_available():
+        pytest.skip("a CUDA device is present")
+    for name in ("cuda", "cuda:0"):
+        with pytest.raises(ParameterError, match="device"):
+            Launcher(device=name, threads=1)
+        with pytest.raises(ParameterError, match="device"):
+            resolve_device(name)
+
+
+@pytest.mark.parametrize("name", ["gpu", "metal", "cpu0"])
+def test_unknown_device_names_device(name):
+    with pytest.raises(ParameterError, match="device"):
+        Launcher(device=name, threads=1)
+
+
+def test_default_device_is_cpu():
+    assert resolve_device(None) == "cpu"
+    assert resolve_device("") == "cpu"
+    assert resolve_device("cpu") == "cpu"
+
+
+# --- determinism ---------------------------------------------------------------------------------------
+
+
+def _jittered_lattice(m: int, dx: float, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    k = np.arange(m)
+    idx = np.stack(np.meshgrid(k, k, k, indexing="ij"), axis=-1).reshape(-1, 3)
+    return (-0.5 + idx * dx + rng.uniform(-0.3 * dx, 0.3 * dx, size=idx.shape)).astype(np.float32)
+
+
+def _density(launcher, grid, x, mass, h, radius):
+    n = x.shape[0]
+    rho = wp.zeros(n, dtype=float, device="cpu")
+    grad = wp.zeros(n, dtype=wp.vec3, device="cpu")
+    launcher.launch(kt.kernel_sums, n, [sm.kernel_id("cubic_spline"), 3, grid.id, x, grid.query_radius, h,
+                                        radius, mass, rho, grad])
+    return rho.numpy(), grad.numpy()
+
+
+def test_gather_bitwise_identical_across_thread_counts(make_launcher):
+    """An SPH density sum ρ_i = Σ_j m_j W_ij over HashGrid neighbours gives the same bits on 1, 2, 3 threads."""
+    dx = 0.05
+    h = 1.3 * dx
+    radius = sm.support_factor("cubic_spline") * h
+    p = _jittered_lattice(20, dx, seed=21)
+    n = p.shape[0]
+    x = wp.array(p, dtype=wp.vec3, device="cpu")
+    rng = np.random.default_rng(22)
+    mass_np = (1000.0 * dx**3 * rng.uniform(0.9, 1.1, size=n)).astype(np.float32)
+    mass = wp.array(mass_np, dtype=float, device="cpu")
+    grid = NeighbourGrid(x, radius, dim=3, policy="static")
+
+    results = {}
+    for threads in (1, 2, 3):
+        launcher = make_launcher(threads=threads)
+        assert len(launcher.chunks(n)) == threads
+        results[threads] = _density(launcher, grid, x, mass, h, radius)
+    rho1, g1 = results[1]
+    assert rho1.dtype == np.float32
+    for threads in (2, 3):
+        rho, g = results[threads]
+        assert np.array_equal(rho, rho1) and np.array_equal(g, g1)
+        assert np.array_equal(rho.view(np.uint32), rho1.view(np.uint32))  # bitwise, signed zeros included
+        assert np.array_equal(g.view(np.uint32), g1.view(np.uint32))
+    # sanity: a real computation (interior density near the rest density of 1000)
+    inner = np.all((p > -0.5 + 4 * dx) & (p < -0.5 + 15 * dx), axis=1)
+    assert inner.sum() > 100
+    assert np.all(np.abs(rho1[inner] / 1000.0 - 1.0) < 0.3)
+    assert abs(np.mean(rho1[inner]) / 1000.0 - 1.0) < 0.05
+    # repeated runs on the same launcher are bitwise identical too
+    launcher = make_launcher(threads=3)
+    again = _density(launcher, grid, x, mass, h, radius)
+    assert np.array_equal(again[0].view(np.uint32), rho1.view(np.uint32))
+
+
+def test_neighbour_lists_identical_across_thread_counts(make_launcher):
+    p = _jittered_lattice(12, 0.1, seed=23)
+    x = wp.array(p, dtype=wp.vec3, device="cpu")
+    grid = NeighbourGrid(x, 0.26, dim=3)
+    off1, idx1 = neighbour_list(make_launcher(threads=1), grid, x)
+    for threads in (2, 3):
+        off, idx = neighbour_list(make_launcher(threads=threads), grid, x)
+        assert np.array_equal(off.numpy(), off1.numpy())
+        assert np.array_equal(idx.numpy(), idx1.numpy())
+
+
+# --- errors --------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_launch_error_propagates(make_launcher, threads):
+    """A bad argument fails inside wp.launch (in a worker when threads > 1) and reaches the caller."""
+    launcher = make_launcher(threads=threads)
+    n = 10
+    bad_r = wp.zeros(n, dtype=wp.vec3, device="cpu")  # the kernel expects a float array
+    w = wp.zeros(n, dtype=float, device="cpu")
+    with pytest.raises(RuntimeError, match="'r'"):
+        launcher.launch(kt.eval_w_dwdr, n, [0, 3, bad_r, 1.0, w, w])
+    # the launcher is still usable afterwards
+    r = wp.array(np.linspace(0.0, 1.0, n).astype(np.float32), dtype=float, device="cpu")
+    dw = wp.zeros(n, dtype=float, device="cpu")
+    launcher.launch(kt.eval_w_dwdr, n, [0, 3, r, 1.0, w, dw])
+    assert np.all(w.numpy() > 0.0) and np.all(dw.numpy() <= 0.0)
+
+
+def test_exception_in_one_worker_propagates(make_launcher, monkeypatch):
+    """Only the last chunk's worker raises; the caller still sees that exception (not a silent partial result)."""
+    launcher = make_launcher(threads=3)
+    n = 30
+    last_first = launcher.chunks(n)[-1][0]
+    assert last_first > 0
+    real_launch = wp.launch
+    seen = []
+
+    def flaky_launch(kernel, *args, inputs=(), **kwargs):
+        seen.append(inputs[0])
+        if inputs[0] == last_first:
+            raise ValueError("boom in worker")
+        return real_launch(kernel, *args, inputs=inputs, **kwargs)
+
+    r = wp.array(np.linspace(0.0, 1.0, n).astype(np.float32), dtype=float, device="cpu")
+    w = wp.zeros(n, dtype=float, device="cpu")
+    launcher.launch(kt.eval_w_dwdr, n, [0, 3, r, 1.0, w, w])  # compile/load before patching
+    monkeypatch.setattr(wp, "launch", flaky_launch)
+    with pytest.raises(ValueError, match="boom in worker"):
+        launcher.launch(kt.eval_w_dwdr, n, [0, 3, r, 1.0, w, w])
+    assert sorted(seen) == [c[0] for c in launcher.chunks(n)]
+
+
+def test_close_is_idempotent():
+    launcher = Launcher(device="cpu", threads=2)
+    launcher.close()
+    launcher.close()
+    assert "threads=2" in repr(launcher)

@@ -1,0 +1,162 @@
+"""VTU particle snapshots and a PVD time-series index for ParaView.
+
+Layout of one series called ``name`` under ``out_dir``::
+
+    out_dir/name.pvd                    the index (ParaView "Collection": timestep + file per entry)
+    out_dir/vtk/name_0000000.vtu        one unstructured grid per written step (vertex cells)
+
+Every file is written to a temporary name and moved into place with :func:`os.replace`, and the PVD is
+rewritten in full after each snapshot, so both are valid at any moment (a run killed mid-write leaves
+the previous index intact). Times are stored with ``repr(float)`` and read back exactly.
+
+Resume: ``VtuSeries(out_dir, name, resume_after_time=t)`` reads the existing index, keeps the entries with
+``time <= t`` and appends after them; entries later than ``t`` (written after the checkpoint the run
+resumes from) are dropped from the index. Their VTU files are left on disk; re-written steps overwrite
+them.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ParameterError
+
+__all__ = ["VtuSeries", "read_pvd", "write_pvd"]
+
+
+def _atomic_target(path: Path) -> Path:
+    return path.with_name(f".{path.name}.tmp{os.getpid()}")
+
+
+def write_pvd(path: str | os.PathLike, entries: list[tuple[float, str]]) -> None:
+    """Write a ParaView collection file listing ``(time, relative_file)`` entries (atomically)."""
+    path = Path(path)
+    lines = [
+        '<?xml version="1.0"?>',
+        '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
+        "  <Collection>",
+    ]
+    for t, f in entries:
+        lines.append(f'    <DataSet timestep="{float(t)!r}" group="" part="0" file="{f}"/>')
+    lines += ["  </Collection>", "</VTKFile>", ""]
+    tmp = _atomic_target(path)
+    tmp.write_text("\n".join(lines), encoding="utf-8")
+    os.replace(tmp, path)
+
+
+def read_pvd(path: str | os.PathLike) -> list[tuple[float, str]]:
+    """Entries ``(time, file)`` of a PVD collection in file order (file paths as written, relative)."""
+    root = ET.parse(Path(path)).getroot()
+    out = []
+    for ds in root.iter("DataSet"):
+        out.append((float(ds.get("timestep", "0")), ds.get("file", "")))
+    return out
+
+
+def _as_points(points) -> np.ndarray:
+    p = np.asarray(points)
+    if p.ndim != 2 or p.shape[1] not in (1, 2, 3):
+        raise ParameterError("points", f"must have shape (N, 3) (or (N, 2) in 2D), got {p.shape}")
+    if p.shape[1] < 3:
+        p = np.concatenate([p, np.zeros((p.shape[0], 3 - p.shape[1]), dtype=p.dtype)], axis=1)
+    if not np.issubdtype(p.dtype, np.floating):
+        p = p.astype(np.float64)
+    return np.ascontiguousarray(p)
+
+
+def _as_field(name: str, values, n: int) -> np.ndarray:
+    v = np.asarray(values)
+    if v.ndim == 0 or v.shape[0] != n:
+        raise ParameterError(f"fields[{name!r}]", f"must have {n} rows (one per point), got shape {v.shape}")
+    if v.dtype == np.bool_:
+        v = v.astype(np.uint8)
+    elif v.dtype == np.float16:
+        v = v.astype(np.float32)
+    elif v.dtype.kind not in "fiu":
+        raise ParameterError(f"fields[{name!r}]", f"must be numeric, got dtype {v.dtype}")
+    if v.ndim == 2 and v.shape[1] == 2:
+        # 2D vectors as vec3 so ParaView's glyphs and calculators see a vector.
+        v = np.concatenate([v, np.zeros((n, 1), dtype=v.dtype)], axis=1)
+    if v.ndim > 2:
+        v = v.reshape(n, -1)
+    return np.ascontiguousarray(v)
+
+
+class VtuSeries:
+    """A time series of particle snapshots: one VTU per step plus a PVD index.
+
+    Parameters
+    ----------
+    out_dir: output folder (created); VTU files go to ``out_dir/vtk``.
+    name: series name (file stem).
+    resume_after_time: if given, keep the existing index entries with time <= this value and append
+        after them; otherwise any existing index is replaced by the new series.
+    """
+
+    def __init__(self, out_dir: str | os.PathLike, name: str, resume_after_time: float | None = None):
+        if not name or any(c in name for c in "/\\\0"):
+            raise ParameterError("name", f"must be a plain file stem, got {name!r}")
+        self.out_dir = Path(out_dir)
+        self.name = name
+        self.vtk_dir = self.out_dir / "vtk"
+        self.vtk_dir.mkdir(parents=True, exist_ok=True)
+        self.pvd_path = self.out_dir / f"{name}.pvd"
+        self._entries: list[tuple[float, str]] = []
+        if resume_after_time is not None:
+            t_max = float(resume_after_time)
+            if math.isnan(t_max):
+                raise ParameterError("resume_after_time", "must be a number, got nan")
+            if self.pvd_path.exists():
+                self._entries = [(t, f) for t, f in read_pvd(self.pvd_path) if t <= t_max]
+            write_pvd(self.pvd_path, self._entries)
+
+    @property
+    def entries(self) -> list[tuple[float, str]]:
+        """``(time, file relative to out_dir)`` of every indexed snapshot, in write order."""
+        return list(self._entries)
+
+    def path_for(self, step: int) -> Path:
+        return self.vtk_dir / f"{self.name}_{int(step):07d}.vtu"
+
+    def write(self, step: int, time: float, points: np.ndarray, fields: dict[str, np.ndarray] | None = None
+              ) -> Path:
+        """Write snapshot ``step`` at simulation time ``time`` (s) and update the index; returns the VTU path.
+
+        ``points`` is (N, 3) (or (N, 2), padded with z = 0); every entry of ``fields`` becomes point data:
+        (N,) scalars, (N, 3) vectors ((N, 2) vectors are padded to 3), (N, k) tuples.
+        """
+        import meshio
+
+        step = int(step)
+        if step < 0:
+            raise ParameterError("step", f"must be >= 0, got {step}")
+        time = float(time)
+        if not math.isfinite(time):
+            raise ParameterError("time", f"must be finite, got {time}")
+        pts = _as_points(points)
+        n = pts.shape[0]
+        point_data = {str(k): _as_field(str(k), v, n) for k, v in (fields or {}).items()}
+        cells = [("vertex", np.arange(n, dtype=np.int64).reshape(-1, 1))] if n > 0 else []
+        mesh = meshio.Mesh(pts, cells, point_data=point_data)
+        path = self.path_for(step)
+        tmp = _atomic_target(path)
+        meshio.write(str(tmp), mesh, file_format="vtu")
+        os.replace(tmp, path)
+
+        rel = path.relative_to(self.out_dir).as_posix()
+        # A step written again (e.g. after a resume) replaces its entry rather than duplicating it.
+        self._entries = [(t, f) for t, f in self._entries if f != rel]
+        self._entries.append((time, rel))
+        write_pvd(self.pvd_path, self._entries)
+        return path
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def __repr__(self) -> str:
+        return f"VtuSeries({str(self.out_dir)!r}, {self.name!r}, entries={len(self._entries)})"
