@@ -167,7 +167,9 @@ def kernel_grad_coef(kind: int, dim: int, q: float) -> float:
             else:
                 c = -5.0 * t * t * t
     else:
-        if q > 0.0:
+        if q < 1.0:
+            c = -120.0 + 120.0 * q * q - 50.0 * q * q * q  # f = 66 - 60q² + 30q⁴ - 10q⁵ for q < 1
+        elif q < 3.0:
             c = kernel_shape_dq(kind, dim, q) / q
     return c
 

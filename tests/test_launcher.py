@@ -69,8 +69,6 @@ def test_bad_threads(threads):
         Launcher(device="cpu", threads=threads)
 
 
-@pytest.mark.xfail(strict=True, reason="Launcher calls int(threads) before validating: inf -> OverflowError, "
-                   "nan / 'four' -> a ValueError that does not name 'threads'")
 @pytest.mark.parametrize("threads", [float("inf"), float("nan"), "four"])
 def test_bad_threads_non_integral_values_name_threads(threads):
     with pytest.raises(ParameterError, match="threads"):

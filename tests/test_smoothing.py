@@ -376,7 +376,4 @@ def test_grad_coef_limit_at_origin(launcher, name, dim):
     x = np.zeros((len(q), 3))
     x[:, 0] = q * 0.5
     coef, _ = eval_grad_coef(launcher, name, dim, x, 0.5)
-    if name == "quintic_spline" and coef[0] != limit:
-        pytest.xfail(f"quintic kernel_grad_coef(q=0) returns {coef[0]}, not the limit -120; at q=1e-6 it gives "
-                     f"{coef[1]:.4g} (cancellation of f'(q)/q in float32)")
     np.testing.assert_allclose(coef, limit, rtol=1e-2)

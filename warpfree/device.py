@@ -11,6 +11,8 @@ thread count, never on timing.
 
 from __future__ import annotations
 
+import math
+import numbers
 import os
 from concurrent.futures import ThreadPoolExecutor
 
@@ -65,7 +67,8 @@ class Launcher:
         self.device = resolve_device(device)
         if threads is None:
             threads = default_threads()
-        if isinstance(threads, bool) or int(threads) != threads or int(threads) < 1:
+        if (isinstance(threads, bool) or not isinstance(threads, numbers.Real) or not math.isfinite(threads)
+                or int(threads) != threads or threads < 1):
             raise ParameterError("threads", f"must be an integer >= 1, got {threads!r}")
         self.threads = int(threads) if self.is_cpu else 1
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None

@@ -296,7 +296,18 @@ class WCSPHSolver:
                   "n_particles": self.n, "max_neighbours": self.max_neighbours})
         return d
 
+
+    def surface_mesh(self):
+        """Free-surface triangle mesh of the fluid (seed eq. 5-7 colour function, iso 0.5), 3D only."""
+        from warpfree.io.surface import free_surface_mesh
+
+        vol = (self.mass.numpy()[: self.nf] / self.rho.numpy()[: self.nf]).astype(np.float32)
+        volumes = wp.array(vol, dtype=float, device=self.launcher.device)
+        return free_surface_mesh(self.launcher, self.x[: self.nf], volumes, self.params.h, kernel=self.params.kernel,
+                                 dim=self.params.dim)
+
     @property
     def work_items(self) -> int:
         """Particles counted in particle-steps per second (fluid + boundary)."""
         return self.n
+
