@@ -175,7 +175,7 @@ class Simulation:
     def next_dt(self) -> float:
         limit = self.solver.stable_dt()
         if not math.isfinite(limit) or limit <= 0:
-            raise RunError(f"the stable time step is {limit}", self.step_count, getattr(self, "last_checkpoint", None))
+            raise RunError(f"non-finite or broken state: the stable time step is {limit}", self.step_count, getattr(self, "last_checkpoint", None))
         if self.dt_fixed is not None:
             if self.dt_fixed > limit * (1 + 1e-6):
                 raise RunError(f"dt = {self.dt_fixed:.4g} s exceeds the stable (CFL) limit {limit:.4g} s",

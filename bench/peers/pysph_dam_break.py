@@ -72,6 +72,7 @@ import csv
 import json
 import math
 import os
+import resource
 import subprocess
 import sys
 import time
@@ -154,10 +155,15 @@ def _cache_listing(home: str) -> set[str]:
     return {str(p) for p in root.rglob("*.so")} if root.exists() else set()
 
 
-def _run_driver(python: str, cfg: dict, threads: int, home: str, out_dir: Path,
+def _children_cpu_s() -> float:
+    """User + system CPU seconds of this process's reaped children so far."""
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
+def _run_driver(python: str, cfg: dict, env: dict, out_dir: Path,
                 timeout: float | None) -> float:
     """Run the driver subprocess; return its total wall time (s)."""
-    env = dict(os.environ, OMP_NUM_THREADS=str(threads), HOME=home)
     t0 = time.perf_counter()
     with open(out_dir / "driver_stdout.txt", "w") as log:
         proc = subprocess.run([python, "-c", _DRIVER, json.dumps(cfg)], env=env,
@@ -204,17 +210,21 @@ def force_evals(profile: dict, integrator: str, steps: int) -> tuple[int | None,
 def run_pysph_dam_break(dx: float, tf: float, threads: int, out_dir: str,
                         python: str = DEFAULT_PYTHON, *, n_dumps: int = 25,
                         consistent_resolution: bool = True, cold_cache: bool = False,
-                        timeout: float | None = None) -> dict:
+                        extra_env: dict | None = None, timeout: float | None = None) -> dict:
     """Run PySPH's 2-D dam break and return its size, cost and front history.
 
     Returns a dict with n_fluid, n_solid, n_particles, steps, wall_s (PySPH's
     "Run took", compilation excluded), wall_s_excl_output, dump_s, setup_s,
     compiled, particle_steps_per_s (all particles), fluid_particle_steps_per_s,
-    front [(t, x_front)], integrator, force_evals_per_step and context fields.
+    front [(t, x_front)], integrator, force_evals_per_step and context fields
+    (1-min load average before/after, the subprocess's CPU seconds: on a shared
+    2-core host other processes skew OpenMP runs badly).  ``extra_env`` is
+    added to the subprocess environment (e.g. ``OMP_WAIT_POLICY``).
     """
     out = Path(out_dir).resolve()
     out.mkdir(parents=True, exist_ok=True)
     home = str(out / "home") if cold_cache else os.path.expanduser("~")
+    env = {**os.environ, "OMP_NUM_THREADS": str(threads), "HOME": home, **(extra_env or {})}
     pfreq = max(1, estimate_steps(dx, tf, consistent_resolution) // max(n_dumps, 1))
     cfg = dict(dx=dx, fname=FNAME, consistent_resolution=consistent_resolution,
                argv=build_argv(dx, tf, threads, str(out), pfreq),
@@ -222,7 +232,9 @@ def run_pysph_dam_break(dx: float, tf: float, threads: int, out_dir: str,
 
     cache_before = _cache_listing(home)
     load_before = os.getloadavg()
-    total_s = _run_driver(python, cfg, threads, home, out, timeout)
+    cpu_before = _children_cpu_s()
+    total_s = _run_driver(python, cfg, env, out, timeout)
+    cpu_s = _children_cpu_s() - cpu_before
     load_after = os.getloadavg()
     compiled = bool(_cache_listing(home) - cache_before)
 
@@ -241,6 +253,7 @@ def run_pysph_dam_break(dx: float, tf: float, threads: int, out_dir: str,
         n_fluid=n_fluid, n_solid=n_solid, n_particles=n_total, steps=steps,
         wall_s=wall, wall_s_excl_output=wall - dump_s, dump_s=dump_s,
         setup_s=s["setup_s"], compiled=compiled, subprocess_total_s=total_s,
+        subprocess_cpu_s=cpu_s,
         particle_steps_per_s=n_total * steps / wall,
         fluid_particle_steps_per_s=n_fluid * steps / wall,
         integrator=s["integrator"], force_evals=evals, force_evals_per_step=per_step,
@@ -253,7 +266,7 @@ def run_pysph_dam_break(dx: float, tf: float, threads: int, out_dir: str,
 def _format(res: dict) -> str:
     """Human-readable one-run summary."""
     keys = ["n_fluid", "n_solid", "n_particles", "steps", "t_final", "h", "m", "openmp",
-            "wall_s", "wall_s_excl_output", "setup_s", "compiled",
+            "wall_s", "wall_s_excl_output", "setup_s", "compiled", "subprocess_cpu_s",
             "particle_steps_per_s", "fluid_particle_steps_per_s", "integrator",
             "force_evals_per_step", "kernel", "nnps", "loadavg_1min"]
     lines = [f"{k:>28}: {res[k]}" for k in keys]
@@ -273,12 +286,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--verbatim", action="store_true",
                     help="keep the example's dx-independent h and m (its resolution bug)")
     ap.add_argument("--cold-cache", action="store_true", help="compile into a fresh HOME")
+    ap.add_argument("--env", action="append", default=[], metavar="KEY=VALUE",
+                    help="extra environment for PySPH, e.g. OMP_WAIT_POLICY=passive")
     ap.add_argument("--json", action="store_true", help="print the result dict as JSON")
     args = ap.parse_args(argv)
+    extra_env = dict(kv.split("=", 1) for kv in args.env)
     out_dir = args.out_dir or f"/tmp/pysph_dam_break_dx{args.dx}_t{args.threads}"
     res = run_pysph_dam_break(args.dx, args.tf, args.threads, out_dir, args.python,
                               n_dumps=args.n_dumps, consistent_resolution=not args.verbatim,
-                              cold_cache=args.cold_cache)
+                              cold_cache=args.cold_cache, extra_env=extra_env)
     print(json.dumps(res, indent=1) if args.json else _format(res))
     return 0
 

@@ -1,0 +1,283 @@
+"""Shared helpers of the benchmark harness: scene building, the step timer, worker subprocesses,
+machine information and the writers of the JSON / Markdown / PNG results.
+
+Timing protocol (:func:`time_steps`): ``warmup`` untimed steps first (the first launch of every kernel
+loads or JIT-compiles its Warp module, so compilation never enters a timing), then ``repeats`` timed
+blocks of ``steps`` steps each, every block bracketed by ``time.perf_counter``; the figure reported is
+the median block. Every step of every block uses the same ``dt`` (given by the caller), so the work is
+identical whatever the thread count. The solver's ``step`` synchronises at its end, so the wall time
+of a block is the time of its work.
+
+Throughput is counted in particle-steps per second: ``particles * steps / wall``, with particles =
+fluid + boundary (every particle the solver's kernels touch) and, separately, fluid only.
+
+Speed is measured only here, never in the tests. Absolute numbers hold only for the machine that
+made them; ratios measured side by side in one run are the figures that travel.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+BENCH = ROOT / "bench"
+RESULTS = BENCH / "results"
+SCENES = ROOT / "scenes"
+PYTHON = sys.executable
+
+
+# -- machine ------------------------------------------------------------------------------------
+def cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def cpu_count() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - non-Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def loadavg() -> list[float]:
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except OSError:  # pragma: no cover
+        return []
+
+
+def git_revision() -> str | None:
+    """Read-only: the commit the working tree is based on (plus '+dirty' when files are modified)."""
+    try:
+        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
+                             text=True, timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT,
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+        return (rev + ("+dirty" if dirty else "")) or None
+    except Exception:
+        return None
+
+
+def machine_info() -> dict:
+    """Where and when a benchmark ran (goes into every JSON)."""
+    try:
+        import warp as wp
+
+        warp_version = wp.__version__
+    except Exception:  # pragma: no cover
+        warp_version = None
+    return {
+        "date": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
+        "cpu": cpu_model(),
+        "cores": cpu_count(),
+        "loadavg_start": loadavg(),
+        "python": platform.python_version(),
+        "warp": warp_version,
+        "numpy": np.__version__,
+        "git": git_revision(),
+        "command": " ".join([os.path.relpath(sys.argv[0], ROOT) if sys.argv[0] else "", *sys.argv[1:]]),
+    }
+
+
+# -- scenes -------------------------------------------------------------------------------------
+def build_scene(scene: str, threads: int, device: str = "cpu", **params):
+    """Set the launcher (``warpfree.device.use(device, threads)``) and build ``scenes/<scene>.py``.
+
+    Frames and VTU output are switched off; every other parameter is the scene's default unless
+    given. Returns the :class:`~warpfree.simulation.Simulation`.
+    """
+    os.environ.setdefault("WARPFREE_VERBOSE", "0")
+    import warpfree.device
+    from warpfree.cli import load_scene
+
+    warpfree.device.use(device, threads)
+    module = load_scene(str(SCENES / f"{scene}.py"))
+    params.setdefault("frames", False)
+    params.setdefault("vtk", False)
+    return module.build(**params)
+
+
+def particle_counts(solver) -> dict:
+    return {"n_fluid": int(solver.nf), "n_boundary": int(solver.nb), "n_particles": int(solver.n)}
+
+
+# -- the timer ----------------------------------------------------------------------------------
+def time_steps(step: Callable[[], None], steps: int, warmup: int = 3, repeats: int = 3,
+               check: Callable[[], str | None] | None = None,
+               after_warmup: Callable[[], None] | None = None) -> dict:
+    """Call ``step()`` ``warmup`` times untimed, then ``repeats`` timed blocks of ``steps`` calls.
+
+    ``check`` (optional) is called after the warm-up and after every block; a non-empty answer (a
+    problem message) raises RuntimeError, so a blown-up run is never reported as a speed.
+    ``after_warmup`` (optional) is called once between the warm-up and the first timed block.
+    Returns ``{"warmup_s", "block_s": [...], "median_s", "min_s", "max_s", "steps", "repeats"}``.
+    """
+    if steps < 1 or repeats < 1 or warmup < 0:
+        raise ValueError("steps and repeats must be >= 1, warmup >= 0")
+    t0 = time.perf_counter()
+    for _ in range(warmup):
+        step()
+    warm = time.perf_counter() - t0
+    if check is not None and check():
+        raise RuntimeError(f"problem during warm-up: {check()}")
+    if after_warmup is not None:
+        after_warmup()
+    blocks = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            step()
+        blocks.append(time.perf_counter() - t0)
+        if check is not None and check():
+            raise RuntimeError(f"problem during timing: {check()}")
+    return {"warmup_s": warm, "block_s": blocks, "median_s": statistics.median(blocks), "min_s": min(blocks),
+            "max_s": max(blocks), "steps": steps, "repeats": repeats, "warmup": warmup}
+
+
+def time_solver(solver, dt: float, steps: int, warmup: int = 3, repeats: int = 3) -> dict:
+    """:func:`time_steps` on ``solver.step(dt)`` with a fixed ``dt``; adds the throughput figures and
+    the solver's own per-phase wall times per step over the timed blocks (``phase_s_per_step``)."""
+    before = {}
+
+    def snapshot():
+        before.update(getattr(solver, "timings", {}) or {})
+
+    res = time_steps(lambda: solver.step(dt), steps, warmup, repeats, check=lambda: solver.problem,
+                     after_warmup=snapshot)
+    total = steps * repeats
+    res["phase_s_per_step"] = {k: (v - before.get(k, 0.0)) / total
+                               for k, v in (getattr(solver, "timings", {}) or {}).items()}
+    res.update(particle_counts(solver))
+    res["dt"] = dt
+    res.update(throughput(solver.n, solver.nf, steps, res["median_s"]))
+    res["block_particle_steps_per_s"] = [solver.n * steps / b for b in res["block_s"]]
+    return res
+
+
+def throughput(n_particles: int, n_fluid: int, steps: int, wall_s: float) -> dict:
+    return {"particle_steps_per_s": n_particles * steps / wall_s,
+            "fluid_particle_steps_per_s": n_fluid * steps / wall_s,
+            "s_per_step": wall_s / steps}
+
+
+def median(values):
+    return statistics.median(values)
+
+
+# -- worker subprocesses -----------------------------------------------------------------------
+WORKER_TAG = "@@BENCH_RESULT@@"
+
+
+def emit_worker_result(result: dict) -> None:
+    """A worker prints its result as one tagged JSON line on stdout."""
+    print(WORKER_TAG + json.dumps(result, default=_json_default), flush=True)
+
+
+def run_worker(script: str | Path, args: list[str], timeout: float | None = None, env: dict | None = None) -> dict:
+    """Run ``python script *args`` in a fresh process and return the dict it emitted.
+
+    A fresh process per measurement gives every thread count its own Warp runtime, thread pool and
+    allocator state; the Warp kernel cache on disk is shared, so no worker compiles again.
+    """
+    cmd = [PYTHON, str(script), *args]
+    e = dict(os.environ, WARPFREE_VERBOSE="0")
+    if env:
+        e.update(env)
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=e, cwd=ROOT)
+    for line in proc.stdout.splitlines()[::-1]:
+        if line.startswith(WORKER_TAG):
+            return json.loads(line[len(WORKER_TAG):])
+    tail = (proc.stdout[-2000:] + "\n" + proc.stderr[-3000:]).strip()
+    raise RuntimeError(f"worker {' '.join(cmd[1:])} failed (rc={proc.returncode}):\n{tail}")
+
+
+# -- output -------------------------------------------------------------------------------------
+def md_table(headers: list[str], rows: list[list], align: str | None = None) -> str:
+    """A GitHub Markdown table; ``align`` is one of l/r/c per column (default: first l, rest r)."""
+    align = align or ("l" + "r" * (len(headers) - 1))
+    sep = {"l": ":--", "r": "--:", "c": ":-:"}
+    lines = ["| " + " | ".join(headers) + " |", "| " + " | ".join(sep[a] for a in align) + " |"]
+    for r in rows:
+        lines.append("| " + " | ".join(str(c) for c in r) + " |")
+    return "\n".join(lines)
+
+
+def fmt_rate(x: float | None) -> str:
+    """Particle-steps/s in engineering notation (e.g. ``1.23e5``)."""
+    if x is None or not np.isfinite(x):
+        return "–"
+    return f"{x:.3g}"
+
+
+def fmt(x, digits: int = 3) -> str:
+    if x is None:
+        return "–"
+    if isinstance(x, float) and not np.isfinite(x):
+        return "–"
+    if isinstance(x, (int, np.integer)):
+        return str(int(x))
+    return f"{x:.{digits}g}"
+
+
+def new_figure(*args, **kwargs):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt.subplots(*args, **kwargs)
+
+
+def write_results(name: str, data: dict, markdown: str, fig=None, quick: bool = False) -> dict:
+    """Write ``bench/results/<name>[_quick].{json,md,png}``, print the Markdown, return the paths."""
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    stem = name + ("_quick" if quick else "")
+    paths = {"json": RESULTS / f"{stem}.json", "md": RESULTS / f"{stem}.md"}
+    data = dict(data)
+    data.setdefault("machine", machine_info())
+    data["machine"]["loadavg_end"] = loadavg()
+    with open(paths["json"], "w") as f:
+        json.dump(data, f, indent=2, default=_json_default)
+    m = data["machine"]
+    header = (f"<!-- {stem}: {m['date']} · {m['cpu']} · {m['cores']} cores · warp {m['warp']} · "
+              f"load {m['loadavg_start']} -> {m['loadavg_end']} -->\n")
+    with open(paths["md"], "w") as f:
+        f.write(header + markdown.rstrip() + "\n")
+    if fig is not None:
+        paths["png"] = RESULTS / f"{stem}.png"
+        fig.savefig(paths["png"], dpi=110)
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    print(markdown.rstrip())
+    print("\nwrote " + ", ".join(os.path.relpath(p, ROOT) for p in paths.values()))
+    return paths
+
+
+def _json_default(o):
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (tuple, set)):
+        return list(o)
+    if isinstance(o, Path):
+        return str(o)
+    return str(o)
