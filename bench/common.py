@@ -281,3 +281,41 @@ def _json_default(o):
     if isinstance(o, Path):
         return str(o)
     return str(o)
+
+
+# -- the 2D dam break run (used by vs_pysph and speed_vs_error) --------------------------------------
+DAM_BREAK_A = 1.0
+DAM_BREAK_G = 9.81
+DAM_BREAK_T_MAX = 2.5
+
+
+def dam_break_front_errors(t, x_front) -> dict:
+    """``front_errors`` (T <= 2.5) of warpfree.validation.dam_break for a = 1, g = 9.81."""
+    from warpfree.validation.dam_break import front_errors
+
+    return front_errors(np.asarray(t, float), np.asarray(x_front, float), DAM_BREAK_A, DAM_BREAK_G,
+                        t_max=DAM_BREAK_T_MAX)
+
+
+def dam_break_2d_run(cfg: dict) -> dict:
+    """Run ``scenes/dam_break_2d.py`` in memory (call it in a worker process).
+
+    cfg: dx, threads, tf, optional cfl. Wall time = the run's own ``wall_s`` (steps plus the probe and
+    diagnostic records every ``output_interval``; the build, which loads the kernels, is excluded).
+    Returns counts, steps, wall times, the front history [(t, x_front)] and its errors.
+    """
+    params = dict(dx=cfg["dx"], t_end=cfg["tf"])
+    if cfg.get("cfl"):
+        params["cfl"] = cfg["cfl"]
+    t0 = time.perf_counter()
+    sim = build_scene("dam_break_2d", cfg["threads"], **params)
+    build_s = time.perf_counter() - t0
+    s = sim.solver
+    summ = sim.run(None, progress=False)
+    t, x = sim.series["time"], sim.series["front"]
+    out = dict(code="warpfree WCSPH 2D", dx=cfg["dx"], threads=s.launcher.threads, cfl=s.params.cfl,
+               **particle_counts(s), steps=summ["steps"], t_final=sim.time, wall_s=summ["wall_s"],
+               step_wall_s=sim.wall["step"], build_s=build_s, front=list(zip(t, x)),
+               errors=dam_break_front_errors(t, x), loadavg=loadavg())
+    out.update(throughput(s.n, s.nf, out["steps"], out["wall_s"]))
+    return out

@@ -3,8 +3,10 @@
 Precision: float32 (fluid SPH tolerates it; densities vary by ~1%, pressures are O(ρ0 c0²)).
 Units: SI (m, s, kg; pressures in Pa, densities in kg/m³, accelerations in m/s²).
 
-Particles live in one combined set: fluid indices ``[0, nf)``, boundary indices ``[nf, n)``, with one
-``wp.HashGrid`` over all of them. Every kernel is a gather: thread ``i`` writes only particle ``i``.
+Particles live in combined arrays: fluid indices ``[0, nf)``, boundary indices ``[nf, n)``. A
+``wp.HashGrid`` over the fluid is rebuilt every step; a second one over the static boundary is built
+once (cross-set queries fluid -> boundary and boundary -> fluid). Every kernel is a gather: thread ``i``
+writes only particle ``i``.
 
 Equations (r_ij = x_i - x_j, v_ij = v_i - v_j, ∇W_ij = ∇_i W(r_ij, h)):
 
@@ -98,7 +100,10 @@ def wall_pressure_adami(
     wall_v: wp.array(dtype=wp.vec3),
     ghost_v: wp.array(dtype=wp.vec3),
 ):
-    """Adami 2012 eq. 27: pressure, density and no-slip ghost velocity of boundary particle nf + tid."""
+    """Adami 2012 eq. 27: pressure, density and no-slip ghost velocity of boundary particle nf + tid.
+
+    ``grid`` holds the fluid particles only, so walls far from the fluid find empty cells at once.
+    """
     i = nf + first + wp.tid()
     xi = x[i]
     inv_h = 1.0 / h
@@ -107,8 +112,6 @@ def wall_pressure_adami(
     srw = wp.vec3(0.0, 0.0, 0.0)
     svw = wp.vec3(0.0, 0.0, 0.0)
     for j in wp.hash_grid_query(grid, xi, support):
-        if j >= nf:
-            continue
         rij = xi - x[j]
         r2 = wp.dot(rij, rij)
         if r2 >= support * support:
@@ -129,11 +132,35 @@ def wall_pressure_adami(
         ghost_v[i] = wall_v[i]
 
 
+@wp.func
+def pair_terms(
+    xi: wp.vec3, vi: wp.vec3, rhoi: float, pi: float, rij: wp.vec3, r2: float, vj: wp.vec3, rhoj: float,
+    pj: float, mj: float, viscous: int, kind: int, dim: int, inv_h: float, gfac: float, eps: float,
+    mu: float, avisc: float,
+):
+    """Pressure (+ artificial viscosity) and laminar-viscosity acceleration of one pair, and ∇W_ij."""
+    gw = (gfac * kernel_grad_coef(kind, dim, wp.sqrt(r2) * inv_h)) * rij
+    inv_r2e = 1.0 / (r2 + eps)
+    coef = pi / (rhoi * rhoi) + pj / (rhoj * rhoj)
+    a = wp.vec3(0.0, 0.0, 0.0)
+    if viscous != 0:
+        vij = vi - vj
+        vr = wp.dot(vij, rij)
+        if vr < 0.0:
+            coef -= avisc * vr * inv_r2e / (0.5 * (rhoi + rhoj))
+        if mu > 0.0:
+            a = (mj * 2.0 * mu / (rhoi * rhoj) * wp.dot(rij, gw) * inv_r2e) * vij
+    a -= (mj * coef) * gw
+    return a, gw
+
+
 @wp.kernel
 def fluid_rates(
     first: int,
-    grid: wp.uint64,
+    fluid_grid: wp.uint64,
+    wall_grid: wp.uint64,
     nf: int,
+    nb: int,
     x: wp.array(dtype=wp.vec3),
     v_eval: wp.array(dtype=wp.vec3),
     rho_eval: wp.array(dtype=float),
@@ -158,59 +185,56 @@ def fluid_rates(
     drho: wp.array(dtype=float),
     acc: wp.array(dtype=wp.vec3),
 ):
-    """dρ/dt and dv/dt of fluid particle i (continuity 4-37, momentum 4-38; see module docstring)."""
+    """dρ/dt and dv/dt of fluid particle i (continuity 4-37, momentum 4-38; see module docstring).
+
+    Two neighbour sweeps: fluid neighbours from ``fluid_grid`` (indices 0..nf-1) and boundary
+    neighbours from the static ``wall_grid`` (indices 0..nb-1, i.e. particle nf + j).
+    """
     i = first + wp.tid()
     xi = x[i]
     vi = v_eval[i]
     rhoi = rho_eval[i]
-    pi_term = p[i] / (rhoi * rhoi)
+    pi = p[i]
     inv_h = 1.0 / h
     gfac = kernel_sigma(kind, dim, h) * inv_h * inv_h  # ∇W = gfac · (f'(q)/q) · r_ij
     eps = 0.01 * h * h
     inv_c2 = 1.0 / (c0 * c0)
     sup2 = support * support
-    visc2 = 2.0 * mu
     avisc = alpha * c0 * h
     dr = float(0.0)
     diff = float(0.0)
     a = wp.vec3(0.0, 0.0, 0.0)
-    for j in wp.hash_grid_query(grid, xi, support):
+    for j in wp.hash_grid_query(fluid_grid, xi, support):
         rij = xi - x[j]
         r2 = wp.dot(rij, rij)
         if r2 >= sup2 or j == i:
             continue
-        if j < nf or boundary_model == BOUNDARY_DYNAMIC:
-            gw = (gfac * kernel_grad_coef(kind, dim, wp.sqrt(r2) * inv_h)) * rij
-            mj = mass[j]
-            rhoj = rho_eval[j]
-            inv_r2e = 1.0 / (r2 + eps)
-            coef = pi_term + p[j] / (rhoj * rhoj)
-            rgw = wp.dot(rij, gw)
-            viscous = int(1)
-            vj = v_eval[j]
-            if j < nf:
-                dr += mj * wp.dot(vi - vj, gw)
-                if delta > 0.0:
-                    drho_dyn = (rhoj - rhoi) + rho0 * wp.dot(gravity, rij) * inv_c2
-                    diff -= 2.0 * drho_dyn * (mj / rhoj) * rgw * inv_r2e
-            else:
-                # dynamic boundary particle: Adami p, ρ; prescribed velocity in continuity, ghost in viscosity.
+        mj = mass[j]
+        rhoj = rho_eval[j]
+        vj = v_eval[j]
+        aj, gw = pair_terms(xi, vi, rhoi, pi, rij, r2, vj, rhoj, p[j], mj, 1, kind, dim, inv_h, gfac, eps, mu, avisc)
+        a += aj
+        dr += mj * wp.dot(vi - vj, gw)
+        if delta > 0.0:
+            drho_dyn = (rhoj - rhoi) + rho0 * wp.dot(gravity, rij) * inv_c2
+            diff -= 2.0 * drho_dyn * (mj / rhoj) * wp.dot(rij, gw) / (r2 + eps)
+    if nb > 0:
+        for jb in wp.hash_grid_query(wall_grid, xi, support):
+            j = nf + jb
+            rij = xi - x[j]
+            r2 = wp.dot(rij, rij)
+            if r2 >= sup2:
+                continue
+            if boundary_model == BOUNDARY_DYNAMIC:
+                # Adami p, ρ; prescribed velocity in continuity, no-slip ghost velocity in viscosity.
                 # Walls push and never pull: both pressures enter this pair's term as max(p, 0).
-                coef = wp.max(p[i], 0.0) / (rhoi * rhoi) + wp.max(p[j], 0.0) / (rhoj * rhoj)
+                mj = mass[j]
+                aj, gw = pair_terms(xi, vi, rhoi, wp.max(pi, 0.0), rij, r2, ghost_v[j], rho_eval[j],
+                                    wp.max(p[j], 0.0), mj, wall_viscous, kind, dim, inv_h, gfac, eps, mu, avisc)
+                a += aj
                 dr += mj * wp.dot(vi - wall_v[j], gw)
-                vj = ghost_v[j]
-                viscous = wall_viscous
-            if viscous != 0:
-                vij = vi - vj
-                vr = wp.dot(vij, rij)
-                if vr < 0.0:
-                    coef -= avisc * vr * inv_r2e / (0.5 * (rhoi + rhoj))
-                if mu > 0.0:
-                    a += (mj * visc2 / (rhoi * rhoj) * rgw * inv_r2e) * vij
-            a -= (mj * coef) * gw
-        else:
-            # Lennard-Jones ghost particle (seed 5-6), acting only when r < r0
-            if r2 < lj_r0 * lj_r0:
+            elif r2 < lj_r0 * lj_r0:
+                # Lennard-Jones ghost particle (seed 5-6), acting only when r < r0
                 q2 = lj_r0 * lj_r0 / r2
                 q4 = q2 * q2
                 q12 = q4 * q4 * q4

@@ -17,7 +17,7 @@ def make_launcher():
     made: list[Launcher] = []
 
     def make(threads: int | None = 2, device: str | None = "cpu") -> Launcher:
-        launcher = Launcher(device=device, threads=threads)
+        launcher = Launcher(device=device, threads=threads, min_items_per_thread=1)
         made.append(launcher)
         return launcher
 
@@ -29,7 +29,7 @@ def make_launcher():
 @pytest.fixture(scope="session")
 def launcher():
     """One shared two-thread CPU launcher (exercises the chunked path in every test that uses it)."""
-    launcher = Launcher(device="cpu", threads=2)
+    launcher = Launcher(device="cpu", threads=2, min_items_per_thread=1)
     yield launcher
     launcher.close()
 

@@ -215,7 +215,17 @@ def test_exception_in_one_worker_propagates(make_launcher, monkeypatch):
 
 
 def test_close_is_idempotent():
-    launcher = Launcher(device="cpu", threads=2)
+    launcher = Launcher(device="cpu", threads=2, min_items_per_thread=1)
     launcher.close()
     launcher.close()
     assert "threads=2" in repr(launcher)
+
+
+def test_small_launches_use_fewer_threads():
+    """Below min_items_per_thread items per thread a launch is not split (the pool costs ~0.1 ms)."""
+    launcher = Launcher(device="cpu", threads=2)
+    try:
+        assert launcher.chunks(1000) == [(0, 1000)]
+        assert launcher.chunks(4096) == [(0, 2048), (2048, 2048)]
+    finally:
+        launcher.close()

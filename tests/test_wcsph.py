@@ -83,7 +83,7 @@ def test_tank_at_rest_is_hydrostatic_and_energy_decays(tank, tmp_path):
 # -- determinism and resume -------------------------------------------------------------------------
 
 def _state_after(dam_break, threads, steps=25):
-    device.use("cpu", threads)
+    device.use("cpu", threads, min_items_per_thread=1)  # chunk even this small set
     sim = dam_break.build(dx=0.08, t_end=10.0, frames=False, vtk=False)
     s = sim.solver
     for _ in range(steps):

@@ -162,7 +162,10 @@ class WCSPHSolver:
         self._g = wp.vec3(*[float(c) for c in params.gravity])
         self._lo = wp.vec3(*[float(c) for c in np.maximum(lo, -3e38)])
         self._hi = wp.vec3(*[float(c) for c in np.minimum(hi, 3e38)])
-        self.grid = NeighbourGrid(self.x, params.support, d, policy="always", device=dev)
+        # fluid grid rebuilt every step; the static boundary gets its own grid, built once
+        self.grid = NeighbourGrid(self.x[: self.nf], params.support, d, policy="always", device=dev)
+        self.wall_grid = (NeighbourGrid(self.x[self.nf:], params.support, d, policy="static", device=dev)
+                          if self.nb else None)
         self._check_neighbours(xf)
         self.timings = {"neighbours": 0.0, "boundary": 0.0, "rates": 0.0, "integrate": 0.0}
         self.problem: str | None = None
@@ -195,7 +198,7 @@ class WCSPHSolver:
                       P.support, self._g, P.rho0, P.b, P.gamma, self.wall_v, self.ghost_v])
         t2 = time.perf_counter()
         L.launch(K.fluid_rates, self.nf,
-                 [self.grid.id, self.nf, self.x, self.v_eval, self.rho_eval, self.p, self.mass,
+                 [self.grid.id, self.wall_grid.id if self.wall_grid else 0, self.nf, self.nb, self.x, self.v_eval, self.rho_eval, self.p, self.mass,
                   self.wall_v, self.ghost_v, self._kind, P.dim, P.h, P.support, P.rho0, P.c0, P.mu, P.alpha,
                   P.delta, self._g, 0 if P.boundary_model == "dynamic" else 1, int(P.no_slip),
                   float(P.lj_d), float(P.lj_r0), self.drho, self.acc])
@@ -258,8 +261,10 @@ class WCSPHSolver:
                 "v_eval": self.v_eval, "rho_eval": self.rho_eval, "ghost_v": self.ghost_v}
 
     def after_load(self) -> None:
-        """Rebuild derived structures after a checkpoint was loaded (the grid is rebuilt every step)."""
+        """Rebuild derived structures after a checkpoint was loaded (the fluid grid is also rebuilt every step)."""
         self.grid.build()
+        if self.wall_grid is not None:
+            self.wall_grid.build()
 
     def output_sets(self) -> dict[str, dict[str, np.ndarray]]:
         """Per-set NumPy fields for VTU and frames (positions under ``points``)."""
