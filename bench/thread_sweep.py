@@ -127,6 +127,7 @@ def plot(cases: list[dict]):
         a2.plot(th, [r["fluid_particle_steps_per_s"] for r in c["rows"]], "s--", color=f"C{i}", mfc="none",
                 label=lab + ", fluid only")
     a1.plot([1, tmax], [1, tmax], "k:", label="ideal")
+    a1.set_ylim(0, tmax + 0.2)
     a1.set_xlabel("threads")
     a1.set_ylabel("speed-up vs 1 thread")
     a1.set_title("WCSPH dam break, CPU")

@@ -14,7 +14,7 @@ What it measures
     Target (issue): >= 1.5x PySPH's particle-steps/s at equal threads, with a front error no worse.
 
 How
-    ours: a fresh subprocess (``--worker``) calls ``warpfree.device.use('cpu', threads)``, builds
+    ours: a fresh subprocess (``bench/common.py: dam_break_2d_run``) calls ``warpfree.device.use('cpu', threads)``, builds
     ``scenes/dam_break_2d.py`` (dx, t_end = tf; no frames/VTU; kernels load during the build, so no
     compilation is timed) and runs ``Simulation.run`` in memory: the wall time is the run's own
     ``wall_s`` (all steps plus the probe/diagnostic records every 0.02 s), steps = its step count.
@@ -68,8 +68,8 @@ def front_err(t, x) -> dict:
 
 
 def run_ours(dx, threads, tf, cfl=None) -> dict:
-    cfg = dict(kind="ours", dx=dx, threads=threads, tf=tf, cfl=cfl)
-    return common.run_worker(__file__, ["--worker", json.dumps(cfg)])
+    cfg = dict(dx=dx, threads=threads, tf=tf, cfl=cfl)
+    return common.run_worker(common.BENCH / "_worker.py", ["dam_break_2d_run", json.dumps(cfg)])
 
 
 def run_pysph(dx, threads, tf, out_root) -> dict:
@@ -153,7 +153,8 @@ def plot(rows: list[dict], tf: float):
         a1.plot(data[:, 0], data[:, 1], m, color="k", mfc="none", label=name)
     a1.axvline(T_MAX, color="0.6", ls=":")
     a1.set_xlim(0, tf * math.sqrt(2 * G / A) + 0.1)
-    a1.set_ylim(0.9, None)
+    zmax = max(float(np.max(np.array(r["ours"]["front"])[:, 1])) for r in rows) / A
+    a1.set_ylim(0.9, zmax + 0.4)
     a1.set_xlabel("T = t sqrt(2g/a)")
     a1.set_ylabel("Z = x_front / a")
     a1.legend(fontsize=7)
@@ -185,11 +186,7 @@ def main(argv=None) -> int:
                     help="CFL numbers for our runs (default: the scene's)")
     ap.add_argument("--repeats", type=int, default=1)
     ap.add_argument("--no-pysph", action="store_true", help="report ours only")
-    ap.add_argument("--worker", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
-    if args.worker:
-        common.emit_worker_result(common.dam_break_2d_run(json.loads(args.worker)))
-        return 0
     q = args.quick
     dxs = args.dx or ([0.05] if q else [0.03, 0.02])
     threads = sorted(set(args.threads or {1, common.cpu_count()}))

@@ -23,7 +23,7 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
           tank_length: float = 4.0, tank_height: float = 4.0, h_factor: float = 1.3,
           kernel: str = "wendland_c2", alpha: float = 0.1, delta: float = 0.1, mu: float = 1.0e-3,
           boundary_model: str = "dynamic", cfl: float = 0.1, g: float = 9.81, rho0: float = 1000.0,
-          wall_layers: int = 3, checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True,
+          wall_layers: int = 3, checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "speed",
           vtk: bool = True) -> Simulation:
     """Build the dam break; lengths in units of a (tank_length, tank_height), SI otherwise."""
     params = dict(locals())
@@ -49,7 +49,7 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
     return Simulation(solver, t_end=t_end, output_interval=output_interval, name="dam_break_2d",
                       params=params, probes={"front": front_position}, analyses=[front_analysis],
                       dt=dt or None, checkpoint_every=checkpoint_every,
-                      output=OutputOptions(vtk=vtk, frames=frames, frame_field="speed",
+                      output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field,
                                            frame_bounds=((-0.1 * a, length + 0.1 * a), (-0.1 * a, top + 0.1 * a))))
 
 

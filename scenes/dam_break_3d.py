@@ -27,7 +27,7 @@ def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
           column_length: float = 1.228, column_height: float = 0.55, h_factor: float = 1.3,
           kernel: str = "wendland_c2", alpha: float = 0.1, delta: float = 0.1, mu: float = 1.0e-3,
           cfl: float = 0.1, g: float = 9.81, rho0: float = 1000.0, wall_layers: int = 3,
-          checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, vtk: bool = True,
+          checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "speed", vtk: bool = True,
           surface: bool = False) -> Simulation:
     params = dict(locals())
     tank = load_mesh(tank_mesh)
@@ -67,5 +67,5 @@ def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
     b = tuple(zip(lo, hi))
     return Simulation(solver, t_end=t_end, output_interval=output_interval, name="dam_break_3d", params=params,
                       probes=probes, analyses=[obstacle_analysis], dt=dt or None, checkpoint_every=checkpoint_every,
-                      output=OutputOptions(vtk=vtk, frames=frames, frame_field="speed", frame_bounds=b,
+                      output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field, frame_bounds=b,
                                            surface=surface))

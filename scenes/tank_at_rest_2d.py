@@ -20,7 +20,7 @@ def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float
           output_interval: float = 0.05, h_factor: float = 1.3, kernel: str = "wendland_c2",
           alpha: float = 0.1, delta: float = 0.1, mu: float = 1.0e-3, boundary_model: str = "dynamic",
           cfl: float = 0.1, g: float = 9.81, rho0: float = 1000.0, wall_layers: int = 3,
-          checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, vtk: bool = True) -> Simulation:
+          checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "pressure", vtk: bool = True) -> Simulation:
     """Build the tank; the container is twice as high as the water."""
     params = dict(locals())
     c0 = 10.0 * np.sqrt(2.0 * g * depth)
@@ -43,7 +43,7 @@ def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float
     return Simulation(solver, t_end=t_end, output_interval=output_interval, name="tank_at_rest_2d",
                       params=params, analyses=[pressure_analysis], dt=dt or None,
                       checkpoint_every=checkpoint_every,
-                      output=OutputOptions(vtk=vtk, frames=frames, frame_field="pressure",
+                      output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field,
                                            frame_bounds=((-0.1 * width, 1.1 * width), (-0.1 * depth, 2.1 * depth))))
 
 

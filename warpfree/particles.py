@@ -40,6 +40,20 @@ class ParticleSet:
         self.fields: dict[str, wp.array] = {}
         self.fields["x"] = wp.array(p, dtype=wp.vec3, device=device)
 
+    @classmethod
+    def view(cls, name: str, dim: int, fields: dict[str, wp.array]) -> "ParticleSet":
+        """A set over existing arrays (e.g. slices of a solver's combined arrays); ``fields["x"]`` required."""
+        if "x" not in fields:
+            raise ParameterError(f"{name}.x", "a particle set needs positions 'x'")
+        n = fields["x"].shape[0]
+        for k, arr in fields.items():
+            if arr.shape[0] != n:
+                raise ParameterError(f"{name}.{k}", f"needs {n} rows, got {arr.shape[0]}")
+        obj = cls.__new__(cls)
+        obj.name, obj.dim, obj.device, obj.n = name, dim, str(fields["x"].device), n
+        obj.fields = dict(fields)
+        return obj
+
     @property
     def x(self) -> wp.array:
         return self.fields["x"]
@@ -56,8 +70,7 @@ class ParticleSet:
                 v = np.hstack([v, np.zeros((v.shape[0], 1))])
             if v.shape[0] != self.n:
                 raise ParameterError(f"{self.name}.{name}", f"needs {self.n} rows, got {v.shape[0]}")
-            arr = wp.array(v.astype(wp.types.warp_type_to_np_dtype.get(
-                getattr(dtype, "_wp_scalar_type_", dtype), np.float32)), dtype=dtype, device=self.device)
+            arr = wp.array(v, dtype=dtype, device=self.device)
         self.fields[name] = arr
         return arr
 

@@ -21,7 +21,7 @@ from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.kernels import sph_fluid as K
 from warpfree.kernels.smoothing import kernel_id, support_factor
 from warpfree.neighbours import NeighbourGrid, neighbour_counts
-from warpfree.particles import to_vec3
+from warpfree.particles import ParticleSet, to_vec3
 
 #: minimum neighbour count of the best-surrounded fluid particle (seed §5.5 recommends 20 in 2D, 56 in
 #: 3D; a lattice with h = 1.3 dx and support 2h has 20 and 80). Below this, h is too small for dx.
@@ -158,13 +158,23 @@ class WCSPHSolver:
         self.ghost_v = wp.zeros(self.n, dtype=wp.vec3, device=dev)
         self.status = wp.zeros(self.n, dtype=wp.int32, device=dev)
 
+        def part(arr, lo, hi):  # a view of rows [lo, hi); Warp refuses empty slices
+            return arr[lo:hi] if hi > lo else wp.zeros(0, dtype=arr.dtype, device=dev)
+
+        f, b = (0, self.nf), (self.nf, self.n)
+        #: the fluid and boundary particle sets: named views into the combined arrays
+        self.fluid = ParticleSet.view("fluid", d, {"x": part(self.x, *f), "velocity": part(self.v, *f),
+                                                   "density": part(self.rho, *f), "pressure": part(self.p, *f),
+                                                   "mass": part(self.mass, *f)})
+        self.boundary = ParticleSet.view("boundary", d, {"x": part(self.x, *b), "density": part(self.rho, *b),
+                                                         "pressure": part(self.p, *b), "mass": part(self.mass, *b)})
         self._kind = kernel_id(params.kernel)
         self._g = wp.vec3(*[float(c) for c in params.gravity])
         self._lo = wp.vec3(*[float(c) for c in np.maximum(lo, -3e38)])
         self._hi = wp.vec3(*[float(c) for c in np.minimum(hi, 3e38)])
         # fluid grid rebuilt every step; the static boundary gets its own grid, built once
-        self.grid = NeighbourGrid(self.x[: self.nf], params.support, d, policy="always", device=dev)
-        self.wall_grid = (NeighbourGrid(self.x[self.nf:], params.support, d, policy="static", device=dev)
+        self.grid = NeighbourGrid(self.fluid.x, params.support, d, policy="always", device=dev)
+        self.wall_grid = (NeighbourGrid(self.boundary.x, params.support, d, policy="static", device=dev)
                           if self.nb else None)
         self._check_neighbours(xf)
         self.timings = {"neighbours": 0.0, "boundary": 0.0, "rates": 0.0, "integrate": 0.0}
@@ -267,15 +277,15 @@ class WCSPHSolver:
             self.wall_grid.build()
 
     def output_sets(self) -> dict[str, dict[str, np.ndarray]]:
-        """Per-set NumPy fields for VTU and frames (positions under ``points``)."""
-        x, v = self.x.numpy(), self.v.numpy()
-        rho, p = self.rho.numpy(), self.p.numpy()
-        f, b = slice(0, self.nf), slice(self.nf, self.n)
-        speed = np.linalg.norm(v[f], axis=1)
-        return {
-            "fluid": {"points": x[f], "velocity": v[f], "speed": speed, "density": rho[f], "pressure": p[f]},
-            "boundary": {"points": x[b], "density": rho[b], "pressure": p[b]},
-        }
+        """Per-set NumPy fields for VTU and frames (positions under ``points``; speed added for the fluid)."""
+        out = {}
+        for pset in (self.fluid, self.boundary):
+            fields = {k: v.numpy() for k, v in pset.fields.items() if k != "mass"}
+            fields["points"] = fields.pop("x")
+            if "velocity" in fields:
+                fields["speed"] = np.linalg.norm(fields["velocity"], axis=1)
+            out[pset.name] = fields
+        return out
 
     def fluid_positions(self) -> np.ndarray:
         return self.x.numpy()[: self.nf]
