@@ -3,9 +3,10 @@
 Precision: float32 (fluid SPH tolerates it; densities vary by ~1%, pressures are O(ρ0 c0²)).
 Units: SI (m, s, kg; pressures in Pa, densities in kg/m³, accelerations in m/s²).
 
-Particles live in combined arrays: fluid indices ``[0, nf)``, boundary indices ``[nf, n)``. A
-``wp.HashGrid`` over the fluid is rebuilt every step; a second one over the static boundary is built
-once (cross-set queries fluid -> boundary and boundary -> fluid). Every kernel is a gather: thread ``i``
+Particles live in combined arrays: fluid indices ``[0, nf)``, boundary indices ``[nf, n)``. Neighbours
+come from CSR candidate lists (fluid -> fluid, fluid -> boundary, boundary -> fluid) built from
+``wp.HashGrid`` queries with a skin and rebuilt once a fluid particle moved more than half the skin;
+every loop tests the true distance against the support. Every kernel is a gather: thread ``i``
 writes only particle ``i``.
 
 Equations (r_ij = x_i - x_j, v_ij = v_i - v_j, ∇W_ij = ∇_i W(r_ij, h)):
@@ -83,7 +84,8 @@ def equation_of_state(
 @wp.kernel
 def wall_pressure_adami(
     first: int,
-    grid: wp.uint64,
+    wf_offsets: wp.array(dtype=wp.int32),
+    wf_indices: wp.array(dtype=wp.int32),
     nf: int,
     x: wp.array(dtype=wp.vec3),
     v: wp.array(dtype=wp.vec3),
@@ -102,19 +104,23 @@ def wall_pressure_adami(
 ):
     """Adami 2012 eq. 27: pressure, density and no-slip ghost velocity of boundary particle nf + tid.
 
-    ``grid`` holds the fluid particles only, so walls far from the fluid find empty cells at once.
+    ``wf_*`` is the CSR list of fluid candidates of each boundary particle (built with a skin; the
+    true distance is tested here).
     """
-    i = nf + first + wp.tid()
+    k = first + wp.tid()
+    i = nf + k
     xi = x[i]
     inv_h = 1.0 / h
+    sup2 = support * support
     sw = float(0.0)
     spw = float(0.0)
     srw = wp.vec3(0.0, 0.0, 0.0)
     svw = wp.vec3(0.0, 0.0, 0.0)
-    for j in wp.hash_grid_query(grid, xi, support):
+    for c in range(wf_offsets[k], wf_offsets[k + 1]):
+        j = wf_indices[c]
         rij = xi - x[j]
         r2 = wp.dot(rij, rij)
-        if r2 >= support * support:
+        if r2 >= sup2:
             continue
         w = kernel_shape(kind, dim, wp.sqrt(r2) * inv_h)  # σ_d cancels in the ratios below
         sw += w
@@ -157,8 +163,10 @@ def pair_terms(
 @wp.kernel
 def fluid_rates(
     first: int,
-    fluid_grid: wp.uint64,
-    wall_grid: wp.uint64,
+    ff_offsets: wp.array(dtype=wp.int32),
+    ff_indices: wp.array(dtype=wp.int32),
+    fw_offsets: wp.array(dtype=wp.int32),
+    fw_indices: wp.array(dtype=wp.int32),
     nf: int,
     nb: int,
     x: wp.array(dtype=wp.vec3),
@@ -187,8 +195,8 @@ def fluid_rates(
 ):
     """dρ/dt and dv/dt of fluid particle i (continuity 4-37, momentum 4-38; see module docstring).
 
-    Two neighbour sweeps: fluid neighbours from ``fluid_grid`` (indices 0..nf-1) and boundary
-    neighbours from the static ``wall_grid`` (indices 0..nb-1, i.e. particle nf + j).
+    Two neighbour sweeps over CSR candidate lists built with a skin: fluid neighbours ``ff_*``
+    (indices 0..nf-1) and boundary neighbours ``fw_*`` (indices 0..nb-1, i.e. particle nf + j).
     """
     i = first + wp.tid()
     xi = x[i]
@@ -204,10 +212,11 @@ def fluid_rates(
     dr = float(0.0)
     diff = float(0.0)
     a = wp.vec3(0.0, 0.0, 0.0)
-    for j in wp.hash_grid_query(fluid_grid, xi, support):
+    for c in range(ff_offsets[i], ff_offsets[i + 1]):
+        j = ff_indices[c]
         rij = xi - x[j]
         r2 = wp.dot(rij, rij)
-        if r2 >= sup2 or j == i:
+        if r2 >= sup2:
             continue
         mj = mass[j]
         rhoj = rho_eval[j]
@@ -219,8 +228,8 @@ def fluid_rates(
             drho_dyn = (rhoj - rhoi) + rho0 * wp.dot(gravity, rij) * inv_c2
             diff -= 2.0 * drho_dyn * (mj / rhoj) * wp.dot(rij, gw) / (r2 + eps)
     if nb > 0:
-        for jb in wp.hash_grid_query(wall_grid, xi, support):
-            j = nf + jb
+        for c in range(fw_offsets[i], fw_offsets[i + 1]):
+            j = nf + fw_indices[c]
             rij = xi - x[j]
             r2 = wp.dot(rij, rij)
             if r2 >= sup2:
@@ -261,11 +270,14 @@ def leapfrog_drift(
     lo: wp.vec3,
     hi: wp.vec3,
     status: wp.array(dtype=wp.int32),
+    x_built: wp.array(dtype=wp.vec3),
+    moved2: wp.array(dtype=float),
 ):
     """First half kick and drift (seed 5-3): v ← v + ½Δt a, ρ ← ρ + ½Δt dρ, x ← x + Δt v.
 
     Then the predictor for the rate evaluation (Monaghan 1994): v* = v + ½Δt a, ρ* = ρ + ½Δt dρ,
-    p* = EOS(ρ*). The status flag marks non-finite values or a particle outside the container box.
+    p* = EOS(ρ*). The status flag marks non-finite values or a particle outside the container box;
+    ``moved2`` is the squared displacement since the neighbour lists were built.
     """
     i = first + wp.tid()
     a = acc[i]
@@ -282,6 +294,8 @@ def leapfrog_drift(
     rho_eval[i] = re
     p[i] = tait_pressure(re, rho0, b, gamma)
     status[i] = status_of(xn, vh, rh, lo, hi)
+    disp = xn - x_built[i]
+    moved2[i] = wp.dot(disp, disp)
 
 
 @wp.kernel

@@ -1,8 +1,9 @@
 """Weakly-compressible SPH solver (seed 004): orders the launches of :mod:`warpfree.kernels.sph_fluid`.
 
 The solver owns its static model (kernel, h, constants, boundary model) and its state (positions,
-velocities, densities, pressures, rates). One step is five launches: drift, grid rebuild, wall
-pressure (dynamic boundaries only), rates, kick. Fluid particles are indices ``[0, nf)`` of the
+velocities, densities, pressures, rates). One step is four launches: drift, wall pressure (dynamic
+boundaries only), rates, kick; the neighbour lists are rebuilt only when a fluid particle has moved
+more than half the skin since the last build. Fluid particles are indices ``[0, nf)`` of the
 combined arrays and boundary particles ``[nf, n)``; :attr:`fluid` and :attr:`boundary` expose them
 as views.
 """
@@ -20,7 +21,7 @@ from warpfree.device import Launcher, current_launcher
 from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.kernels import sph_fluid as K
 from warpfree.kernels.smoothing import kernel_id, support_factor
-from warpfree.neighbours import NeighbourGrid, neighbour_counts
+from warpfree.neighbours import NeighbourGrid, neighbour_counts, neighbour_list
 from warpfree.particles import ParticleSet, to_vec3
 
 #: minimum neighbour count of the best-surrounded fluid particle (seed §5.5 recommends 20 in 2D, 56 in
@@ -47,6 +48,7 @@ class FluidParams:
     no_slip: bool = True             # walls enter the viscous terms with a no-slip ghost velocity
     lj_d: float = 0.0                # Lennard-Jones strength D (m²/s²), ~ (largest speed)²
     lj_r0: float = 0.0               # Lennard-Jones range r0 (m), ~ dx
+    skin: float = 0.15               # neighbour-list skin as a fraction of the support (0 = rebuild every step)
     cfl: float = 0.1                 # Courant number of seed eq. 5-12
     dt: float | None = None          # fixed time step (s); None = the stable step every step
     container_lo: tuple = (-1e30, -1e30, -1e30)   # fluid must stay inside this box (m)
@@ -74,7 +76,7 @@ class FluidParams:
             raise ParameterError("kernel", f"must be cubic_spline, wendland_c2 or quintic_spline, got {self.kernel!r}")
         for name in ("rho0", "c0", "gamma"):
             require_positive(name, getattr(self, name))
-        for name in ("mu", "alpha", "delta"):
+        for name in ("mu", "alpha", "delta", "skin"):
             require_positive(name, getattr(self, name), allow_zero=True)
         g = np.asarray(self.gravity, dtype=float)
         if g.shape != (3,) or not np.all(np.isfinite(g)):
@@ -172,10 +174,15 @@ class WCSPHSolver:
         self._g = wp.vec3(*[float(c) for c in params.gravity])
         self._lo = wp.vec3(*[float(c) for c in np.maximum(lo, -3e38)])
         self._hi = wp.vec3(*[float(c) for c in np.minimum(hi, 3e38)])
-        # fluid grid rebuilt every step; the static boundary gets its own grid, built once
-        self.grid = NeighbourGrid(self.fluid.x, params.support, d, policy="always", device=dev)
-        self.wall_grid = (NeighbourGrid(self.boundary.x, params.support, d, policy="static", device=dev)
+        # Neighbour candidates: CSR lists within support + skin, rebuilt from the fluid positions at the
+        # last build (x_built) once a fluid particle moved more than skin/2; the boundary is static.
+        self.skin = params.skin * params.support
+        self.x_built = wp.clone(self.fluid.x)
+        self.moved2 = wp.zeros(self.nf, dtype=float, device=dev)
+        self.fluid_grid = NeighbourGrid(self.x_built, params.support + self.skin, d, policy="static", device=dev)
+        self.wall_grid = (NeighbourGrid(self.boundary.x, params.support + self.skin, d, policy="static", device=dev)
                           if self.nb else None)
+        self.list_builds = 0
         self._check_neighbours(xf)
         self.timings = {"neighbours": 0.0, "boundary": 0.0, "rates": 0.0, "integrate": 0.0}
         self.problem: str | None = None
@@ -196,25 +203,48 @@ class WCSPHSolver:
                 f"(use h_factor >= 1.2 with support 2h)")
 
     # -- stepping --------------------------------------------------------------------------------
-    def compute_rates(self) -> None:
-        """Rebuild the grid, extrapolate wall pressure, then dρ/dt and dv/dt at the current state."""
-        P, L = self.params, self.launcher
+    def build_lists(self) -> None:
+        """Neighbour lists (fluid->fluid, fluid->boundary, boundary->fluid) from the positions in ``x_built``.
+
+        They depend on ``x_built`` alone, so a resumed run rebuilds exactly the lists it had.
+        """
+        L = self.launcher
         t0 = time.perf_counter()
-        self.grid.build()
+        self.fluid_grid.build()
+        self.ff = neighbour_list(L, self.fluid_grid, self.x_built, exclude_self=True)
+        if self.nb:
+            self.fw = neighbour_list(L, self.wall_grid, self.x_built)
+            self.wf = neighbour_list(L, self.fluid_grid, self.boundary.x)
+        else:
+            empty = wp.zeros(self.nf + 1, dtype=wp.int32, device=L.device)
+            self.fw = (empty, wp.zeros(1, dtype=wp.int32, device=L.device))
+        self.list_builds += 1
+        self.timings["neighbours"] += time.perf_counter() - t0
+
+    def update_lists(self) -> None:
+        """Rebuild the lists if a fluid particle moved more than half the skin since they were built."""
+        moved = float(np.max(self.moved2.numpy())) if self.nf else 0.0
+        if self.skin == 0.0 or moved > (0.5 * self.skin) ** 2:
+            wp.copy(self.x_built, self.fluid.x)
+            self.build_lists()
+
+    def compute_rates(self) -> None:
+        """Extrapolate the wall pressure, then dρ/dt and dv/dt at the current state."""
+        P, L = self.params, self.launcher
         t1 = time.perf_counter()
         if P.boundary_model == "dynamic" and self.nb:
             L.launch(K.wall_pressure_adami, self.nb,
-                     [self.grid.id, self.nf, self.x, self.v_eval, self.rho_eval, self.p, self._kind, P.dim, P.h,
-                      P.support, self._g, P.rho0, P.b, P.gamma, self.wall_v, self.ghost_v])
+                     [self.wf[0], self.wf[1], self.nf, self.x, self.v_eval, self.rho_eval, self.p, self._kind, P.dim,
+                      P.h, P.support, self._g, P.rho0, P.b, P.gamma, self.wall_v, self.ghost_v])
         t2 = time.perf_counter()
         L.launch(K.fluid_rates, self.nf,
-                 [self.grid.id, self.wall_grid.id if self.wall_grid else 0, self.nf, self.nb, self.x, self.v_eval, self.rho_eval, self.p, self.mass,
+                 [self.ff[0], self.ff[1], self.fw[0], self.fw[1], self.nf, self.nb,
+                  self.x, self.v_eval, self.rho_eval, self.p, self.mass,
                   self.wall_v, self.ghost_v, self._kind, P.dim, P.h, P.support, P.rho0, P.c0, P.mu, P.alpha,
                   P.delta, self._g, 0 if P.boundary_model == "dynamic" else 1, int(P.no_slip),
                   float(P.lj_d), float(P.lj_r0), self.drho, self.acc])
         L.synchronize()
         t3 = time.perf_counter()
-        self.timings["neighbours"] += t1 - t0
         self.timings["boundary"] += t2 - t1
         self.timings["rates"] += t3 - t2
 
@@ -224,6 +254,8 @@ class WCSPHSolver:
         wp.copy(self.v_eval, self.v)
         wp.copy(self.rho_eval, self.rho)
         self.launcher.launch(K.equation_of_state, self.nf, [self.rho, P.rho0, P.b, P.gamma, self.p])
+        wp.copy(self.x_built, self.fluid.x)
+        self.build_lists()
         self.compute_rates()
 
     def stable_dt(self) -> float:
@@ -246,8 +278,9 @@ class WCSPHSolver:
         t0 = time.perf_counter()
         L.launch(K.leapfrog_drift, self.nf,
                  [float(dt), self.x, self.v, self.rho, self.acc, self.drho, P.rho0, P.b, P.gamma,
-                  self.v_eval, self.rho_eval, self.p, self._lo, self._hi, self.status])
+                  self.v_eval, self.rho_eval, self.p, self._lo, self._hi, self.status, self.x_built, self.moved2])
         t1 = time.perf_counter()
+        self.update_lists()
         self.compute_rates()
         t2 = time.perf_counter()
         L.launch(K.leapfrog_kick, self.nf,
@@ -268,13 +301,12 @@ class WCSPHSolver:
     def state_arrays(self) -> dict[str, wp.array]:
         """Every array that changes in time (what a checkpoint must hold for a bitwise resume)."""
         return {"x": self.x, "v": self.v, "rho": self.rho, "p": self.p, "acc": self.acc, "drho": self.drho,
-                "v_eval": self.v_eval, "rho_eval": self.rho_eval, "ghost_v": self.ghost_v}
+                "v_eval": self.v_eval, "rho_eval": self.rho_eval, "ghost_v": self.ghost_v, "x_built": self.x_built,
+                "moved2": self.moved2}
 
     def after_load(self) -> None:
-        """Rebuild derived structures after a checkpoint was loaded (the fluid grid is also rebuilt every step)."""
-        self.grid.build()
-        if self.wall_grid is not None:
-            self.wall_grid.build()
+        """Rebuild derived structures after a checkpoint was loaded: the lists, from the loaded ``x_built``."""
+        self.build_lists()
 
     def output_sets(self) -> dict[str, dict[str, np.ndarray]]:
         """Per-set NumPy fields for VTU and frames (positions under ``points``; speed added for the fluid)."""
@@ -308,7 +340,7 @@ class WCSPHSolver:
         P = self.params
         d = asdict(P)
         d.update({"h": P.h, "support": P.support, "B": P.b, "n_fluid": self.nf, "n_boundary": self.nb,
-                  "n_particles": self.n, "max_neighbours": self.max_neighbours})
+                  "n_particles": self.n, "max_neighbours": self.max_neighbours, "list_builds": self.list_builds})
         return d
 
 
