@@ -359,3 +359,16 @@ def test_bad_shell_parameters():
         geo.fill_polygon([[0, 0], [1, 1], [2, 2]], 0.1)  # zero area
     with raises("plane_normal"):
         geo.mesh_section(box, (0, 0, 0.3), (0, 0, 0))
+
+
+def test_2d_walls_from_a_mesh_section_match_the_polygon_walls():
+    """A 2D boundary from the section of a 3D tank mesh equals the one from the same rectangle."""
+    from warpfree.geometry import box_mesh
+    from warpfree.scene_tools import box_walls_2d, walls_from_section
+
+    mesh = box_mesh((0.0, 0.0, -0.5), (4.0, 4.0, 0.5))
+    from_mesh = walls_from_section(mesh, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.1, 3)
+    from_box = box_walls_2d(4.0, 4.0, 0.1, 3)
+    key = lambda p: np.round(p, 6)[np.lexsort(np.round(p, 6).T)]
+    assert from_mesh.shape == from_box.shape
+    np.testing.assert_allclose(key(from_mesh), key(from_box), atol=1e-9)

@@ -23,3 +23,19 @@ def box_walls_2d(width: float, height: float, dx: float, layers: int) -> np.ndar
 def front_position(solver, t: float) -> float:
     """Surge front: the largest x of any fluid particle (m)."""
     return float(solver.fluid_positions()[:, 0].max())
+
+
+def walls_from_section(mesh, plane_origin, plane_normal, dx: float, layers: int,
+                       origin=(0.0, 0.0)) -> np.ndarray:
+    """2D boundary particles from the cross-section of a 3D container mesh (a path or trimesh mesh).
+
+    The section's polygons (see :func:`warpfree.geometry.mesh_section` for the in-plane axes) get
+    ``layers`` lattice layers outside, aligned with a fluid lattice anchored at ``origin``.
+    """
+    from .errors import ParameterError
+    from .geometry import load_mesh, mesh_section
+
+    polygons = mesh_section(load_mesh(mesh), plane_origin, plane_normal)
+    if not polygons:
+        raise ParameterError("plane_origin", "the plane does not cut the mesh")
+    return np.vstack([polygon_boundary_layers(p, dx, layers, "outside", origin=origin) for p in polygons])
