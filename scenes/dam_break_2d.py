@@ -69,7 +69,7 @@ def plot_front(path: str, t, x_front, a: float, g: float, max_err: float) -> Non
     fig, ax = plt.subplots(figsize=(6, 4.2), dpi=110)
     ax.fill_between(T, Z - 0.15, Z + 0.15, color="C0", alpha=0.15, label="warpfree ± 0.15")
     ax.plot(T, Z, "C0-", lw=2, label="warpfree WCSPH")
-    for (name, data), m in zip(DATASETS.items(), ("o", "s")):
+    for (name, data), m in zip(DATASETS.items(), ("o", "s", "^")):
         ax.plot(data[:, 0], data[:, 1], m, mfc="none", label=name)
     ax.axvline(2.5, color="0.6", ls=":", lw=1)
     ax.set_xlim(0, max(3.0, T.max()))

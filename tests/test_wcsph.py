@@ -35,13 +35,15 @@ def tank():
 
 @pytest.mark.slow
 def test_dam_break_front_against_martin_moyce_and_koshizuka_oka(dam_break, tmp_path):
-    """Surge front Z = x/a against T = t sqrt(2g/a), T <= 2.5, at dx = a/25, against both experiments.
+    """Surge front Z = x/a against T = t sqrt(2g/a), T <= 2.5, at dx = a/25, against three digitisations.
 
-    The issue asks for ±0.15. Measured (2026-11-22): max |ΔZ| = 0.164 against Martin & Moyce (at
-    T = 1.21) and 0.169 against Koshizuka & Oka (at T = 2.32); at dx = a/40 the front runs further
-    ahead (0.20 and 0.24), so the gap is the model (frictionless floor, instantaneous gate), not the
-    resolution. The experiments themselves differ by 0.12 at T = 1.2. This test holds the measured
-    level (0.18) so that a regression shows; the ±0.15 target is open (see bench/README.md).
+    The issue asks for ±0.15. Measured (2026-11-22, Courant 0.2): max |ΔZ| = 0.115 against Koshizuka &
+    Oka in DualSPHysics' digitisation (physical units, a = 1 m as here), 0.164 against Martin & Moyce
+    (at T = 1.21) and 0.170 against PySPH's digitisation of Koshizuka & Oka (at T = 2.32), which
+    itself differs from DualSPHysics' by 0.19 there. At dx = a/40 the front runs further ahead (0.15,
+    0.20, 0.24): the gap is the model (frictionless floor, instantaneous gate), not the resolution.
+    Asserted: ±0.15 against the physical-unit data set, and 0.18 against the other two so that a
+    regression shows; the issue's ±0.15 against those two is open (see bench/README.md).
     Also: mass exactly conserved and no particle ever outside the tank (the solver checks every step
     and would stop the run)."""
     device.use("cpu", 2)
@@ -51,9 +53,11 @@ def test_dam_break_front_against_martin_moyce_and_koshizuka_oka(dam_break, tmp_p
     n0 = sim.solver.nf
     summary = sim.run(str(tmp_path), progress=False)
     errors = summary["analysis"]["front"]["errors"]
-    for name in ("Martin & Moyce 1952", "Koshizuka & Oka 1996"):
+    limits = {"Koshizuka & Oka 1996 (DualSPHysics digitisation)": 0.15, "Martin & Moyce 1952": 0.18,
+              "Koshizuka & Oka 1996": 0.18}
+    for name, limit in limits.items():
         assert len(errors[name]["T"]) >= 4, name
-        assert errors[name]["max_abs"] <= 0.18, (name, errors[name])
+        assert errors[name]["max_abs"] <= limit, (name, errors[name])
         early = [abs(dz) for T, dz in zip(errors[name]["T"], errors[name]["dZ"]) if T <= 1.0]
         assert max(early) <= 0.15, (name, errors[name])  # the early collapse is within the issue's band
     assert summary["status"] == "ok"
