@@ -10,7 +10,6 @@ import pytest
 from warpfree import device
 from warpfree.cli import load_scene
 from warpfree.errors import ParameterError, RunError
-from warpfree.simulation import Simulation
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

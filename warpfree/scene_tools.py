@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import box_mesh, fill_mesh, lattice_box, polygon_boundary_layers, shell_lattice
+from .geometry import polygon_boundary_layers
 
 
 def hydrostatic_density(y: np.ndarray, surface: float, rho0: float, c0: float, g: float,

@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 
 import numpy as np
 import warp as wp
 
 from warpfree.device import Launcher, current_launcher
-from warpfree.errors import ParameterError, require_finite, require_positive
+from warpfree.errors import ParameterError, require_positive
 from warpfree.kernels import sph_fluid as K
 from warpfree.kernels.smoothing import kernel_id, support_factor
 from warpfree.neighbours import NeighbourGrid, neighbour_counts, neighbour_list
