@@ -5,6 +5,8 @@ A run that goes wrong (non-finite values, particles leaving the container) raise
 after the simulation loop has kept its last good checkpoint on disk.
 """
 
+import math
+
 
 class ParameterError(ValueError):
     """A parameter is out of its allowed range; the message names it."""
@@ -26,28 +28,20 @@ class RunError(RuntimeError):
         super().__init__(text)
 
 
-def require_positive(name: str, value, allow_zero: bool = False) -> float:
-    """Return ``float(value)`` if it is finite and > 0 (>= 0 with ``allow_zero``), else raise."""
-    import math
-
+def require_finite(name: str, value) -> float:
+    """Return ``float(value)`` if it is a finite number, else raise naming ``name``."""
     try:
         v = float(value)
     except (TypeError, ValueError):
         raise ParameterError(name, f"must be a number, got {value!r}") from None
     if not math.isfinite(v):
         raise ParameterError(name, f"must be finite, got {v}")
-    if v < 0 or (v == 0 and not allow_zero):
-        raise ParameterError(name, f"must be {'>= 0' if allow_zero else '> 0'}, got {v}")
     return v
 
 
-def require_finite(name: str, value) -> float:
-    import math
-
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(name, f"must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise ParameterError(name, f"must be finite, got {v}")
+def require_positive(name: str, value, allow_zero: bool = False) -> float:
+    """Return ``float(value)`` if it is finite and > 0 (>= 0 with ``allow_zero``), else raise."""
+    v = require_finite(name, value)
+    if v < 0 or (v == 0 and not allow_zero):
+        raise ParameterError(name, f"must be {'>= 0' if allow_zero else '> 0'}, got {v}")
     return v

@@ -5,7 +5,8 @@ How PySPH is invoked
 PySPH lives in a separate virtualenv (default ``/work/peers-venv``, made with
 ``python3 -m venv`` + ``pip install --no-build-isolation pysph==1.0b2`` after
 ``numpy Cython mako cyarray compyle``), never in warpfree's venv.  We run, in a
-subprocess with ``OMP_NUM_THREADS=<threads>``, a tiny driver (``_DRIVER``
+subprocess with ``OMP_NUM_THREADS=<threads>`` (and ``OMP_WAIT_POLICY=passive``
+when threads > 1, see ``omp_environment``), a tiny driver (``_DRIVER``
 below) that does exactly what ``python -m pysph.examples.dam_break_2d ARGS``
 does -- ``DamBreak2D().run(ARGS)``, i.e. ``setup()`` then ``solve()`` -- but:
 
@@ -19,7 +20,9 @@ does -- ``DamBreak2D().run(ARGS)``, i.e. ``setup()`` then ``solve()`` -- but:
   (it still *prints* ``Using h = 0.026``).  ``update_h`` (Ferrari) then keeps
   ``h = 1.3 sqrt(m/rho) = 0.039``.  The fix sets the module's ``h = hdx*dx``
   and ``m = dx**2*rho0`` before the app is built; ``consistent_resolution=False``
-  runs the example verbatim.  At ``dx = 0.03`` both are identical.
+  runs the example verbatim.  At ``dx = 0.03`` both are identical.  Verbatim
+  ``--dx 0.02`` is not a usable benchmark: measured here, its adaptive dt
+  collapsed to ~1e-9..1e-10 s at t = 0.066 (5 000 steps, still stuck).
 
 ARGS = ``--dx D --tf T -d OUT --pfreq P`` plus ``--openmp`` when threads > 1
 (``--openmp`` comes from compyle's ArgumentParser; without it PySPH compiles
@@ -34,7 +37,7 @@ Geometry and physics (read from pysph/examples/dam_break_2d.py, 1.0b2)
 * Fluid column W x H = 1 x 2 (``get_2d_block``: ``int(1/dx)+1`` by
   ``int(2/dx)+1`` points spanning the block exactly, so the spacing is
   ``1/int(1/dx)``, slightly above dx), shifted by +dx in x and y.
-* Tank 4 x 4, open top, inner wall faces x = 0, x = 4, y = 0; 4 layers of
+* Tank 4 x 4, open top, inner wall rows at x = 0, x ~ 4, y = 0; 4 layers of
   boundary particles on a dx lattice outside (``get_2d_tank``, non-staggered).
 * Default scheme ``wcsph`` (WCSPHScheme): Tait EOS, rho0 = 1000, gamma = 7,
   c0 = 10 sqrt(2 g H) = 62.64 m/s, g = 9.81, artificial viscosity alpha = 0.1,
@@ -149,6 +152,30 @@ def build_argv(dx: float, tf: float, threads: int, out_dir: str, pfreq: int) -> 
     return argv
 
 
+def omp_environment(threads: int, extra_env: dict | None = None) -> dict[str, str]:
+    """OpenMP variables for the PySPH subprocess (plus ``extra_env``).
+
+    With threads > 1 ``OMP_WAIT_POLICY`` defaults to ``passive``: libgomp's
+    default spin-waiting makes a 2-thread run 5-15x SLOWER than the serial
+    one as soon as another process holds one of this host's 2 cores, while
+    on an idle host passive and active measured the same (4.2 s vs 4.15 s).
+    """
+    env = {"OMP_NUM_THREADS": str(threads)}
+    if threads > 1:
+        env["OMP_WAIT_POLICY"] = os.environ.get("OMP_WAIT_POLICY", "passive")
+    env.update(extra_env or {})
+    return env
+
+
+def clear_previous_output(out_dir: Path) -> None:
+    """Remove a previous run's dumps and summaries so they are not re-read."""
+    patterns = [f"{FNAME}_*.npz", f"{FNAME}_*.hdf5", f"{FNAME}.info", f"{FNAME}.log",
+                "profile_info.csv", "peer_summary.json", "driver_stdout.txt"]
+    for pattern in patterns:
+        for path in out_dir.glob(pattern):
+            path.unlink()
+
+
 def _cache_listing(home: str) -> set[str]:
     """Compiled extension modules in PySPH's code cache under ``home``."""
     root = Path(home) / ".pysph" / "source"
@@ -218,13 +245,15 @@ def run_pysph_dam_break(dx: float, tf: float, threads: int, out_dir: str,
     compiled, particle_steps_per_s (all particles), fluid_particle_steps_per_s,
     front [(t, x_front)], integrator, force_evals_per_step and context fields
     (1-min load average before/after, the subprocess's CPU seconds: on a shared
-    2-core host other processes skew OpenMP runs badly).  ``extra_env`` is
-    added to the subprocess environment (e.g. ``OMP_WAIT_POLICY``).
+    2-core host other processes skew timings, OpenMP ones most).  ``extra_env``
+    is added to the subprocess environment (see ``omp_environment``).
     """
     out = Path(out_dir).resolve()
     out.mkdir(parents=True, exist_ok=True)
+    clear_previous_output(out)
     home = str(out / "home") if cold_cache else os.path.expanduser("~")
-    env = {**os.environ, "OMP_NUM_THREADS": str(threads), "HOME": home, **(extra_env or {})}
+    omp_env = omp_environment(threads, extra_env)
+    env = {**os.environ, "HOME": home, **omp_env}
     pfreq = max(1, estimate_steps(dx, tf, consistent_resolution) // max(n_dumps, 1))
     cfg = dict(dx=dx, fname=FNAME, consistent_resolution=consistent_resolution,
                argv=build_argv(dx, tf, threads, str(out), pfreq),
@@ -253,7 +282,7 @@ def run_pysph_dam_break(dx: float, tf: float, threads: int, out_dir: str,
         n_fluid=n_fluid, n_solid=n_solid, n_particles=n_total, steps=steps,
         wall_s=wall, wall_s_excl_output=wall - dump_s, dump_s=dump_s,
         setup_s=s["setup_s"], compiled=compiled, subprocess_total_s=total_s,
-        subprocess_cpu_s=cpu_s,
+        subprocess_cpu_s=cpu_s, omp_env=omp_env,
         particle_steps_per_s=n_total * steps / wall,
         fluid_particle_steps_per_s=n_fluid * steps / wall,
         integrator=s["integrator"], force_evals=evals, force_evals_per_step=per_step,
@@ -266,7 +295,7 @@ def run_pysph_dam_break(dx: float, tf: float, threads: int, out_dir: str,
 def _format(res: dict) -> str:
     """Human-readable one-run summary."""
     keys = ["n_fluid", "n_solid", "n_particles", "steps", "t_final", "h", "m", "openmp",
-            "wall_s", "wall_s_excl_output", "setup_s", "compiled", "subprocess_cpu_s",
+            "wall_s", "wall_s_excl_output", "setup_s", "compiled", "subprocess_cpu_s", "omp_env",
             "particle_steps_per_s", "fluid_particle_steps_per_s", "integrator",
             "force_evals_per_step", "kernel", "nnps", "loadavg_1min"]
     lines = [f"{k:>28}: {res[k]}" for k in keys]
