@@ -187,6 +187,24 @@ def test_leaking_walls_stop_the_run_and_keep_the_last_checkpoint(dam_break, tmp_
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["status"] == "error" and "outside the container" in summary["error"]
     assert summary["last_good_checkpoint"] == info.value.last_good
+    step = int(os.path.basename(info.value.last_good)[5:13])
+    assert step % 20 == 0 and step < info.value.step
+
+
+def test_without_periodic_checkpoints_the_last_output_state_is_kept(dam_break, tmp_path):
+    """checkpoint_every = 0: the state at the last output before the failure is written as a checkpoint,
+    and it can be loaded back (it is finite and inside the tank)."""
+    device.use("cpu", 2)
+    sim = dam_break.build(dx=0.08, t_end=2.0, output_interval=0.02, boundary_model="lennard_jones",
+                          frames=False, vtk=False)
+    sim.solver.params.lj_d = 1e-9
+    with pytest.raises(RunError, match="outside the container") as info:
+        sim.run(str(tmp_path), progress=False)
+    data = np.load(info.value.last_good)
+    x = data["state_x"][: sim.solver.nf]
+    assert np.all(np.isfinite(x)) and x[:, 1].min() > 0.0
+    loop = json.loads(str(data["loop"]))
+    assert loop["step"] < info.value.step and loop["time"] == pytest.approx(0.02 * (loop["n_outputs"] - 1))
 
 
 def test_non_finite_state_stops_the_run(dam_break, tmp_path):

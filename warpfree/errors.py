@@ -20,6 +20,7 @@ class RunError(RuntimeError):
     """A run stopped because its state went bad; ``step`` is the step at which it was detected."""
 
     def __init__(self, message: str, step: int | None = None, last_good: str | None = None):
+        self.message = message
         self.step = step
         self.last_good = last_good
         text = message if step is None else f"step {step}: {message}"

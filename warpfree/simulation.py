@@ -10,7 +10,8 @@ Time step: the solver's stable step, shortened only to land exactly on output ti
 Checkpoints (``checkpoints/step_XXXXXXXX.npz``) hold every state array, the time, the step and the
 loop's own state (probe series, next output), so ``resume`` continues a run and reproduces the
 uninterrupted one bitwise. A run that goes bad raises :class:`~warpfree.errors.RunError` naming the
-step; the last good checkpoint stays on disk.
+step; the last good checkpoint stays on disk (without periodic checkpoints, the state at the last
+output is written as one).
 """
 
 from __future__ import annotations
@@ -90,6 +91,8 @@ class Simulation:
             self._write_fields(out_dir)
         self.n_outputs += 1
         self._next_output = self.n_outputs * self.output_interval
+        if out_dir is not None:
+            self._snapshot = self._state_snapshot()  # the last good state, written if the run goes wrong
         self.wall["output"] += time.perf_counter() - t0
 
     def _write_fields(self, out_dir: str) -> None:
@@ -129,19 +132,25 @@ class Simulation:
         return {"time": self.time, "step": self.step_count, "n_outputs": self.n_outputs,
                 "series": self.series, "diag_series": self.diag_series}
 
-    def save_checkpoint(self, out_dir: str) -> str:
-        """Write every state array and the loop state; keep the two newest checkpoints."""
+    def _state_snapshot(self) -> tuple[dict, dict]:
+        """(loop state, copies of every state array): what a checkpoint holds."""
+        return (json.loads(json.dumps(self._loop_state())),
+                {k: v.numpy().copy() for k, v in self.solver.state_arrays().items()})
+
+    def save_checkpoint(self, out_dir: str, snapshot: tuple[dict, dict] | None = None) -> str:
+        """Write every state array and the loop state (now, or a kept snapshot); keep the two newest."""
         t0 = time.perf_counter()
+        loop, arrays = snapshot if snapshot is not None else self._state_snapshot()
         cdir = os.path.join(out_dir, "checkpoints")
         os.makedirs(cdir, exist_ok=True)
-        path = os.path.join(cdir, f"step_{self.step_count:08d}.npz")
-        arrays = {f"state_{k}": v.numpy() for k, v in self.solver.state_arrays().items()}
+        path = os.path.join(cdir, f"step_{loop['step']:08d}.npz")
         tmp = path + ".tmp.npz"
-        np.savez(tmp, loop=np.array(json.dumps(self._loop_state())), **arrays)
+        np.savez(tmp, loop=np.array(json.dumps(loop)), **{f"state_{k}": v for k, v in arrays.items()})
         os.replace(tmp, path)
         for old in sorted(f for f in os.listdir(cdir) if f.startswith("step_") and f.endswith(".npz"))[:-2]:
             os.remove(os.path.join(cdir, old))
         self.last_checkpoint = path
+        self._checkpoint_step = loop["step"]
         self.wall["checkpoint"] += time.perf_counter() - t0
         return path
 
@@ -162,6 +171,7 @@ class Simulation:
         self.series = {k: list(v) for k, v in loop["series"].items()}
         self.diag_series = {k: list(v) for k, v in loop["diag_series"].items()}
         self.last_checkpoint = path
+        self._checkpoint_step = self.step_count
 
     @staticmethod
     def latest_checkpoint(out_dir: str) -> str | None:
@@ -175,11 +185,11 @@ class Simulation:
     def next_dt(self) -> float:
         limit = self.solver.stable_dt()
         if not math.isfinite(limit) or limit <= 0:
-            raise RunError(f"non-finite or broken state: the stable time step is {limit}", self.step_count, getattr(self, "last_checkpoint", None))
+            raise RunError(f"non-finite or broken state: the stable time step is {limit}", self.step_count)
         if self.dt_fixed is not None:
             if self.dt_fixed > limit * (1 + 1e-6):
                 raise RunError(f"dt = {self.dt_fixed:.4g} s exceeds the stable (CFL) limit {limit:.4g} s",
-                               self.step_count, getattr(self, "last_checkpoint", None))
+                               self.step_count)
             dt = self.dt_fixed
         else:
             dt = limit
@@ -197,6 +207,8 @@ class Simulation:
         self._vtk: dict = {}
         self._resumed_time = None
         self.last_checkpoint = None
+        self._checkpoint_step = -1
+        self._snapshot = None
         wall0 = time.perf_counter()
         if out_dir is not None:
             os.makedirs(out_dir, exist_ok=True)
@@ -226,7 +238,7 @@ class Simulation:
                 self.time = self._next_output if abs(self.time + dt - self._next_output) <= 1e-12 * max(1.0, self.time) \
                     else self.time + dt
                 if self.solver.problem:
-                    raise RunError(self.solver.problem, self.step_count, getattr(self, "last_checkpoint", None))
+                    raise RunError(self.solver.problem, self.step_count)
                 if self.time >= self._next_output * (1 - 1e-12) or self.time >= self.t_end * (1 - 1e-12):
                     self._record(out_dir)
                 if out_dir is not None and self.checkpoint_every and self.step_count % self.checkpoint_every == 0:
@@ -234,10 +246,15 @@ class Simulation:
                 if bar is not None:
                     bar.update(self.time - bar.n)
         except RunError as err:
+            if out_dir is not None and self._snapshot is not None and \
+                    self._snapshot[0]["step"] > self._checkpoint_step:
+                self.save_checkpoint(out_dir, self._snapshot)  # the state at the last output
+            if self.last_checkpoint and not err.last_good:
+                err = RunError(err.message, err.step, self.last_checkpoint)
             summary = self.summary(time.perf_counter() - wall0, self.step_count - steps0, error=str(err))
             if out_dir is not None:
                 _write_json(os.path.join(out_dir, "summary.json"), summary)
-            raise
+            raise err from None
         finally:
             if bar is not None:
                 bar.close()
