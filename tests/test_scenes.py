@@ -58,3 +58,17 @@ def test_help_explains_commands(args):
     res = subprocess.run([sys.executable, "-m", "warpfree.cli", *args], capture_output=True, text=True)
     assert res.returncode == 0
     assert "warpfree run" in res.stdout or "--resume" in res.stdout
+
+
+def test_cli_resume_continues_from_the_last_checkpoint(tmp_path):
+    out = tmp_path / "db"
+    scene = os.path.join(ROOT, "scenes", "dam_break_2d.py")
+    assert run_cli(scene, "--set", "dx=0.1", "--set", "t_end=0.03", "--set", "checkpoint_every=10",
+                   "--no-frames", "--out", str(out)) == 0
+    first = json.loads((out / "summary.json").read_text())
+    checkpoints = sorted((out / "checkpoints").glob("step_*.npz"))
+    assert checkpoints and len(checkpoints) <= 2
+    assert run_cli("--resume", str(out), "--no-frames") == 0
+    again = json.loads((out / "summary.json").read_text())
+    assert again["steps"] == first["steps"] and again["steps_this_run"] < first["steps"]
+    assert again["probes"]["front"] == first["probes"]["front"]
