@@ -6,14 +6,22 @@ What it measures
     (``scenes/dam_break_3d.py``, dx = 0.035: 16 240 fluid + 41 259 boundary = 57 499 particles), for
     threads = 1 .. N (N = the cores this process may use). Reported per thread count: particle-steps/s
     with particles = fluid + boundary and with fluid only, seconds per step, speed-up against 1 thread
-    and parallel efficiency (speed-up / threads), and the solver's own per-phase times per step.
+    and parallel efficiency (speed-up / threads), and the solver's own per-phase times per step
+    (rates, wall pressure, neighbour lists, integration).
+
+    A control case comes first: a compute-bound Warp kernel (a sin loop, no memory traffic) launched
+    through the same ``Launcher``. Its speed-up is what the machine delivered to two threads during the
+    run; on a shared 2-core machine that is well below 2 whenever anything else runs.
 
 How
     Every (case, thread count) is measured in a FRESH SUBPROCESS (this script re-invoked with
     ``--worker``): it calls ``warpfree.device.use('cpu', threads)``, builds the scene (no frames, no
     VTU), runs ``--warmup`` untimed steps (kernel loading / compilation happens here, never inside a
     timing), then ``--repeats`` timed blocks of ``--steps`` calls of ``solver.step(dt)``
-    (``bench/common.py: time_solver``). ``dt`` is the solver's ``stable_dt()`` at t = 0, measured by
+    (``bench/common.py: time_solver``). The solver rebuilds its neighbour lists only once a particle
+    has used up half the skin, which from rest takes hundreds of steps, so a rebuild is forced every
+    k steps, k = floor(skin / 2 / (v dt)) with v = c0/10 the developed flow speed (k = 7 here), and
+    the step counts are rounded up to whole periods of k. ``dt`` is the solver's ``stable_dt()`` at t = 0, measured by
     the first worker and passed to all others, so every thread count does exactly the same steps
     (the launcher's chunking keeps results bitwise identical across thread counts). With ``--rounds``
     > 1 the sweep over thread counts is repeated, alternating ascending and descending order, so a
@@ -42,12 +50,46 @@ import common  # noqa: E402
 
 CASES = {
     # name: (scene, full dx, quick dx)
+    "control": ("control", None, None),
     "2d": ("dam_break_2d", 0.006, 0.02),
     "3d": ("dam_break_3d", 0.035, 0.07),
 }
 
 
+def _control_kernel():
+    import warp as wp
+
+    @wp.kernel
+    def spin(first: int, iters: int, out: wp.array(dtype=float)):
+        i = first + wp.tid()
+        s = float(0.0)
+        for k in range(iters):
+            s = s + wp.sin(float(k + i) * 0.001)
+        out[i] = s
+
+    return spin
+
+
+def worker_control(cfg: dict) -> dict:
+    """Compute-bound control: a Warp kernel with no memory traffic, through the same launcher."""
+    import warp as wp
+
+    import warpfree.device
+
+    launcher = warpfree.device.use("cpu", cfg["threads"])
+    kernel = _control_kernel()
+    n, iters = cfg["n"], cfg["iters"]
+    out = wp.zeros(n, dtype=float, device="cpu")
+    res = common.time_steps(lambda: launcher.launch(kernel, n, [iters, out]), cfg["steps"], 1, cfg["repeats"])
+    res.update(threads=launcher.threads, n_particles=n, n_fluid=n, n_boundary=0, dt=0.0, phase_s_per_step={},
+               loadavg=common.loadavg(), rebuild_every=None)
+    res.update(common.throughput(n, n, cfg["steps"], res["median_s"]))
+    return res
+
+
 def worker(cfg: dict) -> dict:
+    if cfg["scene"] == "control":
+        return worker_control(cfg)
     sim = common.build_scene(cfg["scene"], cfg["threads"], dx=cfg["dx"], t_end=10.0)
     solver = sim.solver
     dt = cfg.get("dt") or solver.stable_dt()
@@ -66,6 +108,8 @@ def sweep_case(name: str, dx: float, threads: list[int], args) -> dict:
         for t in order:
             cfg = dict(scene=scene, dx=dx, threads=t, steps=args.steps, warmup=args.warmup,
                        repeats=args.repeats, dt=dt)
+            if scene == "control":
+                cfg.update(n=16384, iters=2000 if not args.quick else 500, steps=3)
             res = common.run_worker(__file__, ["--worker", json.dumps(cfg)])
             dt = res["dt"]
             blocks[t].extend(res["block_s"])
@@ -78,7 +122,7 @@ def sweep_case(name: str, dx: float, threads: list[int], args) -> dict:
     rows = []
     for t in threads:
         med = common.median(blocks[t])
-        thr = common.throughput(n, nf, args.steps, med)
+        thr = common.throughput(n, nf, runs[t][0]["steps"], med)
         phases = {}
         for k in runs[t][0]["phase_s_per_step"]:
             phases[k] = common.median([x["phase_s_per_step"][k] for x in runs[t]])
@@ -89,16 +133,27 @@ def sweep_case(name: str, dx: float, threads: list[int], args) -> dict:
         row["speedup"] = row["particle_steps_per_s"] / base if base else None
         row["efficiency"] = row["speedup"] / row["threads"] if base else None
     return dict(case=name, scene=scene, dx=dx, dt=dt, n_particles=n, n_fluid=nf, n_boundary=nb,
-                steps_per_block=args.steps, warmup=args.warmup, repeats=args.repeats, rounds=args.rounds,
+                steps_per_block=first["steps"], rebuild_every=first["rebuild_every"], warmup=args.warmup, repeats=args.repeats, rounds=args.rounds,
                 rows=rows)
 
 
 def markdown(cases: list[dict]) -> str:
     out = []
     for c in cases:
+        if c["scene"] == "control":
+            out.append(f"**Control**: a compute-bound Warp kernel (sin loop, no memory traffic) over {c['n_particles']} "
+                       f"items through the same launcher: the parallelism the machine delivered during this run "
+                       f"(median of {c['rounds'] * c['repeats']} blocks).\n")
+            out.append(common.md_table(["threads", "ms/launch", "speed-up", "efficiency"],
+                                       [[r["threads"], f"{r['s_per_step'] * 1e3:.1f}", common.fmt(r["speedup"]),
+                                         common.fmt(r["efficiency"])] for r in c["rows"]]))
+            out.append("")
+            continue
+        reb = (f"a neighbour-list rebuild forced every {c['rebuild_every']} steps (developed-flow rate)"
+               if c.get("rebuild_every") else "no forced list rebuilds")
         out.append(f"**{c['case'].upper()} dam break** (`{c['scene']}`, dx = {c['dx']}: {c['n_fluid']} fluid + "
                    f"{c['n_boundary']} boundary = {c['n_particles']} particles; dt = {c['dt']:.4g} s; median of "
-                   f"{c['rounds'] * c['repeats']} blocks of {c['steps_per_block']} steps)\n")
+                   f"{c['rounds'] * c['repeats']} blocks of {c['steps_per_block']} steps; {reb})\n")
         rows = []
         for r in c["rows"]:
             ph = r["phase_s_per_step"]
@@ -108,7 +163,7 @@ def markdown(cases: list[dict]) -> str:
                          " / ".join(f"{ph.get(k, 0) * 1e3:.1f}" for k in ("rates", "boundary", "neighbours",
                                                                            "integrate"))])
         out.append(common.md_table(["threads", "ms/step", "particle-steps/s (all)", "particle-steps/s (fluid)",
-                                    "speed-up", "efficiency", "ms/step: rates / wall p / grid / integrate"],
+                                    "speed-up", "efficiency", "ms/step: rates / wall p / lists / integrate"],
                                    rows))
         out.append("")
     return "\n".join(out)
@@ -119,6 +174,10 @@ def plot(cases: list[dict]):
     tmax = 1
     for i, c in enumerate(cases):
         th = [r["threads"] for r in c["rows"]]
+        if c["scene"] == "control":
+            if c["rows"][0]["speedup"] is not None:
+                a1.plot(th, [r["speedup"] for r in c["rows"]], "x--", color="0.4", label="control (compute-bound kernel)")
+            continue
         tmax = max(tmax, max(th))
         lab = f"{c['case'].upper()} ({c['n_particles']} particles)"
         if c["rows"][0]["speedup"] is not None:
@@ -146,7 +205,7 @@ def plot(cases: list[dict]):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small sizes, few steps (smoke run)")
-    ap.add_argument("--cases", nargs="+", default=["2d", "3d"], choices=sorted(CASES))
+    ap.add_argument("--cases", nargs="+", default=["control", "2d", "3d"], choices=sorted(CASES))
     ap.add_argument("--threads", nargs="+", type=int, default=None, help="default: 1 .. cores")
     ap.add_argument("--dx2d", type=float, default=None)
     ap.add_argument("--dx3d", type=float, default=None)
@@ -168,7 +227,7 @@ def main(argv=None) -> int:
     machine = common.machine_info()
     cases = []
     for name in args.cases:
-        dx = {"2d": args.dx2d, "3d": args.dx3d}[name] or CASES[name][2 if q else 1]
+        dx = {"2d": args.dx2d, "3d": args.dx3d}.get(name) or CASES[name][2 if q else 1]
         print(f"{name}: dx = {dx}, threads {threads}", flush=True)
         cases.append(sweep_case(name, dx, threads, args))
     md = "## Thread sweep (CPU)\n\n" + markdown(cases)

@@ -74,3 +74,32 @@ def count_neighbours_brute(
         if wp.length(x - source_points[j]) < radius:
             n += 1
     counts[i] = n
+
+
+@wp.kernel
+def fill_neighbour_table(
+    first: int,
+    grid: wp.uint64,
+    query_points: wp.array(dtype=wp.vec3),
+    source_points: wp.array(dtype=wp.vec3),
+    query_radius: float,
+    radius: float,
+    exclude_self: int,
+    capacity: int,
+    counts: wp.array(dtype=wp.int32),
+    indices: wp.array(dtype=wp.int32),
+):
+    """One-pass fixed-capacity table: row i holds its first ``capacity`` neighbours at
+    indices[i*capacity:]; counts[i] is the true count (> capacity means the table must grow)."""
+    i = first + wp.tid()
+    x = query_points[i]
+    base = i * capacity
+    n = int(0)
+    for j in wp.hash_grid_query(grid, x, query_radius):
+        if exclude_self != 0 and j == i:
+            continue
+        if wp.length(x - source_points[j]) < radius:
+            if n < capacity:
+                indices[base + n] = j
+            n += 1
+    counts[i] = n

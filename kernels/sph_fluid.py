@@ -4,7 +4,7 @@ Precision: float32 (fluid SPH tolerates it; densities vary by ~1%, pressures are
 Units: SI (m, s, kg; pressures in Pa, densities in kg/m³, accelerations in m/s²).
 
 Particles live in combined arrays: fluid indices ``[0, nf)``, boundary indices ``[nf, n)``. Neighbours
-come from CSR candidate lists (fluid -> fluid, fluid -> boundary, boundary -> fluid) built from
+come from candidate tables (fluid -> fluid, fluid -> boundary, boundary -> fluid) built from
 ``wp.HashGrid`` queries with a skin and rebuilt once a fluid particle moved more than half the skin;
 every loop tests the true distance against the support. Every kernel is a gather: thread ``i``
 writes only particle ``i``.
@@ -84,8 +84,9 @@ def equation_of_state(
 @wp.kernel
 def wall_pressure_adami(
     first: int,
-    wf_offsets: wp.array(dtype=wp.int32),
+    wf_counts: wp.array(dtype=wp.int32),
     wf_indices: wp.array(dtype=wp.int32),
+    wf_cap: int,
     nf: int,
     x: wp.array(dtype=wp.vec3),
     v: wp.array(dtype=wp.vec3),
@@ -104,8 +105,8 @@ def wall_pressure_adami(
 ):
     """Adami 2012 eq. 27: pressure, density and no-slip ghost velocity of boundary particle nf + tid.
 
-    ``wf_*`` is the CSR list of fluid candidates of each boundary particle (built with a skin; the
-    true distance is tested here).
+    ``wf_*`` is the neighbour table of fluid candidates of each boundary particle (row k at
+    k*wf_cap, built with a skin; the true distance is tested here).
     """
     k = first + wp.tid()
     i = nf + k
@@ -116,7 +117,7 @@ def wall_pressure_adami(
     spw = float(0.0)
     srw = wp.vec3(0.0, 0.0, 0.0)
     svw = wp.vec3(0.0, 0.0, 0.0)
-    for c in range(wf_offsets[k], wf_offsets[k + 1]):
+    for c in range(k * wf_cap, k * wf_cap + wf_counts[k]):
         j = wf_indices[c]
         rij = xi - x[j]
         r2 = wp.dot(rij, rij)
@@ -163,10 +164,12 @@ def pair_terms(
 @wp.kernel
 def fluid_rates(
     first: int,
-    ff_offsets: wp.array(dtype=wp.int32),
+    ff_counts: wp.array(dtype=wp.int32),
     ff_indices: wp.array(dtype=wp.int32),
-    fw_offsets: wp.array(dtype=wp.int32),
+    ff_cap: int,
+    fw_counts: wp.array(dtype=wp.int32),
     fw_indices: wp.array(dtype=wp.int32),
+    fw_cap: int,
     nf: int,
     nb: int,
     x: wp.array(dtype=wp.vec3),
@@ -195,8 +198,8 @@ def fluid_rates(
 ):
     """dρ/dt and dv/dt of fluid particle i (continuity 4-37, momentum 4-38; see module docstring).
 
-    Two neighbour sweeps over CSR candidate lists built with a skin: fluid neighbours ``ff_*``
-    (indices 0..nf-1) and boundary neighbours ``fw_*`` (indices 0..nb-1, i.e. particle nf + j).
+    Two neighbour sweeps over candidate tables built with a skin (row i at i*cap): fluid neighbours
+    ``ff_*`` (indices 0..nf-1) and boundary neighbours ``fw_*`` (indices 0..nb-1, i.e. particle nf + j).
     """
     i = first + wp.tid()
     xi = x[i]
@@ -212,7 +215,7 @@ def fluid_rates(
     dr = float(0.0)
     diff = float(0.0)
     a = wp.vec3(0.0, 0.0, 0.0)
-    for c in range(ff_offsets[i], ff_offsets[i + 1]):
+    for c in range(i * ff_cap, i * ff_cap + ff_counts[i]):
         j = ff_indices[c]
         rij = xi - x[j]
         r2 = wp.dot(rij, rij)
@@ -228,7 +231,7 @@ def fluid_rates(
             drho_dyn = (rhoj - rhoi) + rho0 * wp.dot(gravity, rij) * inv_c2
             diff -= 2.0 * drho_dyn * (mj / rhoj) * wp.dot(rij, gw) / (r2 + eps)
     if nb > 0:
-        for c in range(fw_offsets[i], fw_offsets[i + 1]):
+        for c in range(i * fw_cap, i * fw_cap + fw_counts[i]):
             j = nf + fw_indices[c]
             rij = xi - x[j]
             r2 = wp.dot(rij, rij)

@@ -351,3 +351,29 @@ def test_bad_skin(vec3, skin):
 def test_bad_dim(vec3):
     with pytest.raises(ParameterError, match="dim"):
         NeighbourGrid(vec3(np.zeros((4, 3))), 0.1, dim=4)
+
+
+def test_neighbour_table_rows_equal_brute_force_and_grow_when_full(make_launcher):
+    """The one-pass fixed-capacity table: same neighbour sets as brute force; a too-small capacity
+    grows until every row fits (nothing dropped), bitwise the same for 1 and 2 threads."""
+    from warpfree.neighbours import NeighbourTable
+
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(-1.0, 1.0, size=(3000, 3)).astype(np.float32)
+    r = 0.2
+    tables = []
+    for threads in (1, 2):
+        launcher = make_launcher(threads=threads)
+        x = wp.array(pts, dtype=wp.vec3, device=launcher.device)
+        grid = NeighbourGrid(x, r, 3, policy="static")
+        table = NeighbourTable(launcher, capacity=4)
+        table.fill(grid, x, exclude_self=True)
+        assert table.grows >= 1 and table.capacity >= table.counts.numpy().max()
+        tables.append((table.counts.numpy().copy(), table.indices.numpy().copy(), table.capacity))
+    counts, indices, cap = tables[0]
+    assert np.array_equal(counts, tables[1][0]) and np.array_equal(indices, tables[1][1])
+    d = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=-1)
+    for i in range(0, len(pts), 97):
+        expect = set(np.flatnonzero((d[i] < r) & (np.arange(len(pts)) != i)).tolist())
+        got = indices[i * cap: i * cap + counts[i]].tolist()
+        assert len(got) == len(set(got)) and set(got) == expect

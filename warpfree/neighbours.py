@@ -132,3 +132,43 @@ def neighbour_list(launcher: Launcher, grid: NeighbourGrid, query_points: wp.arr
     launcher.launch(nk.fill_neighbours, n, [grid.id, query_points, grid.positions, grid.query_radius,
                                             grid.radius, int(exclude_self), offsets, indices])
     return offsets, indices
+
+
+class NeighbourTable:
+    """Neighbour lists with a fixed capacity per row, filled in one pass (the hot path of moving sets).
+
+    Row ``i`` holds ``counts[i]`` source indices at ``indices[i*capacity : i*capacity + counts[i]]``.
+    A fill that finds a row longer than the capacity grows the table (x1.25 of the longest row) and
+    fills again, so no neighbour is ever dropped. Arrays are reused between fills of the same size.
+    """
+
+    def __init__(self, launcher: Launcher, capacity: int = 32):
+        self.launcher = launcher
+        self.capacity = max(1, int(capacity))
+        self.counts: wp.array | None = None
+        self.indices: wp.array | None = None
+        self.grows = 0
+
+    def _allocate(self, n: int) -> None:
+        dev = self.launcher.device
+        if self.counts is None or self.counts.shape[0] != n:
+            self.counts = wp.zeros(max(n, 1), dtype=wp.int32, device=dev)
+        size = max(n * self.capacity, 1)
+        if self.indices is None or self.indices.shape[0] != size:
+            self.indices = wp.zeros(size, dtype=wp.int32, device=dev)
+
+    def fill(self, grid: NeighbourGrid, query_points: wp.array, exclude_self: bool = False) -> None:
+        """Rows for every query point: the grid's source points within ``grid.radius``."""
+        n = query_points.shape[0]
+        while True:
+            self._allocate(n)
+            if n == 0:
+                return
+            self.launcher.launch(nk.fill_neighbour_table, n,
+                                 [grid.id, query_points, grid.positions, grid.query_radius, grid.radius,
+                                  int(exclude_self), self.capacity, self.counts, self.indices])
+            longest = int(self.counts.numpy()[:n].max())
+            if longest <= self.capacity:
+                return
+            self.capacity = int(math.ceil(1.25 * longest))
+            self.grows += 1

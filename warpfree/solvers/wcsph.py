@@ -21,7 +21,7 @@ from warpfree.device import Launcher, current_launcher
 from warpfree.errors import ParameterError, require_positive
 from warpfree.kernels import sph_fluid as K
 from warpfree.kernels.smoothing import kernel_id, support_factor
-from warpfree.neighbours import NeighbourGrid, neighbour_counts, neighbour_list
+from warpfree.neighbours import NeighbourGrid, NeighbourTable, neighbour_counts
 from warpfree.particles import ParticleSet, to_vec3
 
 #: minimum neighbour count of the best-surrounded fluid particle (seed §5.5 recommends 20 in 2D, 56 in
@@ -184,6 +184,12 @@ class WCSPHSolver:
                           if self.nb else None)
         self.list_builds = 0
         self._check_neighbours(xf)
+        cap = int(self.max_neighbours * (1.0 + params.skin) ** d * 1.2) + 8  # grows if ever too small
+        self.ff, self.fw, self.wf = (NeighbourTable(self.launcher, cap) for _ in range(3))
+        if not self.nb:  # valid (empty) boundary tables for the kernels
+            empty = wp.zeros(0, dtype=wp.vec3, device=dev)
+            self.fw.fill(self.fluid_grid, empty)
+            self.wf.fill(self.fluid_grid, empty)
         self.timings = {"neighbours": 0.0, "boundary": 0.0, "rates": 0.0, "integrate": 0.0}
         self.problem: str | None = None
         self.initialise()
@@ -204,20 +210,16 @@ class WCSPHSolver:
 
     # -- stepping --------------------------------------------------------------------------------
     def build_lists(self) -> None:
-        """Neighbour lists (fluid->fluid, fluid->boundary, boundary->fluid) from the positions in ``x_built``.
+        """Neighbour tables (fluid->fluid, fluid->boundary, boundary->fluid) from the positions in ``x_built``.
 
-        They depend on ``x_built`` alone, so a resumed run rebuilds exactly the lists it had.
+        They depend on ``x_built`` alone, so a resumed run rebuilds exactly the tables it had.
         """
-        L = self.launcher
         t0 = time.perf_counter()
         self.fluid_grid.build()
-        self.ff = neighbour_list(L, self.fluid_grid, self.x_built, exclude_self=True)
+        self.ff.fill(self.fluid_grid, self.x_built, exclude_self=True)
         if self.nb:
-            self.fw = neighbour_list(L, self.wall_grid, self.x_built)
-            self.wf = neighbour_list(L, self.fluid_grid, self.boundary.x)
-        else:
-            empty = wp.zeros(self.nf + 1, dtype=wp.int32, device=L.device)
-            self.fw = (empty, wp.zeros(1, dtype=wp.int32, device=L.device))
+            self.fw.fill(self.wall_grid, self.x_built)
+            self.wf.fill(self.fluid_grid, self.boundary.x)
         self.list_builds += 1
         self.timings["neighbours"] += time.perf_counter() - t0
 
@@ -234,11 +236,12 @@ class WCSPHSolver:
         t1 = time.perf_counter()
         if P.boundary_model == "dynamic" and self.nb:
             L.launch(K.wall_pressure_adami, self.nb,
-                     [self.wf[0], self.wf[1], self.nf, self.x, self.v_eval, self.rho_eval, self.p, self._kind, P.dim,
+                     [self.wf.counts, self.wf.indices, self.wf.capacity, self.nf, self.x, self.v_eval, self.rho_eval, self.p, self._kind, P.dim,
                       P.h, P.support, self._g, P.rho0, P.b, P.gamma, self.wall_v, self.ghost_v])
         t2 = time.perf_counter()
         L.launch(K.fluid_rates, self.nf,
-                 [self.ff[0], self.ff[1], self.fw[0], self.fw[1], self.nf, self.nb,
+                 [self.ff.counts, self.ff.indices, self.ff.capacity, self.fw.counts, self.fw.indices,
+                  self.fw.capacity, self.nf, self.nb,
                   self.x, self.v_eval, self.rho_eval, self.p, self.mass,
                   self.wall_v, self.ghost_v, self._kind, P.dim, P.h, P.support, P.rho0, P.c0, P.mu, P.alpha,
                   P.delta, self._g, 0 if P.boundary_model == "dynamic" else 1, int(P.no_slip),
