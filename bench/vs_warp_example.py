@@ -58,11 +58,12 @@ def worker_ours(cfg: dict) -> dict:
     s = sim.solver
     dt = cfg.get("dt") or s.stable_dt()
     res = common.time_solver(s, dt, cfg["steps"], cfg["warmup"], cfg["repeats"])
-    from warpfree.neighbours import neighbour_counts
+    from warpfree.neighbours import NeighbourGrid, neighbour_counts
 
-    s.grid.build()
-    nf_counts = neighbour_counts(s.launcher, s.grid, s.x[: s.nf], exclude_self=True)
-    nb_counts = neighbour_counts(s.launcher, s.grid, s.x[s.nf:], exclude_self=True) if s.nb else [0]
+    # neighbours within the support among all particles (fluid + wall), now
+    grid = NeighbourGrid(s.x, s.params.support, s.params.dim, policy="static", device=s.launcher.device)
+    nf_counts = neighbour_counts(s.launcher, grid, s.x[: s.nf], exclude_self=True)
+    nb_counts = neighbour_counts(s.launcher, grid, s.x[s.nf:], exclude_self=True) if s.nb else [0]
     res.update(threads=s.launcher.threads, dx=cfg["dx"], mean_neighbours_fluid=float(nf_counts.mean()),
                mean_neighbours_boundary=float(sum(nb_counts) / max(len(nb_counts), 1)), loadavg=common.loadavg())
     return res
