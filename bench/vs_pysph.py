@@ -30,10 +30,11 @@ How
     error is reported too. Its fluid block is get_2d_block (int(1/dx)+1 points across 1 and 2, i.e. a
     column ~dx wider and taller than ours).
 
-    The two codes do not take the same time step: PySPH's adaptive dt uses CFL 0.3 (ramped up over 50
-    steps), ours the scene's CFL 0.1 (``cfl`` parameter, seed eq. 5-12), so we take ~3x as many steps to
-    the same tf; particle-steps/s compares the cost of a step, the wall-time ratio the cost of the
-    simulation. ``--ours-cfl 0.1 0.2`` adds rows of ours at other CFL numbers.
+    The two codes do not take the same time step: PySPH's adaptive dt is 0.3 h / c0 (ramped up over 50
+    steps), ours the scene's ``cfl`` x h / (c0 + max|v|) (seed eq. 5-12; the scene's default, reported
+    in the table), so the step counts to the same tf differ; particle-steps/s compares the cost of a
+    step, the wall-time ratio the cost of the simulation. ``--ours-cfl 0.1 0.3`` adds rows of ours at
+    other CFL numbers.
 
     Runs alternate ours / PySPH per (dx, threads). ``--repeats`` repeats every run and reports the
     median wall time. If PySPH cannot run, the table says so and our rows are still reported.
@@ -124,8 +125,8 @@ def markdown(rows: list[dict], pysph_error: str | None, tf: float) -> str:
     if pysph_error:
         out.append(f"**PySPH could not run:** {pysph_error}\n")
     out.append("Ratios > 1 favour ours. PySPH's front is measured from its wall face (x_max - dx/2, like ours); "
-               "'raw' is its example's own x_max. PySPH steps with CFL 0.3, ours with the scene's CFL 0.1 "
-               "(more steps to the same tf), so the particle-steps/s ratio and the wall-time ratio differ. "
+               "'raw' is its example's own x_max. PySPH steps with dt = 0.3 h/c0, ours with the CFL number shown "
+               "(dt = CFL h/(c0 + max|v|)), so the particle-steps/s ratio and the wall-time ratio differ. "
                "Target: ratio >= 1.5 at equal threads with a front error no worse.")
     return "\n".join(out)
 

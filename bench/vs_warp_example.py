@@ -17,7 +17,8 @@ How
     Each side runs in a fresh subprocess (``--worker``), alternating ours(1 thread) / Warp / ours(all
     cores) for ``--rounds`` rounds. Ours: build, ``--warmup`` untimed steps (kernel loading), then
     ``--repeats`` timed blocks of ``--steps`` calls of ``solver.step(dt)`` with dt = ``stable_dt()`` at
-    t = 0 (``bench/common.py: time_solver``). Warp's: ``run_warp_example_sph`` from the peers module,
+    t = 0 (``bench/common.py: time_solver``, which forces a neighbour-list rebuild every 7 steps, the
+    rate of the developed flow; Warp's example rebuilds its hash grid every substep). Warp's: ``run_warp_example_sph`` from the peers module,
     called ``--repeats`` times per worker, each call = 1 warm-up frame then ``--frames`` timed frames
     (one frame = 40 substeps; a substep is their step, with one hash-grid build and two neighbour
     passes). The figure per side is the median over all its timed blocks.

@@ -63,7 +63,7 @@ def test_help_explains_commands(args):
 def test_cli_resume_continues_from_the_last_checkpoint(tmp_path):
     out = tmp_path / "db"
     scene = os.path.join(ROOT, "scenes", "dam_break_2d.py")
-    assert run_cli(scene, "--set", "dx=0.1", "--set", "t_end=0.03", "--set", "checkpoint_every=10",
+    assert run_cli(scene, "--set", "dx=0.1", "--set", "t_end=0.03", "--checkpoint-every", "10",
                    "--no-frames", "--out", str(out)) == 0
     first = json.loads((out / "summary.json").read_text())
     checkpoints = sorted((out / "checkpoints").glob("step_*.npz"))

@@ -23,9 +23,9 @@ Example:
 
 RUN_HELP = """Run a scene. Every parameter of the scene's build() has a default; --set overrides one
 (repeat it for several). The run directory gets summary.json, VTU files with a PVD index (vtk/,
-*.pvd, open in ParaView), PNG frames (frames/) and the scene's own plots. With --set
-checkpoint_every=K it also keeps checkpoints, and --resume DIR continues such a run (bitwise the same
-as an uninterrupted one)."""
+*.pvd, open in ParaView), PNG frames (frames/) and the scene's own plots. With --checkpoint-every K
+it also keeps checkpoints, and --resume DIR continues such a run (bitwise the same as an
+uninterrupted one)."""
 
 
 def load_scene(path: str):
@@ -91,6 +91,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--device", default="cpu", help="cpu (default), cuda or cuda:N")
     run.add_argument("--frames", dest="frames", action="store_true", default=None, help="write PNG frames")
     run.add_argument("--no-frames", dest="frames", action="store_false", help="do not write PNG frames")
+    run.add_argument("--checkpoint-every", type=int, default=None, metavar="K",
+                     help="write a checkpoint every K steps (keeps the two newest)")
     run.add_argument("--resume", default=None, metavar="DIR", help="continue the run in DIR from its last checkpoint")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     run.add_argument("--list", action="store_true", help="list the scene's parameters and defaults, then exit")
@@ -127,10 +129,19 @@ def run_command(args) -> int:
         return 0
     device.use(args.device, args.threads)
     sim = module.build(**overrides)
+    if args.resume:
+        checkpoint_every = meta.get("checkpoint_every")
+    else:
+        checkpoint_every = args.checkpoint_every
+    if checkpoint_every is not None:
+        if checkpoint_every < 0:
+            raise ParameterError("--checkpoint-every", f"must be >= 0, got {checkpoint_every}")
+        sim.checkpoint_every = checkpoint_every
     os.makedirs(out_dir, exist_ok=True)
     if not args.resume:
         with open(os.path.join(out_dir, "run.json"), "w") as f:
-            json.dump({"scene": os.path.abspath(scene_path), "overrides": overrides}, f, indent=2)
+            json.dump({"scene": os.path.abspath(scene_path), "overrides": overrides,
+                       "checkpoint_every": checkpoint_every}, f, indent=2)
     summary = sim.run(out_dir, resume=bool(args.resume), progress=not args.no_progress)
     pps = summary.get("particle_steps_per_s")
     print(f"{summary['scene']}: {summary['steps']} steps to t = {summary['time']:.4g} s in {summary['wall_s']:.1f} s"
