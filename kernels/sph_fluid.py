@@ -22,6 +22,8 @@ Equations (r_ij = x_i - x_j, v_ij = v_i - v_j, ∇W_ij = ∇_i W(r_ij, h)):
   when v_ij·r_ij < 0, else 0
 - Lennard-Jones wall force (seed 5-6, with the printed condition corrected to r < r0):
       Γ_ig = D[(r0/r)^12 - (r0/r)^4] r_ig/r²
+  With dynamic boundaries the same force, with r0 < dx, is a safety net that only acts on a fluid
+  particle closer to a wall particle than any particle of a settled flow is.
 - Adami et al. 2012 wall pressure (eq. 27) for dynamic boundary particles w:
       p_w = [Σ_f p_f W_wf + (g - a_w)·Σ_f ρ_f r_wf W_wf] / Σ_f W_wf,  ρ_w from the inverse EOS,
       ghost velocity for no-slip ṽ_w = 2 v_w - Σ_f v_f W_wf / Σ_f W_wf.
@@ -54,6 +56,15 @@ def tait_pressure(rho: float, rho0: float, b: float, gamma: float) -> float:
 def tait_density(p: float, rho0: float, b: float, gamma: float) -> float:
     """Inverse Tait EOS ρ = ρ0 (1 + p/B)^(1/γ) in kg/m³."""
     return rho0 * wp.pow(1.0 + p / b, 1.0 / gamma)
+
+
+@wp.func
+def lennard_jones(rij: wp.vec3, r2: float, d: float, r0: float) -> wp.vec3:
+    """Seed eq. 5-6: Γ = D[(r0/r)^12 - (r0/r)^4] r_ij/r² (m/s²), for r < r0 (the caller tests it)."""
+    q2 = r0 * r0 / r2
+    q4 = q2 * q2
+    q12 = q4 * q4 * q4
+    return (d * (q12 - q4) / r2) * rij
 
 
 @wp.func
@@ -254,12 +265,10 @@ def fluid_rates(
                                              avisc)
                 a += aj
                 dr += mj * wp.dot(vi - wall_v[j], gw)
-            elif r2 < lj_r0 * lj_r0:
-                # Lennard-Jones ghost particle (seed 5-6), acting only when r < r0
-                q2 = lj_r0 * lj_r0 / r2
-                q4 = q2 * q2
-                q12 = q4 * q4 * q4
-                a += (lj_d * (q12 - q4) / r2) * rij
+            # Lennard-Jones force (seed 5-6), acting only when r < r0: the whole wall model of
+            # "lennard_jones" boundaries, a short-range safety net of dynamic ones (r0 < dx there)
+            if r2 < lj_r0 * lj_r0:
+                a += lennard_jones(rij, r2, lj_d, lj_r0)
     drho[i] = dr + delta * h * c0 * diff
     acc[i] = a + gravity
 

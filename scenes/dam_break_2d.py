@@ -5,7 +5,8 @@ errors into ``summary.json``.
 
 Model: WCSPH (seed 004) with Wendland C2, h = 1.3 dx, c0 = 10 sqrt(2 g 2a), Tait γ = 7, laminar
 μ = 1e-3 Pa·s, Monaghan artificial viscosity α = 0.1 (as PySPH's dam_break_2d), δ-SPH δ = 0.1 and
-dynamic (Adami 2012) wall particles, three layers, no-slip.
+dynamic (Adami 2012) wall particles, three layers, no-slip, with the seed's Lennard-Jones force
+(D = 2gH) as a safety net below r0 = 0.75 dx (``wall_safety``; 0 switches it off).
 
 Time step: seed eq. 5-12 with Courant number 0.2 (the seed prints 0.1; 0.2 is DualSPHysics' choice for
 its dam-break validation case). At dx = a/25 the front error is the same for 0.1, 0.2 and 0.3
@@ -26,7 +27,7 @@ from warpfree.validation.dam_break import DATASETS, front_errors
 def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval: float = 0.02,
           tank_length: float = 4.0, tank_height: float = 4.0, h_factor: float = 1.3,
           kernel: str = "wendland_c2", alpha: float = 0.1, delta: float = 0.1, mu: float = 1.0e-3,
-          boundary_model: str = "dynamic", cfl: float = 0.2, g: float = 9.81, rho0: float = 1000.0,
+          boundary_model: str = "dynamic", wall_safety: float = 0.75, cfl: float = 0.2, g: float = 9.81, rho0: float = 1000.0,
           wall_layers: int = 3, checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "speed",
           vtk: bool = True) -> Simulation:
     """Build the dam break; lengths in units of a (tank_length, tank_height), SI otherwise."""
@@ -38,7 +39,8 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
     walls = box_walls_2d(length, top, dx, wall_layers)
     fp = FluidParams(dim=2, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
                      delta=delta, gravity=(0.0, -g, 0.0), boundary_model=boundary_model, cfl=cfl,
-                     lj_d=2.0 * g * height, lj_r0=dx, container_lo=(0.0, 0.0, -1.0),
+                     lj_d=2.0 * g * height,
+                     lj_r0=dx if boundary_model == "lennard_jones" else wall_safety * dx, container_lo=(0.0, 0.0, -1.0),
                      container_hi=(length, top, 1.0))
     solver = WCSPHSolver(fluid, walls, fp, density=hydrostatic_density(fluid[:, 1], height, rho0, c0, g))
 

@@ -30,7 +30,7 @@ def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
           obstacle_mesh: str = os.path.join(HERE, "meshes", "spheric2_obstacle.stl"),
           column_length: float = 1.228, column_height: float = 0.55, h_factor: float = 1.3,
           kernel: str = "wendland_c2", alpha: float = 0.1, delta: float = 0.1, mu: float = 1.0e-3,
-          cfl: float = 0.2, g: float = 9.81, rho0: float = 1000.0, wall_layers: int = 3,
+          wall_safety: float = 0.75, cfl: float = 0.2, g: float = 9.81, rho0: float = 1000.0, wall_layers: int = 3,
           checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "speed", vtk: bool = True,
           surface: bool = False) -> Simulation:
     params = dict(locals())
@@ -39,7 +39,7 @@ def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
     origin = lo
     obstacle = load_mesh(obstacle_mesh) if obstacle_mesh else None
     # fluid: the tank's lattice inside the column box, minus the obstacle
-    fluid = fill_mesh(tank, dx, origin=origin)
+    fluid = fill_mesh(tank, dx, origin=origin, clearance=0.5 * dx)  # dx need not divide the tank
     keep = (fluid[:, 0] >= hi[0] - column_length) & (fluid[:, 2] <= lo[2] + column_height)
     fluid = fluid[keep]
     walls = [shell_lattice(tank, dx, wall_layers, "outside", origin=origin)]
@@ -50,7 +50,8 @@ def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
         walls.append(shell_lattice(obstacle, dx, wall_layers, "inside", origin=origin))
     c0 = 10.0 * np.sqrt(2.0 * g * column_height)
     fp = FluidParams(dim=3, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
-                     delta=delta, gravity=(0.0, 0.0, -g), cfl=cfl, container_lo=tuple(lo), container_hi=tuple(hi))
+                     delta=delta, gravity=(0.0, 0.0, -g), cfl=cfl, lj_d=2.0 * g * column_height,
+                     lj_r0=wall_safety * dx, container_lo=tuple(lo), container_hi=tuple(hi))
     density = hydrostatic_density(fluid[:, 2], lo[2] + column_height, rho0, c0, g)
     solver = WCSPHSolver(fluid, np.vstack(walls), fp, density=density)
 

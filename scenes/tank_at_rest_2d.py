@@ -18,7 +18,7 @@ from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
 
 def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float = 2.0,
           output_interval: float = 0.05, h_factor: float = 1.3, kernel: str = "wendland_c2",
-          alpha: float = 0.1, delta: float = 0.1, mu: float = 1.0e-3, boundary_model: str = "dynamic",
+          alpha: float = 0.1, delta: float = 0.1, mu: float = 1.0e-3, boundary_model: str = "dynamic", wall_safety: float = 0.75,
           cfl: float = 0.1, g: float = 9.81, rho0: float = 1000.0, wall_layers: int = 3,
           checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "pressure", vtk: bool = True) -> Simulation:
     """Build the tank; the container is twice as high as the water."""
@@ -28,7 +28,8 @@ def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float
     walls = box_walls_2d(width, 2.0 * depth, dx, wall_layers)
     fp = FluidParams(dim=2, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
                      delta=delta, gravity=(0.0, -g, 0.0), boundary_model=boundary_model, cfl=cfl,
-                     lj_d=2.0 * g * depth, lj_r0=dx, container_lo=(0.0, 0.0, -1.0),
+                     lj_d=2.0 * g * depth,
+                     lj_r0=dx if boundary_model == "lennard_jones" else wall_safety * dx, container_lo=(0.0, 0.0, -1.0),
                      container_hi=(width, 2.0 * depth, 1.0))
     solver = WCSPHSolver(fluid, walls, fp, density=hydrostatic_density(fluid[:, 1], depth, rho0, c0, g))
 

@@ -372,3 +372,17 @@ def test_2d_walls_from_a_mesh_section_match_the_polygon_walls():
     key = lambda p: np.round(p, 6)[np.lexsort(np.round(p, 6).T)]
     assert from_mesh.shape == from_box.shape
     np.testing.assert_allclose(key(from_mesh), key(from_box), atol=1e-9)
+
+
+def test_fill_mesh_clearance_keeps_half_a_spacing_from_the_walls():
+    """dx = 0.06 does not divide a 1 m box: without clearance a lattice row sits 0.01 m from a wall;
+    with clearance dx/2 every point is >= dx/2 from the faces, and a commensurate lattice is unchanged."""
+    from warpfree.geometry import box_mesh, fill_mesh
+
+    box = box_mesh((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
+    raw = fill_mesh(box, 0.06)
+    kept = fill_mesh(box, 0.06, clearance=0.03)
+    face_dist = lambda p: np.minimum(p, 1.0 - p).min(axis=1)
+    assert face_dist(raw).min() < 0.011
+    assert face_dist(kept).min() >= 0.03 - 1e-9 and len(kept) == 16 ** 3
+    assert len(fill_mesh(box, 0.05, clearance=0.025)) == len(fill_mesh(box, 0.05)) == 20 ** 3

@@ -329,18 +329,24 @@ def _mesh_block(mesh, dx, origin, pad):
     return kmin, shape, tri
 
 
-def fill_mesh(mesh: trimesh.Trimesh, dx, origin=None) -> np.ndarray:
+def fill_mesh(mesh: trimesh.Trimesh, dx, origin=None, clearance=0.0) -> np.ndarray:
     """Lattice points ``origin + (k + 0.5) dx`` strictly inside a watertight mesh (m). Returns (N, 3).
 
-    ``origin`` defaults to ``mesh.bounds[0]``. Points within 1e-6 dx of the surface count as outside.
+    ``origin`` defaults to ``mesh.bounds[0]``. Points within 1e-6 dx of the surface count as outside,
+    and so do points closer than ``clearance`` (m) to it: with ``clearance = dx/2`` a fluid filled into
+    a container whose size is not a multiple of dx keeps its half-spacing gap to the walls (points at
+    exactly dx/2, as on a commensurate lattice, are kept).
     """
     mesh = _check_mesh(mesh)
     dx = require_positive("dx", dx)
+    clearance = require_positive("clearance", clearance, allow_zero=True)
     origin = _origin(origin, mesh.bounds[0])
     kmin, shape, tri = _mesh_block(mesh, dx, origin, 0.0)
     if min(shape) == 0:
         return np.zeros((0, 3))
     inside = _inside_grid(tri, shape)
+    if clearance > 0.0:
+        inside &= ~_near_grid(tri, shape, clearance / dx * (1.0 - 1e-6), inside)
     return _lattice(origin, dx, kmin, shape)[inside.ravel()]
 
 

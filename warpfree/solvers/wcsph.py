@@ -47,7 +47,8 @@ class FluidParams:
     boundary_model: str = "dynamic"  # "dynamic" (Adami 2012) or "lennard_jones" (seed 5-6)
     no_slip: bool = True             # walls enter the viscous terms with a no-slip ghost velocity
     lj_d: float = 0.0                # Lennard-Jones strength D (m²/s²), ~ (largest speed)²
-    lj_r0: float = 0.0               # Lennard-Jones range r0 (m), ~ dx
+    lj_r0: float = 0.0               # Lennard-Jones range r0 (m): ~ dx for "lennard_jones" walls; with
+                                     # "dynamic" walls a safety net when > 0 (e.g. 0.75 dx), 0 = off
     skin: float = 0.15               # neighbour-list skin as a fraction of the support (0 = rebuild every step)
     cfl: float = 0.1                 # Courant number of seed eq. 5-12
     dt: float | None = None          # fixed time step (s); None = the stable step every step
@@ -86,6 +87,12 @@ class FluidParams:
         if self.boundary_model == "lennard_jones":
             require_positive("lj_d", self.lj_d)
             require_positive("lj_r0", self.lj_r0)
+        else:
+            require_positive("lj_d", self.lj_d, allow_zero=True)
+            require_positive("lj_r0", self.lj_r0, allow_zero=True)
+            if self.lj_r0 >= self.dx:
+                raise ParameterError("lj_r0", f"the safety net of dynamic walls must act below dx = {self.dx}, "
+                                              f"got {self.lj_r0}")
         cfl = require_positive("cfl", self.cfl)
         if cfl > 1.0:
             raise ParameterError("cfl", f"must be in (0, 1], got {cfl}")
