@@ -225,7 +225,9 @@ def test_small_launches_use_fewer_threads():
     """Below min_items_per_thread items per thread a launch is not split (the pool costs ~0.1 ms)."""
     launcher = Launcher(device="cpu", threads=2)
     try:
-        assert launcher.chunks(1000) == [(0, 1000)]
+        assert launcher.chunks(4000) == [(0, 4000)]
         assert launcher.chunks(4096) == [(0, 2048), (2048, 2048)]
+        assert launcher.chunks(4096, light=True) == [(0, 4096)]
+        assert len(launcher.chunks(16 * 4096, light=True)) == 2
     finally:
         launcher.close()

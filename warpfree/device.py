@@ -64,7 +64,7 @@ class Launcher:
     fewer threads.
     """
 
-    def __init__(self, device: str | None = None, threads: int | None = None, min_items_per_thread: int = 1024):
+    def __init__(self, device: str | None = None, threads: int | None = None, min_items_per_thread: int = 2048):
         self.device = resolve_device(device)
         if threads is None:
             threads = default_threads()
@@ -72,7 +72,8 @@ class Launcher:
                 or int(threads) != threads or threads < 1):
             raise ParameterError("threads", f"must be an integer >= 1, got {threads!r}")
         self.threads = int(threads) if self.is_cpu else 1
-        # below this many items per thread a launch runs on one thread (waking the pool costs ~0.1 ms);
+        # below this many items per thread a launch runs on one thread (waking a pool thread costs
+        # 0.1-1 ms on a VM, the work of ~1000 particles of a neighbour loop);
         # the result is bitwise the same either way, tests set 1 to exercise the chunking on small sets
         self.min_items_per_thread = max(1, int(min_items_per_thread))
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
@@ -82,9 +83,14 @@ class Launcher:
     def is_cpu(self) -> bool:
         return self.device == "cpu"
 
-    def chunks(self, n: int) -> list[tuple[int, int]]:
-        """Contiguous ``(first, count)`` chunks: deterministic in ``n`` and the thread count."""
-        k = min(self.threads, n // self.min_items_per_thread) if n > 0 else 0
+    def chunks(self, n: int, light: bool = False) -> list[tuple[int, int]]:
+        """Contiguous ``(first, count)`` chunks: deterministic in ``n`` and the thread count.
+
+        ``light`` kernels (a few flops per item, no neighbour loop) need 16x more items per thread
+        before a split pays for waking a pool thread.
+        """
+        per_thread = self.min_items_per_thread * (16 if light else 1)
+        k = min(self.threads, n // per_thread) if n > 0 else 0
         k = max(k, 1) if n > 0 else 0
         out = []
         for c in range(k):
@@ -94,8 +100,8 @@ class Launcher:
                 out.append((a, b - a))
         return out
 
-    def launch(self, kernel, n: int, inputs: list, outputs: list | None = None) -> None:
-        """Run ``kernel(first, *inputs, *outputs)`` over ``n`` items."""
+    def launch(self, kernel, n: int, inputs: list, outputs: list | None = None, light: bool = False) -> None:
+        """Run ``kernel(first, *inputs, *outputs)`` over ``n`` items (``light``: see :meth:`chunks`)."""
         n = int(n)
         if n <= 0:
             return
@@ -104,7 +110,7 @@ class Launcher:
             # Compile/load once before threads race to do it (they would each compile the module).
             wp.load_module(kernel.module, device=self.device)
             self._loaded.add(kernel.module)
-        chunks = self.chunks(n) if self._pool is not None else [(0, n)]
+        chunks = self.chunks(n, light) if self._pool is not None else [(0, n)]
         if len(chunks) == 1:
             wp.launch(kernel, dim=n, inputs=[0, *inputs], outputs=outputs, device=self.device)
             return
@@ -133,7 +139,7 @@ class Launcher:
 _current: Launcher | None = None
 
 
-def use(device: str | None = None, threads: int | None = None, min_items_per_thread: int = 1024) -> Launcher:
+def use(device: str | None = None, threads: int | None = None, min_items_per_thread: int = 2048) -> Launcher:
     """Set the launcher that solvers use when none is passed (the CLI calls this once per run)."""
     global _current
     if _current is not None:

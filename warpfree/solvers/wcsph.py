@@ -288,13 +288,15 @@ class WCSPHSolver:
         t0 = time.perf_counter()
         L.launch(K.leapfrog_drift, self.nf,
                  [float(dt), self.x, self.v, self.rho, self.acc, self.drho, P.rho0, P.b, P.gamma,
-                  self.v_eval, self.rho_eval, self.p, self._lo, self._hi, self.status, self.x_built, self.moved2])
+                  self.v_eval, self.rho_eval, self.p, self._lo, self._hi, self.status, self.x_built, self.moved2],
+                 light=True)
         t1 = time.perf_counter()
         self.update_lists()
         self.compute_rates()
         t2 = time.perf_counter()
         L.launch(K.leapfrog_kick, self.nf,
-                 [float(dt), self.x, self.v, self.rho, self.acc, self.drho, self._lo, self._hi, self.status])
+                 [float(dt), self.x, self.v, self.rho, self.acc, self.drho, self._lo, self._hi, self.status],
+                 light=True)
         L.synchronize()
         self.timings["integrate"] += (t1 - t0) + (time.perf_counter() - t2)
         self.problem = self._status_problem()
