@@ -48,8 +48,12 @@ STATUS_OUTSIDE = wp.constant(2)
 
 @wp.func
 def tait_pressure(rho: float, rho0: float, b: float, gamma: float) -> float:
-    """Tait EOS p = B[(ρ/ρ0)^γ - 1] in Pa."""
-    return b * (wp.pow(rho / rho0, gamma) - 1.0)
+    """Tait EOS p = B[(ρ/ρ0)^γ - 1] in Pa (γ = 7 by multiplications: pow costs ~10x more)."""
+    r = rho / rho0
+    if gamma == 7.0:
+        r2 = r * r
+        return b * (r2 * r2 * r2 * r - 1.0)
+    return b * (wp.pow(r, gamma) - 1.0)
 
 
 @wp.func

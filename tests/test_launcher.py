@@ -228,6 +228,6 @@ def test_small_launches_use_fewer_threads():
         assert launcher.chunks(4000) == [(0, 4000)]
         assert launcher.chunks(4096) == [(0, 2048), (2048, 2048)]
         assert launcher.chunks(4096, light=True) == [(0, 4096)]
-        assert len(launcher.chunks(16 * 4096, light=True)) == 2
+        assert len(launcher.chunks(8 * 4096, light=True)) == 2
     finally:
         launcher.close()

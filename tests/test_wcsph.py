@@ -226,3 +226,21 @@ def test_lennard_jones_walls_hold_a_tank_at_rest(tank):
     assert summary["status"] == "ok"
     x = sim.solver.fluid_positions()
     assert x[:, 1].min() > 0.0
+
+
+def test_tait_eos_fast_path_matches_pow():
+    """p = B[(ρ/ρ0)^γ - 1]: the γ = 7 multiplication path equals NumPy's power to float32 rounding."""
+    import warp as wp
+
+    from warpfree.kernels import sph_fluid as K
+
+    rho = np.linspace(950.0, 1050.0, 101).astype(np.float32)
+    launcher = device.use("cpu", 1)
+    out = {}
+    for gamma in (7.0, 6.999):
+        p = wp.zeros(len(rho), dtype=float)
+        launcher.launch(K.equation_of_state, len(rho), [wp.array(rho, dtype=float), 1000.0, 1.0e5, gamma, p])
+        out[gamma] = p.numpy()
+    exact = 1.0e5 * ((rho.astype(np.float64) / 1000.0) ** 7 - 1.0)
+    np.testing.assert_allclose(out[7.0], exact, rtol=1e-5, atol=0.05)
+    np.testing.assert_allclose(out[6.999], 1.0e5 * ((rho / 1000.0) ** 6.999 - 1.0), rtol=1e-4, atol=0.5)

@@ -86,10 +86,10 @@ class Launcher:
     def chunks(self, n: int, light: bool = False) -> list[tuple[int, int]]:
         """Contiguous ``(first, count)`` chunks: deterministic in ``n`` and the thread count.
 
-        ``light`` kernels (a few flops per item, no neighbour loop) need 16x more items per thread
+        ``light`` kernels (a few flops per item, no neighbour loop) need 8x more items per thread
         before a split pays for waking a pool thread.
         """
-        per_thread = self.min_items_per_thread * (16 if light else 1)
+        per_thread = self.min_items_per_thread * (8 if light else 1)
         k = min(self.threads, n // per_thread) if n > 0 else 0
         k = max(k, 1) if n > 0 else 0
         out = []
