@@ -67,11 +67,13 @@ def loadavg() -> list[float]:
 
 
 def git_revision() -> str | None:
-    """Read-only: the commit the working tree is based on (plus '+dirty' when files are modified)."""
+    """Read-only: the commit the working tree is based on (plus '+dirty' when tracked files other than
+    bench/results are modified)."""
     try:
         rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
                              text=True, timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT,
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ".", ":!bench/results"],
+                               cwd=ROOT,
                                capture_output=True, text=True, timeout=10).stdout.strip()
         return (rev + ("+dirty" if dirty else "")) or None
     except Exception:

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Run every benchmark one after the other (they must not overlap: each one times the CPU).
 # Usage: bench/run_all.sh [--quick]     (extra arguments go to every script)
-# Results: bench/results/*.json, *.md, *.png. Full run: ~40 min on a 2-core machine.
+# Results: bench/results/*.json, *.md, *.png. Full run: ~20 min on a 2-core machine.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY="${PYTHON:-/work/venv/bin/python}"

@@ -13,11 +13,11 @@ How
     Each resolution runs in a fresh subprocess (``bench/common.py: dam_break_2d_run``):
     ``warpfree.device.use('cpu', threads)`` (default: all cores), build (kernels load here, not timed),
     then ``Simulation.run`` in memory; the wall time is the run's own ``wall_s`` (steps plus the probe
-    records, no files). One run per resolution (``--repeats`` for the median of more).
+    records, no files). The median of ``--repeats`` runs per resolution (default 3).
 
 Usage
-    python bench/speed_vs_error.py            # full: ~6 min on 2 cores
-    python bench/speed_vs_error.py --quick    # ~1 min
+    python bench/speed_vs_error.py            # full: ~5 min on 2 cores
+    python bench/speed_vs_error.py --quick    # ~30 s
     python bench/speed_vs_error.py --dx 0.05 0.03 0.02 0.015 --threads 2
 Writes bench/results/speed_vs_error[_quick].{json,md,png} (PNG: error against wall time, and against
 particle count).
@@ -77,9 +77,10 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--dx", nargs="+", type=float, default=None)
     ap.add_argument("--threads", type=int, default=None, help="default: all cores")
-    ap.add_argument("--repeats", type=int, default=1)
+    ap.add_argument("--repeats", type=int, default=None, help="runs per resolution (default 3; quick 1)")
     args = ap.parse_args(argv)
     q = args.quick
+    args.repeats = args.repeats or (1 if q else 3)
     dxs = args.dx or ([0.1, 0.08, 0.06] if q else [0.05, 0.04, 0.03, 0.02])
     threads = args.threads or common.cpu_count()
     machine = common.machine_info()

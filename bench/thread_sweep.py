@@ -3,7 +3,7 @@
 What it measures
     The 2D dam break (``scenes/dam_break_2d.py``, dx = 0.006 with a = 1: 55 278 fluid + 8 030 boundary
     = 63 308 particles) and, as a second set of rows, the 3D dam break with obstacle
-    (``scenes/dam_break_3d.py``, dx = 0.035: 16 240 fluid + 41 259 boundary = 57 499 particles), for
+    (``scenes/dam_break_3d.py``, dx = 0.035: 15 680 fluid + 41 259 boundary = 56 939 particles), for
     threads = 1 .. N (N = the cores this process may use). Reported per thread count: particle-steps/s
     with particles = fluid + boundary and with fluid only, seconds per step, speed-up against 1 thread
     and parallel efficiency (speed-up / threads), and the solver's own per-phase times per step
@@ -26,13 +26,13 @@ How
     (the launcher's chunking keeps results bitwise identical across thread counts). With ``--rounds``
     > 1 the sweep over thread counts is repeated, alternating ascending and descending order, so a
     drift in machine load does not favour one thread count. The figure reported per thread count is
-    the median over all its timed blocks (rounds x repeats, >= 3).
+    the median over all its timed blocks (rounds x repeats = 15 by default).
 
 Target (issue): speed-up >= 1.85 on 2 cores for the 2D case.
 
 Usage
-    python bench/thread_sweep.py            # full: 2D + 3D, ~6-8 min on 2 cores
-    python bench/thread_sweep.py --quick    # smoke run, small sizes (~1 min)
+    python bench/thread_sweep.py            # full: control, 2D, 3D; 5 rounds x 3 blocks, ~3 min on 2 cores
+    python bench/thread_sweep.py --quick    # smoke run, small sizes (~20 s)
     python bench/thread_sweep.py --cases 2d --threads 1 2 --rounds 3
 Writes bench/results/thread_sweep[_quick].{json,md,png}.
 """
@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 
@@ -212,7 +211,7 @@ def main(argv=None) -> int:
     ap.add_argument("--steps", type=int, default=None, help="steps per timed block (default 20; quick 5)")
     ap.add_argument("--warmup", type=int, default=3)
     ap.add_argument("--repeats", type=int, default=None, help="timed blocks per worker (default 3; quick 2)")
-    ap.add_argument("--rounds", type=int, default=None, help="sweeps over the thread counts (default 2; quick 1)")
+    ap.add_argument("--rounds", type=int, default=None, help="sweeps over the thread counts (default 5; quick 1)")
     ap.add_argument("--dt", type=float, default=None, help="fixed dt (default: stable_dt() at t = 0)")
     ap.add_argument("--worker", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -222,7 +221,7 @@ def main(argv=None) -> int:
     q = args.quick
     args.steps = args.steps or (5 if q else 20)
     args.repeats = args.repeats or (2 if q else 3)
-    args.rounds = args.rounds or (1 if q else 2)
+    args.rounds = args.rounds or (1 if q else 5)
     threads = sorted(set(args.threads or range(1, common.cpu_count() + 1)))
     machine = common.machine_info()
     cases = []

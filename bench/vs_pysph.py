@@ -40,8 +40,8 @@ How
     median wall time. If PySPH cannot run, the table says so and our rows are still reported.
 
 Usage
-    python bench/vs_pysph.py              # full: dx 0.03, 0.02; threads 1, 2 (~15 min on 2 cores)
-    python bench/vs_pysph.py --quick      # dx 0.05, tf 0.15 (~1-2 min)
+    python bench/vs_pysph.py              # full: dx 0.03, 0.02; threads 1, 2 (~5 min on 2 cores)
+    python bench/vs_pysph.py --quick      # dx 0.05, tf 0.15 (~40 s)
     python bench/vs_pysph.py --dx 0.03 --threads 1 2 --tf 0.6 --ours-cfl 0.1 0.2
 Writes bench/results/vs_pysph[_quick].{json,md,png}; PySPH's dumps go to a temporary folder.
 """
@@ -123,7 +123,7 @@ def markdown(rows: list[dict], pysph_error: str | None, tf: float) -> str:
                                 "wall-time ratio PySPH/ours to tf"], table, align="rrlrrrrrrrrr"))
     out.append("")
     if pysph_error:
-        out.append(f"**PySPH could not run:** {pysph_error}\n")
+        out.append(f"**PySPH not run:** {pysph_error}\n")
     out.append("Ratios > 1 favour ours. PySPH's front is measured from its wall face (x_max - dx/2, like ours); "
                "'raw' is its example's own x_max. PySPH steps with dt = 0.3 h/c0, ours with the CFL number shown "
                "(dt = CFL h/(c0 + max|v|)), so the particle-steps/s ratio and the wall-time ratio differ. "

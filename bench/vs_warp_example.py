@@ -4,9 +4,9 @@ side by side in one run, on the CPU.
 What it measures
     Particle-steps per second of
     * ours: the 3D dam break with obstacle (``scenes/dam_break_3d.py``) with dx chosen so that
-      fluid + boundary particles come closest to the example's particle count (``--match total``,
-      default; ``--match fluid`` matches the fluid count instead, a much larger run), at threads = 1
-      and at all cores;
+      fluid + boundary particles come closest to the example's particle count (``--match total``)
+      and, as a second comparison, so that the fluid count does (``--match fluid``, a 2.8x larger
+      run; both by default), at threads = 1 and at all cores;
     * Warp's example at ~``--n`` particles (default 50 000 -> 48 668, see
       ``bench/peers/warp_example_sph.py``), which on the CPU runs every launch on one thread.
     The ratio ours / theirs is reported at equal threads (1) and for ours at all cores, counting our
@@ -34,9 +34,9 @@ Physics (not the same model: the ratio is a cost-per-particle-step comparison, n
     (kick-drift-kick) with the CFL step, status checks every step.
 
 Usage
-    python bench/vs_warp_example.py            # full, ~5 min on 2 cores
-    python bench/vs_warp_example.py --quick    # smoke run (~4 000 particles)
-    python bench/vs_warp_example.py --match total fluid
+    python bench/vs_warp_example.py            # full (both matches, 3 rounds), ~6 min on 2 cores
+    python bench/vs_warp_example.py --quick    # smoke run (~4 000 particles, total match only)
+    python bench/vs_warp_example.py --match total --rounds 2
 Writes bench/results/vs_warp_example[_quick].{json,md,png}.
 """
 
@@ -154,7 +154,8 @@ def compare(args, match: str, threads_all: int) -> dict:
         rows.append(dict(code="warpfree WCSPH 3D", threads=t, n_particles=o1["n_particles"], n_fluid=o1["n_fluid"],
                          n_boundary=o1["n_boundary"], mean_neighbours=o1["mean_neighbours_fluid"],
                          mean_neighbours_boundary=o1["mean_neighbours_boundary"],
-                         **collect(blocks[("ours", t)], args.steps, o1["n_particles"], o1["n_fluid"])))
+                         rebuild_every=o1["rebuild_every"],
+                         **collect(blocks[("ours", t)], o1["steps"], o1["n_particles"], o1["n_fluid"])))
     rows.append(warp_row)
     wp_rate = warp_row["particle_steps_per_s"]
     for row in rows:
@@ -215,13 +216,13 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--n", type=int, default=None, help="Warp example particle target (default 50000; quick 4000)")
-    ap.add_argument("--match", nargs="+", default=["total"], choices=["total", "fluid"])
+    ap.add_argument("--match", nargs="+", default=["total", "fluid"], choices=["total", "fluid"])
     ap.add_argument("--dx", type=float, default=None, help="force our dx (skips matching)")
     ap.add_argument("--steps", type=int, default=None, help="our steps per block (default 10; quick 3)")
     ap.add_argument("--frames", type=int, default=1, help="Warp example frames (x40 substeps) per block")
     ap.add_argument("--warmup", type=int, default=3)
     ap.add_argument("--repeats", type=int, default=None, help="timed blocks per worker (default 3; quick 1)")
-    ap.add_argument("--rounds", type=int, default=None, help="default 2; quick 1")
+    ap.add_argument("--rounds", type=int, default=None, help="default 3; quick 1")
     ap.add_argument("--threads", type=int, default=None, help="'all cores' thread count (default: cores)")
     ap.add_argument("--worker", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -232,9 +233,11 @@ def main(argv=None) -> int:
         return 0
     q = args.quick
     args.n = args.n or (4000 if q else 50_000)
+    if q and "--match" not in (argv if argv is not None else sys.argv):
+        args.match = ["total"]
     args.steps = args.steps or (3 if q else 10)
     args.repeats = args.repeats or (1 if q else 3)
-    args.rounds = args.rounds or (1 if q else 2)
+    args.rounds = args.rounds or (1 if q else 3)
     machine = common.machine_info()
     comps = [compare(args, m, args.threads or common.cpu_count()) for m in args.match]
     common.write_results("vs_warp_example", {"machine": machine, "comparisons": comps}, markdown(comps),
