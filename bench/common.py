@@ -337,7 +337,7 @@ DAM_BREAK_T_MAX = 2.5
 
 def dam_break_front_errors(t, x_front) -> dict:
     """``front_errors`` (T <= 2.5) of warpfree.validation.dam_break for a = 1, g = 9.81."""
-    from warpfree.validation.dam_break import front_errors
+    from warpfree.validation.dam_break_2d import front_errors
 
     return front_errors(np.asarray(t, float), np.asarray(x_front, float), DAM_BREAK_A, DAM_BREAK_G,
                         t_max=DAM_BREAK_T_MAX)

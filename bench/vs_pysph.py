@@ -133,7 +133,7 @@ def markdown(rows: list[dict], pysph_error: str | None, tf: float) -> str:
 
 def plot(rows: list[dict], tf: float):
     fig, (a1, a2) = common.new_figure(1, 2, figsize=(11, 4.2))
-    from warpfree.validation.dam_break import DATASETS
+    from warpfree.validation.dam_break_2d import DATASETS
 
     shown = set()
     for i, r in enumerate(rows):

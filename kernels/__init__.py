@@ -1,5 +1,14 @@
 """Warp kernels of warpfree (installed as ``warpfree.kernels``).
 
-Only ``@wp.kernel`` and ``@wp.func`` live here; a kernel module imports Warp and other kernel modules,
-never the orchestration layer. One module per method family keeps compile units small.
+Only ``@wp.kernel``, ``@wp.func`` and ``@wp.struct`` live here (and the factories that make them); a
+kernel module imports Warp and other kernel modules, never the orchestration layer. Shared modules:
+``smoothing``, ``space``, ``neighbours``, ``reduce``, ``assembly``; one module per method family,
+named after its solver (``wcsph``). Warp is quiet unless ``WARPFREE_VERBOSE=1``.
 """
+
+import os as _os
+
+import warp as _wp
+
+if _os.environ.get("WARPFREE_VERBOSE", "0") in ("", "0"):
+    _wp.config.log_level = _wp.LOG_WARNING

@@ -1,105 +1,187 @@
-"""Neighbour kernels over ``wp.HashGrid``: counts and CSR neighbour lists (same-set and cross-set).
+"""Neighbour kernels over ``wp.HashGrid``: periodic image points and neighbour rows.
 
-A HashGrid query returns candidates from nearby (and aliased) cells; every loop here tests the real
-distance. Positions are float32 ``vec3`` (2D sets have z = 0). Gather form: thread ``i`` writes only
-row ``i`` of the output, so any thread count gives the same lists in the same order.
+Rows. Every neighbour structure, static CSR lists and fixed-capacity tables of moving sets alike,
+is a :class:`NeighbourRows`: row ``i`` holds ``count[i]`` source indices at
+``index[start[i] : start[i] + count[i]]``. A solver kernel loops over a row the same way whatever
+built it, and tests the true distance (rows of moving sets hold candidates within radius + skin).
+
+Periodic boxes. The grid is built over the source points plus their images: a point closer than the
+query radius to a periodic face gets a copy shifted by ±L across it (up to 3 in 2D, 7 in 3D, one
+per combination of faces it is close to). ``source_id`` maps every grid point to its original; rows
+store original indices, and solver kernels take the minimum-image displacement
+(``warpfree.kernels.space``). HashGrid's own wrap-around is never used (Warp issue #283).
+
+A HashGrid query returns candidates from nearby and aliased cells: every loop here tests the
+distance. Positions are float32 ``vec3`` (z = 0 in 2D, y = z = 0 in 1D). Gather form: thread ``i``
+writes only its own row or its own image slots, so any thread count gives the same rows in the same
+order.
 """
 
 import warp as wp
 
+from .space import Box, displacement, image_displacement
+
+
+@wp.struct
+class NeighbourRows:
+    """Row i: ``index[start[i] : start[i] + count[i]]`` (source indices)."""
+
+    start: wp.array(dtype=wp.int32)
+    count: wp.array(dtype=wp.int32)
+    index: wp.array(dtype=wp.int32)
+
+
+@wp.func
+def image_side(box: Box, x: wp.vec3, margin: float, axis: int) -> int:
+    """+1 if x is within ``margin`` of the lower periodic face of ``axis`` (its image goes to +L),
+    -1 if within ``margin`` of the upper face (image at -L), 0 otherwise or if the axis is free."""
+    side = int(0)
+    if box.periodic[axis] != 0.0:
+        if x[axis] - box.lower[axis] < margin:
+            side = 1
+        elif box.lower[axis] + box.length[axis] - x[axis] < margin:
+            side = -1
+    return side
+
 
 @wp.kernel
-def count_neighbours(
+def count_images(
     first: int,
-    grid: wp.uint64,
-    query_points: wp.array(dtype=wp.vec3),
-    source_points: wp.array(dtype=wp.vec3),
-    query_radius: float,
-    radius: float,
-    exclude_self: int,
+    points: wp.array(dtype=wp.vec3),
+    box: Box,
+    margin: float,
     counts: wp.array(dtype=wp.int32),
 ):
-    """counts[i] = #{j : |x_i - y_j| < radius} (j != i when ``exclude_self``)."""
+    """counts[i] = number of images of point i: (1+|s_x|)(1+|s_y|)(1+|s_z|) - 1, s from image_side."""
     i = first + wp.tid()
-    x = query_points[i]
-    n = int(0)
-    for j in wp.hash_grid_query(grid, x, query_radius):
-        if exclude_self != 0 and j == i:
-            continue
-        if wp.length(x - source_points[j]) < radius:
-            n += 1
-    counts[i] = n
+    x = points[i]
+    n = int(1)
+    for a in range(3):
+        if image_side(box, x, margin, a) != 0:
+            n = n * 2
+    counts[i] = n - 1
 
 
 @wp.kernel
-def fill_neighbours(
+def place_images(
+    first: int,
+    points: wp.array(dtype=wp.vec3),
+    box: Box,
+    margin: float,
+    offsets: wp.array(dtype=wp.int32),
+    n_points: int,
+    extended: wp.array(dtype=wp.vec3),
+    source_id: wp.array(dtype=wp.int32),
+):
+    """Copy point i to ``extended[i]`` and its images to ``extended[n_points + offsets[i] + k]``.
+
+    Image k of the combinations (mask 1..7 over the axes with a non-zero side) is shifted by
+    side_a · L_a along every axis a in the mask. ``source_id`` maps each slot back to i.
+    """
+    i = first + wp.tid()
+    x = points[i]
+    extended[i] = x
+    source_id[i] = i
+    sx = image_side(box, x, margin, 0)
+    sy = image_side(box, x, margin, 1)
+    sz = image_side(box, x, margin, 2)
+    k = n_points + offsets[i]
+    for mask in range(1, 8):
+        use_x = (mask & 1) != 0
+        use_y = (mask & 2) != 0
+        use_z = (mask & 4) != 0
+        if (use_x and sx == 0) or (use_y and sy == 0) or (use_z and sz == 0):
+            continue
+        shift = wp.vec3(0.0, 0.0, 0.0)
+        if use_x:
+            shift = shift + wp.vec3(float(sx) * box.length[0], 0.0, 0.0)
+        if use_y:
+            shift = shift + wp.vec3(0.0, float(sy) * box.length[1], 0.0)
+        if use_z:
+            shift = shift + wp.vec3(0.0, 0.0, float(sz) * box.length[2])
+        extended[k] = x + shift
+        source_id[k] = i
+        k += 1
+
+
+@wp.kernel
+def fill_rows(
     first: int,
     grid: wp.uint64,
     query_points: wp.array(dtype=wp.vec3),
-    source_points: wp.array(dtype=wp.vec3),
-    query_radius: float,
+    grid_points: wp.array(dtype=wp.vec3),
+    source_id: wp.array(dtype=wp.int32),
     radius: float,
     exclude_self: int,
-    offsets: wp.array(dtype=wp.int32),
-    indices: wp.array(dtype=wp.int32),
+    capacity: int,
+    start: wp.array(dtype=wp.int32),
+    count: wp.array(dtype=wp.int32),
+    index: wp.array(dtype=wp.int32),
 ):
-    """Write the neighbour indices of query i into indices[offsets[i]:offsets[i+1]]."""
+    """Row i: the sources within ``radius`` of query i (strictly closer), in HashGrid order.
+
+    Writes the first ``capacity`` of them at ``index[start[i]:]`` and the true number to
+    ``count[i]`` (capacity 0: count only, the first pass of a CSR build; a count above the capacity
+    tells a table to grow). ``exclude_self`` drops source i from row i (query set = source set).
+    """
     i = first + wp.tid()
     x = query_points[i]
-    k = offsets[i]
-    for j in wp.hash_grid_query(grid, x, query_radius):
+    r2 = radius * radius
+    base = start[i]
+    n = int(0)
+    for k in wp.hash_grid_query(grid, x, radius):
+        j = source_id[k]
         if exclude_self != 0 and j == i:
             continue
-        if wp.length(x - source_points[j]) < radius:
-            indices[k] = j
-            k += 1
+        d = image_displacement(x, grid_points[k])
+        if wp.dot(d, d) < r2:
+            if n < capacity:
+                index[base + n] = j
+            n += 1
+    count[i] = n
+
+
+@wp.kernel
+def table_starts(first: int, capacity: int, start: wp.array(dtype=wp.int32)):
+    """start[i] = i · capacity: rows of a fixed-capacity table."""
+    i = first + wp.tid()
+    start[i] = i * capacity
 
 
 @wp.kernel
 def count_neighbours_brute(
     first: int,
+    box: Box,
     query_points: wp.array(dtype=wp.vec3),
     source_points: wp.array(dtype=wp.vec3),
     radius: float,
     exclude_self: int,
     counts: wp.array(dtype=wp.int32),
 ):
-    """Brute-force O(N M) reference for :func:`count_neighbours`."""
+    """Brute-force O(N M) reference: #{j : |r_ij| < radius}, minimum image along periodic axes."""
     i = first + wp.tid()
     x = query_points[i]
+    r2 = radius * radius
     n = int(0)
     for j in range(source_points.shape[0]):
         if exclude_self != 0 and j == i:
             continue
-        if wp.length(x - source_points[j]) < radius:
+        d = displacement(box, x, source_points[j])
+        if wp.dot(d, d) < r2:
             n += 1
     counts[i] = n
 
 
 @wp.kernel
-def fill_neighbour_table(
+def squared_displacement(
     first: int,
-    grid: wp.uint64,
-    query_points: wp.array(dtype=wp.vec3),
-    source_points: wp.array(dtype=wp.vec3),
-    query_radius: float,
-    radius: float,
-    exclude_self: int,
-    capacity: int,
-    counts: wp.array(dtype=wp.int32),
-    indices: wp.array(dtype=wp.int32),
+    box: Box,
+    positions: wp.array(dtype=wp.vec3),
+    position_at_build: wp.array(dtype=wp.vec3),
+    moved2: wp.array(dtype=float),
 ):
-    """One-pass fixed-capacity table: row i holds its first ``capacity`` neighbours at
-    indices[i*capacity:]; counts[i] is the true count (> capacity means the table must grow)."""
+    """moved2[i] = |x_i - x_i(at build)|², minimum image (a particle that crossed a periodic face
+    has moved by its short way round)."""
     i = first + wp.tid()
-    x = query_points[i]
-    base = i * capacity
-    n = int(0)
-    for j in wp.hash_grid_query(grid, x, query_radius):
-        if exclude_self != 0 and j == i:
-            continue
-        if wp.length(x - source_points[j]) < radius:
-            if n < capacity:
-                indices[base + n] = j
-            n += 1
-    counts[i] = n
+    d = displacement(box, positions[i], position_at_build[i])
+    moved2[i] = wp.dot(d, d)

@@ -53,6 +53,20 @@ def support_factor(name: str) -> float:
     return KERNELS[name][1]
 
 
+#: σ_d for h = 1, per kernel name and dimension (1, 2, 3): the host-side twin of :func:`kernel_sigma`
+SIGMA = {
+    "cubic_spline": (2.0 / 3.0, 10.0 / (7.0 * 3.14159265358979), 1.0 / 3.14159265358979),
+    "wendland_c2": (5.0 / 8.0, 7.0 / (4.0 * 3.14159265358979), 21.0 / (16.0 * 3.14159265358979)),
+    "quintic_spline": (1.0 / 120.0, 7.0 / (478.0 * 3.14159265358979), 1.0 / (120.0 * 3.14159265358979)),
+}
+
+
+def normalisation(name: str, dim: int, h: float) -> float:
+    """σ_d(h) = σ_d(1)/h^dim of the named kernel (1/m^dim), on the host (constants of kernel structs)."""
+    kernel_id(name)
+    return SIGMA[name][dim - 1] / h ** dim
+
+
 @wp.func
 def kernel_sigma(kind: int, dim: int, h: float) -> float:
     """Normalisation constant σ_d(h) of the kernel (1/m^dim)."""

@@ -18,10 +18,11 @@ import os
 import numpy as np
 
 from warpfree.geometry import lattice_box
-from warpfree.scene_tools import box_walls_2d, front_position, hydrostatic_density
-from warpfree.simulation import OutputOptions, Simulation
+from warpfree.solvers.wcsph.scene_tools import box_walls_2d, front_position, hydrostatic_density
+from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
-from warpfree.validation.dam_break import DATASETS, front_errors
+from warpfree.time_loop import TimeLoop
+from warpfree.validation.dam_break_2d import DATASETS, front_errors
 
 
 def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval: float = 0.02,
@@ -29,7 +30,7 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
           kernel: str = "wendland_c2", alpha: float = 0.1, delta: float = 0.1, mu: float = 1.0e-3,
           boundary_model: str = "dynamic", wall_safety: float = 0.75, cfl: float = 0.2, g: float = 9.81, rho0: float = 1000.0,
           wall_layers: int = 3, checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "speed",
-          vtk: bool = True) -> Simulation:
+          vtk: bool = True) -> TimeLoop:
     """Build the dam break; lengths in units of a (tank_length, tank_height), SI otherwise."""
     params = dict(locals())
     height = 2.0 * a
@@ -44,7 +45,7 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
                      container_hi=(length, top, 1.0))
     solver = WCSPHSolver(fluid, walls, fp, density=hydrostatic_density(fluid[:, 1], height, rho0, c0, g))
 
-    def front_analysis(sim: Simulation, out_dir: str) -> dict:
+    def front_analysis(sim: TimeLoop, out_dir: str) -> dict:
         t = np.asarray(sim.series["time"])
         xf = np.asarray(sim.series["front"])
         err = front_errors(t, xf, a, g)
@@ -52,7 +53,7 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
         return {"front": {"T": (t * np.sqrt(2 * g / a)).tolist(), "Z": (xf / a).tolist(), "errors": err,
                           "max_abs_dZ_T_le_2.5": err["max_abs"]}}
 
-    return Simulation(solver, t_end=t_end, output_interval=output_interval, name="dam_break_2d",
+    return TimeLoop(solver, t_end=t_end, output_interval=output_interval, name="dam_break_2d",
                       params=params, probes={"front": front_position}, analyses=[front_analysis],
                       dt=dt or None, checkpoint_every=checkpoint_every,
                       output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field,

@@ -18,9 +18,10 @@ import os
 import numpy as np
 
 from warpfree.geometry import fill_mesh, load_mesh, shell_lattice
-from warpfree.scene_tools import hydrostatic_density
-from warpfree.simulation import OutputOptions, Simulation
+from warpfree.solvers.wcsph.scene_tools import hydrostatic_density
+from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
+from warpfree.time_loop import TimeLoop
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -32,7 +33,7 @@ def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
           kernel: str = "wendland_c2", alpha: float = 0.1, delta: float = 0.1, mu: float = 1.0e-3,
           wall_safety: float = 0.75, cfl: float = 0.2, g: float = 9.81, rho0: float = 1000.0, wall_layers: int = 3,
           checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "speed", vtk: bool = True,
-          surface: bool = False) -> Simulation:
+          surface: bool = False) -> TimeLoop:
     params = dict(locals())
     tank = load_mesh(tank_mesh)
     lo, hi = tank.bounds
@@ -70,7 +71,7 @@ def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
         return {"obstacle": {"max_fluid_particles_inside": float(max(n))}}
 
     b = tuple(zip(lo, hi))
-    return Simulation(solver, t_end=t_end, output_interval=output_interval, name="dam_break_3d", params=params,
+    return TimeLoop(solver, t_end=t_end, output_interval=output_interval, name="dam_break_3d", params=params,
                       probes=probes, analyses=[obstacle_analysis], dt=dt or None, checkpoint_every=checkpoint_every,
                       output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field, frame_bounds=b,
-                                           surface=surface))
+                                           meshes=surface))

@@ -11,16 +11,17 @@ import os
 import numpy as np
 
 from warpfree.geometry import lattice_box
-from warpfree.scene_tools import box_walls_2d, hydrostatic_density
-from warpfree.simulation import OutputOptions, Simulation
+from warpfree.solvers.wcsph.scene_tools import box_walls_2d, hydrostatic_density
+from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
+from warpfree.time_loop import TimeLoop
 
 
 def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float = 2.0,
           output_interval: float = 0.05, h_factor: float = 1.3, kernel: str = "wendland_c2",
           alpha: float = 0.1, delta: float = 0.1, mu: float = 1.0e-3, boundary_model: str = "dynamic", wall_safety: float = 0.75,
           cfl: float = 0.1, g: float = 9.81, rho0: float = 1000.0, wall_layers: int = 3,
-          checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "pressure", vtk: bool = True) -> Simulation:
+          checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "pressure", vtk: bool = True) -> TimeLoop:
     """Build the tank; the container is twice as high as the water."""
     params = dict(locals())
     c0 = 10.0 * np.sqrt(2.0 * g * depth)
@@ -33,7 +34,7 @@ def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float
                      container_hi=(width, 2.0 * depth, 1.0))
     solver = WCSPHSolver(fluid, walls, fp, density=hydrostatic_density(fluid[:, 1], depth, rho0, c0, g))
 
-    def pressure_analysis(sim: Simulation, out_dir: str) -> dict:
+    def pressure_analysis(sim: TimeLoop, out_dir: str) -> dict:
         res = hydrostatic_profile(sim.solver, depth, rho0, g, dx)
         plot_pressure(os.path.join(out_dir, "pressure.png"), res)
         ke = np.asarray(sim.diag_series["kinetic_energy"])
@@ -41,7 +42,7 @@ def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float
                 "kinetic_energy_first_half_max": float(ke[: len(ke) // 2].max()),
                 "kinetic_energy_last_quarter_max": float(ke[3 * len(ke) // 4:].max())}
 
-    return Simulation(solver, t_end=t_end, output_interval=output_interval, name="tank_at_rest_2d",
+    return TimeLoop(solver, t_end=t_end, output_interval=output_interval, name="tank_at_rest_2d",
                       params=params, analyses=[pressure_analysis], dt=dt or None,
                       checkpoint_every=checkpoint_every,
                       output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field,
@@ -54,8 +55,8 @@ def hydrostatic_profile(solver, depth: float, rho0: float, g: float, dx: float, 
     Errors are normalised by the bottom pressure ρ0 g H; the top bin (the free surface, where the
     exact pressure tends to zero) is included.
     """
-    out = solver.output_sets()["fluid"]
-    y, p = out["points"][:, 1].astype(float), out["pressure"].astype(float)
+    y = solver.fluid.numpy("position")[:, 1].astype(float)
+    p = solver.fluid.numpy("pressure").astype(float)
     edges = np.linspace(0.0, depth, bins + 1)
     idx = np.clip(np.digitize(y, edges) - 1, 0, bins - 1)
     ym = np.array([y[idx == k].mean() for k in range(bins)])

@@ -95,3 +95,49 @@ if hasattr(_sm, "kernel_grad_coef"):
         c = _sm.kernel_grad_coef(kind, dim, q)
         coef[i] = c
         grad[i] = rij * (_sm.kernel_sigma(kind, dim, h) * c / (h * h))
+
+
+from warpfree.kernels.neighbours import NeighbourRows  # noqa: E402
+from warpfree.kernels.space import Box, displacement  # noqa: E402
+
+
+@wp.kernel
+def count_within_rows(
+    first: int,
+    rows: NeighbourRows,
+    box: Box,
+    query: wp.array(dtype=wp.vec3),
+    source: wp.array(dtype=wp.vec3),
+    radius: float,
+    counts: wp.array(dtype=wp.int32),
+):
+    """counts[i] = entries j of row i with |r_ij| < radius (minimum image): what a solver loop keeps."""
+    i = first + wp.tid()
+    n = int(0)
+    for c in range(rows.start[i], rows.start[i] + rows.count[i]):
+        d = displacement(box, query[i], source[rows.index[c]])
+        if wp.dot(d, d) < radius * radius:
+            n += 1
+    counts[i] = n
+
+
+@wp.kernel
+def gather_weights(
+    first: int,
+    rows: NeighbourRows,
+    box: Box,
+    query: wp.array(dtype=wp.vec3),
+    source: wp.array(dtype=wp.vec3),
+    radius: float,
+    out: wp.array(dtype=float),
+):
+    """out[i] = Σ_j (1 - |r_ij|/R)² over row i within R: a node gathering from the particles near it."""
+    i = first + wp.tid()
+    s = float(0.0)
+    for c in range(rows.start[i], rows.start[i] + rows.count[i]):
+        d = displacement(box, query[i], source[rows.index[c]])
+        r = wp.length(d)
+        if r < radius:
+            t = 1.0 - r / radius
+            s += t * t
+    out[i] = s

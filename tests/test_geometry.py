@@ -364,7 +364,7 @@ def test_bad_shell_parameters():
 def test_2d_walls_from_a_mesh_section_match_the_polygon_walls():
     """A 2D boundary from the section of a 3D tank mesh equals the one from the same rectangle."""
     from warpfree.geometry import box_mesh
-    from warpfree.scene_tools import box_walls_2d, walls_from_section
+    from warpfree.solvers.wcsph.scene_tools import box_walls_2d, walls_from_section
 
     mesh = box_mesh((0.0, 0.0, -0.5), (4.0, 4.0, 0.5))
     from_mesh = walls_from_section(mesh, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.1, 3)

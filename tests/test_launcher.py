@@ -10,7 +10,8 @@ import kernels_for_tests as kt
 from warpfree.device import Launcher, default_threads, resolve_device
 from warpfree.errors import ParameterError
 from warpfree.kernels import smoothing as sm
-from warpfree.neighbours import NeighbourGrid, neighbour_list
+from warpfree.neighbours import NeighbourGrid, NeighbourList
+from warpfree.space import Space
 
 # --- chunks --------------------------------------------------------------------------------------------
 
@@ -119,7 +120,7 @@ def _density(launcher, grid, x, mass, h, radius):
     n = x.shape[0]
     rho = wp.zeros(n, dtype=float, device="cpu")
     grad = wp.zeros(n, dtype=wp.vec3, device="cpu")
-    launcher.launch(kt.kernel_sums, n, [sm.kernel_id("cubic_spline"), 3, grid.id, x, grid.query_radius, h,
+    launcher.launch(kt.kernel_sums, n, [sm.kernel_id("cubic_spline"), 3, grid.id, x, grid.radius, h,
                                         radius, mass, rho, grad])
     return rho.numpy(), grad.numpy()
 
@@ -135,7 +136,7 @@ def test_gather_bitwise_identical_across_thread_counts(make_launcher):
     rng = np.random.default_rng(22)
     mass_np = (1000.0 * dx**3 * rng.uniform(0.9, 1.1, size=n)).astype(np.float32)
     mass = wp.array(mass_np, dtype=float, device="cpu")
-    grid = NeighbourGrid(x, radius, dim=3, policy="static")
+    grid = NeighbourGrid(Launcher("cpu", 1), radius, Space.free(3), x)
 
     results = {}
     for threads in (1, 2, 3):
@@ -163,12 +164,11 @@ def test_gather_bitwise_identical_across_thread_counts(make_launcher):
 def test_neighbour_lists_identical_across_thread_counts(make_launcher):
     p = _jittered_lattice(12, 0.1, seed=23)
     x = wp.array(p, dtype=wp.vec3, device="cpu")
-    grid = NeighbourGrid(x, 0.26, dim=3)
-    off1, idx1 = neighbour_list(make_launcher(threads=1), grid, x)
+    ref = NeighbourList(NeighbourGrid(make_launcher(threads=1), 0.26, Space.free(3), x), x)
     for threads in (2, 3):
-        off, idx = neighbour_list(make_launcher(threads=threads), grid, x)
-        assert np.array_equal(off.numpy(), off1.numpy())
-        assert np.array_equal(idx.numpy(), idx1.numpy())
+        lst = NeighbourList(NeighbourGrid(make_launcher(threads=threads), 0.26, Space.free(3), x), x)
+        assert np.array_equal(lst.offsets(), ref.offsets())
+        assert np.array_equal(lst.indices(), ref.indices())
 
 
 # --- errors --------------------------------------------------------------------------------------------

@@ -16,6 +16,7 @@ import warp as wp
 import kernels_for_tests as kt
 from warpfree.kernels import smoothing as sm
 from warpfree.neighbours import NeighbourGrid
+from warpfree.space import Space
 
 NAMES = ["cubic_spline", "wendland_c2", "quintic_spline"]
 DIMS = [1, 2, 3]
@@ -305,12 +306,12 @@ def test_lattice_partition_of_unity(launcher, name, dim):
     pts = np.zeros((idx.shape[0], 3))
     pts[:, :dim] = -0.37 + idx * dx  # negative coordinates, not aligned with the hash cells
     x = wp.array(pts.astype(np.float32), dtype=wp.vec3, device="cpu")
-    grid = NeighbourGrid(x, radius, dim=dim, policy="static")
+    grid = NeighbourGrid(launcher, radius, Space.free(dim), x)
     n = idx.shape[0]
     vol = wp.array(np.full(n, dx**dim, dtype=np.float32), dtype=float, device="cpu")
     sum_w = wp.zeros(n, dtype=float, device="cpu")
     sum_g = wp.zeros(n, dtype=wp.vec3, device="cpu")
-    launcher.launch(kt.kernel_sums, n, [sm.kernel_id(name), dim, grid.id, x, grid.query_radius, h, radius,
+    launcher.launch(kt.kernel_sums, n, [sm.kernel_id(name), dim, grid.id, x, grid.radius, h, radius,
                                         vol, sum_w, sum_g])
     interior = np.all((idx >= layers) & (idx < m - layers), axis=1)
     assert interior.sum() >= 3**dim

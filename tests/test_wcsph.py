@@ -49,7 +49,7 @@ def test_dam_break_front_against_martin_moyce_and_koshizuka_oka(dam_break, tmp_p
     t_end = 2.5 / np.sqrt(2 * G / 1.0)
     sim = dam_break.build(dx=0.04, t_end=t_end, output_interval=0.01, frames=False, vtk=False)
     mass0 = sim.solver.diagnostics()["mass"]
-    n0 = sim.solver.nf
+    n0 = sim.solver.model.nf
     summary = sim.run(str(tmp_path), progress=False)
     errors = summary["analysis"]["front"]["errors"]
     limits = {"Koshizuka & Oka 1996 (DualSPHysics digitisation)": 0.15, "Martin & Moyce 1952": 0.18,
@@ -60,7 +60,7 @@ def test_dam_break_front_against_martin_moyce_and_koshizuka_oka(dam_break, tmp_p
         early = [abs(dz) for T, dz in zip(errors[name]["T"], errors[name]["dZ"]) if T <= 1.0]
         assert max(early) <= 0.15, (name, errors[name])  # the early collapse is within the issue's band
     assert summary["status"] == "ok"
-    assert sim.solver.nf == n0 and summary["diagnostics"]["mass"] == mass0
+    assert sim.solver.model.nf == n0 and summary["diagnostics"]["mass"] == mass0
     assert (tmp_path / "front.png").stat().st_size > 10_000
 
 
@@ -91,7 +91,7 @@ def _state_after(dam_break, threads, steps=25):
     s = sim.solver
     for _ in range(steps):
         s.step(s.stable_dt())
-    return {k: v.numpy().copy() for k, v in s.state_arrays().items()}
+    return s.state.numpy()
 
 
 def test_step_is_bitwise_identical_for_1_2_3_threads(dam_break):
@@ -114,8 +114,8 @@ def test_resume_reproduces_uninterrupted_run_bitwise(dam_break, tmp_path):
     resumed = dam_break.build(**kw)
     summary = resumed.run(str(tmp_path / "cut"), resume=True, progress=False)
     assert resumed.step_count == full.step_count and summary["time"] == full.time
-    for k, v in full.solver.state_arrays().items():
-        assert np.array_equal(v.numpy(), resumed.solver.state_arrays()[k].numpy()), k
+    for k, v in full.solver.state.numpy().items():
+        assert np.array_equal(v, resumed.solver.state.numpy()[k]), k
     assert resumed.series["front"] == full.series["front"]
     pvd = (tmp_path / "cut" / "fluid.pvd").read_text()
     assert pvd.count("<DataSet") == len(full.series["time"])
@@ -180,7 +180,7 @@ def test_leaking_walls_stop_the_run_and_keep_the_last_checkpoint(dam_break, tmp_
     device.use("cpu", 2)
     sim = dam_break.build(dx=0.08, t_end=2.0, boundary_model="lennard_jones", frames=False, vtk=False,
                           checkpoint_every=20)
-    sim.solver.params.lj_d = 1e-9
+    sim.solver.model.constants.lj_d = 1e-9  # walls far too weak to hold the column
     with pytest.raises(RunError, match=r"step \d+: .*outside the container") as info:
         sim.run(str(tmp_path), progress=False)
     assert info.value.step is not None and info.value.last_good and os.path.isfile(info.value.last_good)
@@ -197,11 +197,11 @@ def test_without_periodic_checkpoints_the_last_output_state_is_kept(dam_break, t
     device.use("cpu", 2)
     sim = dam_break.build(dx=0.08, t_end=2.0, output_interval=0.02, boundary_model="lennard_jones",
                           frames=False, vtk=False)
-    sim.solver.params.lj_d = 1e-9
+    sim.solver.model.constants.lj_d = 1e-9  # walls far too weak to hold the column
     with pytest.raises(RunError, match="outside the container") as info:
         sim.run(str(tmp_path), progress=False)
     data = np.load(info.value.last_good)
-    x = data["state_x"][: sim.solver.nf]
+    x = data["state__position"][: sim.solver.model.nf]
     assert np.all(np.isfinite(x)) and x[:, 1].min() > 0.0
     loop = json.loads(str(data["loop"]))
     assert loop["step"] < info.value.step and loop["time"] == pytest.approx(0.02 * (loop["n_outputs"] - 1))
@@ -210,9 +210,9 @@ def test_without_periodic_checkpoints_the_last_output_state_is_kept(dam_break, t
 def test_non_finite_state_stops_the_run(dam_break, tmp_path):
     device.use("cpu", 1)
     sim = dam_break.build(dx=0.08, t_end=0.05, frames=False, vtk=False)
-    v = sim.solver.v.numpy()
+    v = sim.solver.state.velocity.numpy()
     v[3, 0] = np.nan
-    sim.solver.v.assign(v)
+    sim.solver.state.velocity.assign(v)
     with pytest.raises(RunError, match="non-finite"):
         sim.run(str(tmp_path), progress=False)
 
@@ -232,14 +232,16 @@ def test_tait_eos_fast_path_matches_pow():
     """p = B[(ρ/ρ0)^γ - 1]: the γ = 7 multiplication path equals NumPy's power to float32 rounding."""
     import warp as wp
 
-    from warpfree.kernels import sph_fluid as K
+    from warpfree.kernels import wcsph as K
 
     rho = np.linspace(950.0, 1050.0, 101).astype(np.float32)
     launcher = device.use("cpu", 1)
     out = {}
     for gamma in (7.0, 6.999):
         p = wp.zeros(len(rho), dtype=float)
-        launcher.launch(K.equation_of_state, len(rho), [wp.array(rho, dtype=float), 1000.0, 1.0e5, gamma, p])
+        c = K.FluidConstants()
+        c.rho0, c.b, c.gamma = 1000.0, 1.0e5, gamma
+        launcher.launch(K.equation_of_state, len(rho), [c, wp.array(rho, dtype=float), p])
         out[gamma] = p.numpy()
     exact = 1.0e5 * ((rho.astype(np.float64) / 1000.0) ** 7 - 1.0)
     np.testing.assert_allclose(out[7.0], exact, rtol=1e-5, atol=0.05)

@@ -15,7 +15,7 @@ from .errors import ParameterError, RunError
 DESCRIPTION = """warpfree: meshfree particle methods (WCSPH fluids, SPEM, EFG, PIDC) as NVIDIA Warp kernels.
 
 Commands:
-  run     run a scene script (a Python module with build(**params) returning a Simulation)
+  run     run a scene script (a Python module with build(**params) returning a TimeLoop or StaticRun)
 
 Example:
   warpfree run scenes/dam_break_2d.py --set dx=0.02 --out runs/db --threads 2
@@ -101,6 +101,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def run_command(args) -> int:
     from . import device
+    from .run import build_scene
+    from .time_loop import TimeLoop
 
     if args.resume:
         meta_path = os.path.join(args.resume, "run.json")
@@ -128,24 +130,25 @@ def run_command(args) -> int:
             print(f"{k} = {v!r}")
         return 0
     device.use(args.device, args.threads)
-    sim = module.build(**overrides)
-    if args.resume:
-        checkpoint_every = meta.get("checkpoint_every")
-    else:
-        checkpoint_every = args.checkpoint_every
+    run = build_scene(module, overrides)
+    checkpoint_every = meta.get("checkpoint_every") if args.resume else args.checkpoint_every
     if checkpoint_every is not None:
+        if not isinstance(run, TimeLoop):
+            raise ParameterError("--checkpoint-every", "a static solve has no steps to checkpoint")
         if checkpoint_every < 0:
             raise ParameterError("--checkpoint-every", f"must be >= 0, got {checkpoint_every}")
-        sim.checkpoint_every = checkpoint_every
+        run.checkpoint_every = checkpoint_every
     os.makedirs(out_dir, exist_ok=True)
     if not args.resume:
         with open(os.path.join(out_dir, "run.json"), "w") as f:
             json.dump({"scene": os.path.abspath(scene_path), "overrides": overrides,
                        "checkpoint_every": checkpoint_every}, f, indent=2)
-    summary = sim.run(out_dir, resume=bool(args.resume), progress=not args.no_progress)
-    pps = summary.get("particle_steps_per_s")
-    print(f"{summary['scene']}: {summary['steps']} steps to t = {summary['time']:.4g} s in {summary['wall_s']:.1f} s"
-          + (f", {pps:,.0f} particle-steps/s" if pps else "") + f" on {summary['device']} x{summary['threads']}")
+    summary = run.run(out_dir, resume=bool(args.resume), progress=not args.no_progress)
+    rate = summary["throughput"]
+    done = (f"{summary['steps']} steps to t = {summary['time']:.4g} s" if "steps" in summary else "solved")
+    print(f"{summary['scene']}: {done} in {summary['wall_s']:.1f} s"
+          + (f", {rate['value']:,.0f} {rate['unit']}" if rate["value"] else "")
+          + f" on {summary['device']} x{summary['threads']}")
     for key, val in summary.get("analysis", {}).items():
         if isinstance(val, dict):
             for k2, v2 in val.items():

@@ -1,16 +1,18 @@
-"""Neighbour grid: a wrapper over ``wp.HashGrid`` with a rebuild policy, and static CSR neighbour lists.
+"""Neighbours for every pattern the solvers use, all over ``wp.HashGrid`` and all race-free.
 
-- :class:`NeighbourGrid` holds a HashGrid over one particle set (the *source*). Kernels query it with
-  ``grid.id`` and ``grid.query_radius`` and test the true distance against the cut-off ``grid.radius``.
-  The same grid serves same-set queries (fluid-fluid) and cross-set queries (fluid -> boundary,
-  Gauss point -> node, particle -> node) because a query point need not belong to the source set.
-- Rebuild policy: ``"static"`` builds once (SPEM particles, EFG nodes, fixed walls); ``"always"``
-  rebuilds every step; a ``skin`` > 0 keeps the grid until a particle has moved more than skin/2 since
-  the last build (queries then use radius + skin).
-- :func:`neighbour_list` builds CSR lists (offsets, indices) once for static structures, in two passes
-  (count, then fill) so each query writes only its own row.
+- :class:`NeighbourGrid`: a HashGrid over a *source* point set (plus periodic images when the
+  space has periodic axes). Any point set may query it: same-set (fluid–fluid), cross-set
+  (fluid → wall, E → H, Gauss point → node, node → particle).
+- :class:`NeighbourList`: static CSR rows built once (SPEM E↔H, EFG Gauss point → node, walls).
+- :class:`NeighbourTable`: fixed-capacity rows refilled in one pass; grows (×1.25 of the longest
+  row) and refills when a row overflows, so no neighbour is ever dropped.
+- :class:`MovingNeighbours`: the one mechanism for moving sets (WCSPH fluid, PIC particles): tables
+  of candidates within radius + skin at the positions of the last build, rebuilt when a particle
+  may have moved more than half the skin. Static sets (walls, nodes) query it and are queried by it.
 
-Cell width equals the query radius. 2D sets (z = 0) use one cell layer in z.
+Rows of all three are :class:`warpfree.kernels.neighbours.NeighbourRows` (``.rows``), so a solver
+kernel reads any of them the same way. Periodic axes: image points in the grid, original indices in
+the rows, minimum-image displacements in the kernels (``warpfree.space``). Cell width = query radius.
 """
 
 from __future__ import annotations
@@ -22,12 +24,18 @@ import warp as wp
 
 from .device import Launcher
 from .errors import ParameterError, require_positive
+from .reduce import Reduction
+from .space import Space
 from warpfree.kernels import neighbours as nk
+
+__all__ = ["NeighbourGrid", "NeighbourList", "NeighbourTable", "MovingNeighbours", "neighbour_counts_brute"]
+
+_INT32_MAX = 2**31 - 1
 
 
 def _grid_dims(dim: int, n_points: int) -> tuple[int, int, int]:
-    """Hash table size: about one cell per point, at most 128 per axis (the hash wraps beyond)."""
-    if dim == 2:
+    """Hash table size: about one cell per point, at most 256 (2D) or 128 (3D) per axis (the hash wraps beyond)."""
+    if dim < 3:
         side = int(min(256, max(8, math.ceil(math.sqrt(max(n_points, 1))))))
         return side, side, 1
     side = int(min(128, max(8, math.ceil(max(n_points, 1) ** (1.0 / 3.0)))))
@@ -35,140 +43,264 @@ def _grid_dims(dim: int, n_points: int) -> tuple[int, int, int]:
 
 
 class NeighbourGrid:
-    """HashGrid over a source particle set.
+    """HashGrid over a source point set, with periodic images.
 
     Parameters
     ----------
-    positions: ``wp.array(dtype=wp.vec3)`` of the source set (float32; z = 0 in 2D).
-    radius: cut-off (support) radius, > 0.
-    dim: 2 or 3.
-    policy: ``"always"``, ``"static"`` or ``"skin"``.
-    skin: extra query margin for ``policy="skin"``.
+    launcher: runs the image kernels.
+    radius: query radius (m): rows list the sources strictly closer than this; also the cell width.
+    space: :class:`~warpfree.space.Space` (its periodic axes need sides >= 2 radius).
+    positions: ``wp.array(dtype=wp.vec3)`` of the source set; :meth:`build` may pass new ones.
     """
 
-    POLICIES = ("always", "static", "skin")
-
-    def __init__(self, positions: wp.array, radius: float, dim: int, policy: str = "always",
-                 skin: float = 0.0, device: str | None = None):
+    def __init__(self, launcher: Launcher, radius: float, space: Space, positions: wp.array | None = None):
+        self.launcher = launcher
         self.radius = require_positive("radius", radius)
-        if dim not in (1, 2, 3):
-            raise ParameterError("dim", f"must be 1, 2 or 3, got {dim!r}")
-        if policy not in self.POLICIES:
-            raise ParameterError("policy", f"must be one of {self.POLICIES}, got {policy!r}")
-        self.skin = require_positive("skin", skin, allow_zero=True)
-        if policy == "skin" and self.skin == 0.0:
-            raise ParameterError("skin", "must be > 0 with policy='skin'")
-        self.dim = dim
-        self.policy = policy
-        self.positions = positions
-        self.device = device or str(positions.device)
-        dx, dy, dz = _grid_dims(2 if dim < 3 else 3, positions.shape[0])
-        self.grid = wp.HashGrid(dx, dy, dz, device=self.device)
+        self.space = space
+        space.require_room(self.radius, "radius")
+        self.grid: wp.HashGrid | None = None
+        self.points: wp.array | None = None      # the grid's points: sources, then images
+        self.source_id: wp.array | None = None   # grid point -> source index
+        self.n_sources = 0
         self.builds = 0
-        self._built_at: np.ndarray | None = None
-        self.build()
+        if positions is not None:
+            self.build(positions)
 
     @property
     def id(self):
         return self.grid.id
 
-    @property
-    def query_radius(self) -> float:
-        """Radius to pass to ``wp.hash_grid_query`` (cut-off plus skin)."""
-        return self.radius + (self.skin if self.policy == "skin" else 0.0)
-
-    def build(self, positions: wp.array | None = None) -> None:
-        """(Re)build the hash grid over the current source positions."""
-        if positions is not None:
-            self.positions = positions
-        self.grid.build(self.positions, self.query_radius)
+    def build(self, positions: wp.array) -> None:
+        """(Re)build over ``positions`` (and their images across periodic faces)."""
+        if positions.dtype != wp.vec3:
+            raise ParameterError("positions", f"must be a wp.array of wp.vec3, got {positions.dtype}")
+        n = positions.shape[0]
+        self.n_sources = n
+        dev = self.launcher.device
+        if self.space.is_periodic and n > 0:
+            self.points, self.source_id = self._with_images(positions)
+        else:
+            self.points = positions
+            if self.source_id is None or self.source_id.shape[0] != n:
+                self.source_id = wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32, device=dev)
+        if self.grid is None:
+            self.grid = wp.HashGrid(*_grid_dims(self.space.dim, self.points.shape[0]), device=dev)
+        self.grid.build(self.points, self.radius)
         self.builds += 1
-        if self.policy == "skin":
-            self._built_at = self.positions.numpy().copy()
 
-    def update(self, positions: wp.array | None = None) -> bool:
-        """Apply the rebuild policy after the source set moved; returns True if it rebuilt."""
-        if positions is not None:
-            self.positions = positions
-        if self.policy == "static":
-            return False
-        if self.policy == "skin":
-            moved = np.max(np.linalg.norm(self.positions.numpy() - self._built_at, axis=1), initial=0.0)
-            if moved <= 0.5 * self.skin:
-                return False
-        self.build()
-        return True
+    def _with_images(self, positions: wp.array) -> tuple[wp.array, wp.array]:
+        L, n, dev = self.launcher, positions.shape[0], self.launcher.device
+        box = self.space.box
+        counts = wp.zeros(n, dtype=wp.int32, device=dev)
+        L.launch(nk.count_images, n, [positions, box, self.radius, counts], light=True)
+        offsets = wp.zeros(n, dtype=wp.int32, device=dev)
+        wp.utils.array_scan(counts, offsets, inclusive=False)
+        total = int(offsets.numpy()[-1] + counts.numpy()[-1]) if n else 0  # one read per build
+        extended = wp.zeros(n + total, dtype=wp.vec3, device=dev)
+        source_id = wp.zeros(n + total, dtype=wp.int32, device=dev)
+        L.launch(nk.place_images, n, [positions, box, self.radius, offsets, n, extended, source_id], light=True)
+        return extended, source_id
 
+    @property
+    def n_images(self) -> int:
+        return 0 if self.points is None else self.points.shape[0] - self.n_sources
 
-def neighbour_counts(launcher: Launcher, grid: NeighbourGrid, query_points: wp.array,
-                     exclude_self: bool = False) -> np.ndarray:
-    """Neighbour count of every query point within ``grid.radius`` (an int32 NumPy array)."""
-    n = query_points.shape[0]
-    counts = wp.zeros(n, dtype=wp.int32, device=launcher.device)
-    launcher.launch(nk.count_neighbours, n, [grid.id, query_points, grid.positions, grid.query_radius,
-                                             grid.radius, int(exclude_self), counts])
-    return counts.numpy()
-
-
-def neighbour_counts_brute(launcher: Launcher, query_points: wp.array, source_points: wp.array,
-                           radius: float, exclude_self: bool = False) -> np.ndarray:
-    """Brute-force reference for :func:`neighbour_counts` (O(N M), for tests)."""
-    n = query_points.shape[0]
-    counts = wp.zeros(n, dtype=wp.int32, device=launcher.device)
-    launcher.launch(nk.count_neighbours_brute, n, [query_points, source_points, float(radius),
-                                                   int(exclude_self), counts])
-    return counts.numpy()
+    def fill(self, query_points: wp.array, exclude_self: bool, capacity: int,
+             start: wp.array, count: wp.array, index: wp.array) -> None:
+        """Launch :func:`warpfree.kernels.neighbours.fill_rows` for every query point."""
+        n = query_points.shape[0]
+        self.launcher.launch(nk.fill_rows, n, [self.grid.id, query_points, self.points, self.source_id, self.radius,
+                                               int(exclude_self), int(capacity), start, count, index])
 
 
-def neighbour_list(launcher: Launcher, grid: NeighbourGrid, query_points: wp.array,
-                   exclude_self: bool = False) -> tuple[wp.array, wp.array]:
-    """CSR neighbour lists ``(offsets[n+1], indices[nnz])`` of query points in the grid's source set."""
-    n = query_points.shape[0]
-    counts = neighbour_counts(launcher, grid, query_points, exclude_self)
-    offsets_np = np.zeros(n + 1, dtype=np.int32)
-    np.cumsum(counts, out=offsets_np[1:])
-    offsets = wp.array(offsets_np, dtype=wp.int32, device=launcher.device)
-    indices = wp.zeros(max(int(offsets_np[-1]), 1), dtype=wp.int32, device=launcher.device)
-    launcher.launch(nk.fill_neighbours, n, [grid.id, query_points, grid.positions, grid.query_radius,
-                                            grid.radius, int(exclude_self), offsets, indices])
-    return offsets, indices
+class NeighbourList:
+    """Static CSR rows: for each query point, the grid's sources within ``grid.radius``, built once.
+
+    Two passes (count, then fill at the prefix-summed starts), each writing only its own row.
+    ``exclude_self`` drops source i from row i when the query set is the source set.
+    """
+
+    def __init__(self, grid: NeighbourGrid, query_points: wp.array, exclude_self: bool = False):
+        dev = grid.launcher.device
+        n = query_points.shape[0]
+        self.n = n
+        count = wp.zeros(max(n, 1), dtype=wp.int32, device=dev)
+        start = wp.zeros(max(n, 1), dtype=wp.int32, device=dev)
+        empty = wp.zeros(1, dtype=wp.int32, device=dev)
+        if n:
+            grid.fill(query_points, exclude_self, 0, start, count, empty)
+            wp.utils.array_scan(count, start, inclusive=False)
+            total = int(start.numpy()[n - 1] + count.numpy()[n - 1])
+        else:
+            total = 0
+        index = wp.zeros(max(total, 1), dtype=wp.int32, device=dev)
+        if n:
+            grid.fill(query_points, exclude_self, _INT32_MAX, start, count, index)
+        self.n_pairs = total
+        self.rows = nk.NeighbourRows()
+        self.rows.start, self.rows.count, self.rows.index = start, count, index
+
+    def offsets(self) -> np.ndarray:
+        """CSR offsets (n + 1,) on the host."""
+        out = np.zeros(self.n + 1, dtype=np.int64)
+        if self.n:
+            out[:-1] = self.rows.start.numpy()[: self.n]
+            out[-1] = self.n_pairs
+        return out
+
+    def indices(self) -> np.ndarray:
+        """CSR column indices (n_pairs,) on the host."""
+        return self.rows.index.numpy()[: self.n_pairs]
+
+    def counts(self) -> np.ndarray:
+        return self.rows.count.numpy()[: self.n]
 
 
 class NeighbourTable:
-    """Neighbour lists with a fixed capacity per row, filled in one pass (the hot path of moving sets).
+    """Rows with a fixed capacity, refilled in one pass; grows and refills when a row overflows.
 
-    Row ``i`` holds ``counts[i]`` source indices at ``indices[i*capacity : i*capacity + counts[i]]``.
-    A fill that finds a row longer than the capacity grows the table (x1.25 of the longest row) and
-    fills again, so no neighbour is ever dropped. Arrays are reused between fills of the same size.
+    Row i is ``index[i·capacity : i·capacity + count[i]]``. Arrays are reused between fills of the same
+    size. The overflow check is one device max and one read per fill.
     """
 
     def __init__(self, launcher: Launcher, capacity: int = 32):
         self.launcher = launcher
         self.capacity = max(1, int(capacity))
-        self.counts: wp.array | None = None
-        self.indices: wp.array | None = None
+        self.rows = nk.NeighbourRows()
+        self.n = -1
         self.grows = 0
+        self._longest = Reduction(launcher, wp.int32, "max")
 
     def _allocate(self, n: int) -> None:
         dev = self.launcher.device
-        if self.counts is None or self.counts.shape[0] != n:
-            self.counts = wp.zeros(max(n, 1), dtype=wp.int32, device=dev)
-        size = max(n * self.capacity, 1)
-        if self.indices is None or self.indices.shape[0] != size:
-            self.indices = wp.zeros(size, dtype=wp.int32, device=dev)
+        if self.n != n:
+            self.rows.count = wp.zeros(max(n, 1), dtype=wp.int32, device=dev)
+            self.rows.start = wp.zeros(max(n, 1), dtype=wp.int32, device=dev)
+            self.n = n
+            self._starts_for = None
+        if getattr(self, "_starts_for", None) != self.capacity:
+            self.launcher.launch(nk.table_starts, n, [self.capacity, self.rows.start], light=True)
+            self.rows.index = wp.zeros(max(n * self.capacity, 1), dtype=wp.int32, device=dev)
+            self._starts_for = self.capacity
 
     def fill(self, grid: NeighbourGrid, query_points: wp.array, exclude_self: bool = False) -> None:
-        """Rows for every query point: the grid's source points within ``grid.radius``."""
+        """Rows for every query point: the grid's sources within ``grid.radius``."""
         n = query_points.shape[0]
         while True:
             self._allocate(n)
             if n == 0:
                 return
-            self.launcher.launch(nk.fill_neighbour_table, n,
-                                 [grid.id, query_points, grid.positions, grid.query_radius, grid.radius,
-                                  int(exclude_self), self.capacity, self.counts, self.indices])
-            longest = int(self.counts.numpy()[:n].max())
+            grid.fill(query_points, exclude_self, self.capacity, self.rows.start, self.rows.count, self.rows.index)
+            self._longest.launch(self.rows.count, n)
+            longest = int(self._longest.value())
             if longest <= self.capacity:
                 return
             self.capacity = int(math.ceil(1.25 * longest))
             self.grows += 1
+
+    def counts(self) -> np.ndarray:
+        return self.rows.count.numpy()[: max(self.n, 0)]
+
+    def row(self, i: int) -> np.ndarray:
+        """Source indices of row i (host copy, for tests and diagnostics)."""
+        c = int(self.rows.count.numpy()[i])
+        return self.rows.index.numpy()[i * self.capacity: i * self.capacity + c]
+
+
+class MovingNeighbours:
+    """Neighbour tables of a moving set kept valid with a skin (Verlet lists), with static sets beside it.
+
+    Tables hold the candidates within ``radius + skin`` at :attr:`position_at_build` (the moving
+    positions at the last build); kernels test the true distance against ``radius``. A pair closer
+    than ``radius`` now was closer than ``radius + skin`` at the build as long as no particle has
+    moved more than ``skin/2`` since, which :meth:`needs_rebuild` checks from a bound the solver
+    reduces on the device (no per-particle host read). The tables depend only on
+    :attr:`position_at_build` (part of the solver's state), so a resumed run rebuilds exactly the
+    tables it had.
+
+    Parameters
+    ----------
+    launcher, space: as for :class:`NeighbourGrid`.
+    positions: the moving set's current positions (``wp.vec3``; the solver moves them in place).
+    radius: interaction radius (m). skin: extra margin (m), >= 0 (0: rebuild every step).
+    static_sets: name -> positions of static sets (walls, nodes) that query or are queried.
+    position_at_build: the array to keep the build positions in (a solver passes its state's), or None.
+    """
+
+    MOVING = "moving"
+
+    def __init__(self, launcher: Launcher, space: Space, positions: wp.array, radius: float, skin: float,
+                 static_sets: dict[str, wp.array] | None = None, position_at_build: wp.array | None = None):
+        self.launcher = launcher
+        self.space = space
+        self.radius = require_positive("radius", radius)
+        self.skin = require_positive("skin", skin, allow_zero=True)
+        space.require_room(self.radius + self.skin, "skin")
+        self.positions = positions
+        if position_at_build is None:
+            position_at_build = wp.clone(positions)
+        elif position_at_build.shape != positions.shape or position_at_build.dtype != positions.dtype:
+            raise ParameterError("position_at_build", f"must be like positions ({positions.shape[0]} vec3)")
+        self.position_at_build = position_at_build
+        self.static_sets = dict(static_sets or {})
+        reach = self.radius + self.skin
+        self.grids = {self.MOVING: NeighbourGrid(launcher, reach, space)}
+        for name, pos in self.static_sets.items():
+            self.grids[name] = NeighbourGrid(launcher, reach, space, pos)
+        self.tables: dict[str, tuple[NeighbourTable, str, str, bool]] = {}
+        self.builds = 0
+
+    def add_table(self, name: str, query: str, source: str, capacity: int = 32,
+                  exclude_self: bool = False) -> NeighbourTable:
+        """A table of ``source`` candidates for every point of ``query`` ("moving" or a static set name).
+        A table between two static sets belongs in a :class:`NeighbourList` instead."""
+        for role, set_name in (("query", query), ("source", source)):
+            if set_name != self.MOVING and set_name not in self.static_sets:
+                raise ParameterError(role, f"unknown set {set_name!r}; have 'moving' and {sorted(self.static_sets)}")
+        if query != self.MOVING and source != self.MOVING:
+            raise ParameterError("source", "a table between two static sets never changes: use NeighbourList")
+        table = NeighbourTable(self.launcher, capacity)
+        self.tables[name] = (table, query, source, exclude_self)
+        return table
+
+    def table(self, name: str) -> NeighbourTable:
+        return self.tables[name][0]
+
+    def needs_rebuild(self, moved_bound: float) -> bool:
+        """True when a particle may have moved more than skin/2 since the build (``moved_bound`` >= the
+        largest displacement since the build, m)."""
+        return self.skin == 0.0 or not math.isfinite(moved_bound) or moved_bound > 0.5 * self.skin
+
+    def rebuild(self) -> None:
+        """Build at the current positions: copy them to :attr:`position_at_build`, then :meth:`build_tables`."""
+        wp.copy(self.position_at_build, self.positions)
+        self.build_tables()
+
+    def build_tables(self) -> None:
+        """Grid of the moving set and every table, from :attr:`position_at_build` (also after a resume)."""
+        self.grids[self.MOVING].build(self.position_at_build)
+        for table, query, source, exclude_self in self.tables.values():
+            q = self.position_at_build if query == self.MOVING else self.static_sets[query]
+            table.fill(self.grids[source], q, exclude_self)
+        self.builds += 1
+
+    def max_displacement(self, reduction: Reduction | None = None) -> float:
+        """Largest |x - x(at build)| (m) by a device kernel and reduction (one read); for solvers that do
+        not fold it into their own step report."""
+        n = self.positions.shape[0]
+        moved2 = wp.zeros(max(n, 1), dtype=float, device=self.launcher.device)
+        self.launcher.launch(nk.squared_displacement, n, [self.space.box, self.positions, self.position_at_build,
+                                                          moved2], light=True)
+        r = reduction or Reduction(self.launcher, wp.float32, "max")
+        r.launch(moved2, n)
+        return math.sqrt(float(r.value()))
+
+
+def neighbour_counts_brute(launcher: Launcher, space: Space, query_points: wp.array, source_points: wp.array,
+                           radius: float, exclude_self: bool = False) -> np.ndarray:
+    """Brute-force neighbour counts (O(N M), minimum image): the reference of the tests."""
+    n = query_points.shape[0]
+    counts = wp.zeros(max(n, 1), dtype=wp.int32, device=launcher.device)
+    launcher.launch(nk.count_neighbours_brute, n, [space.box, query_points, source_points, float(radius),
+                                                   int(exclude_self), counts])
+    return counts.numpy()[:n]

@@ -1,7 +1,10 @@
-"""Particle sets: named Warp arrays sharing one particle count.
+"""Particle sets: named Warp arrays sharing one particle count, under the names outputs and checkpoints use.
 
-Positions are always stored as float32 ``wp.vec3`` (z = 0 for 2D sets) so that one ``wp.HashGrid``
-and one set of kernels serve 2D and 3D. Other fields are scalar or vector arrays of any Warp dtype.
+Positions are stored as float32 ``wp.vec3`` under ``"position"`` (unused axes 0: z in 2D, y and z in
+1D) so that one ``wp.HashGrid`` and one set of kernels serve 1D, 2D and 3D. A set made with
+``float64=True`` also keeps ``"position64"`` (``wp.vec3d``): the coordinates for methods whose
+conditioning needs double precision (MLS moment matrices of EFG and PIC); the float32 copy is only
+for neighbour search. Other fields are scalar or vector arrays of any Warp dtype.
 """
 
 from __future__ import annotations
@@ -11,63 +14,85 @@ import warp as wp
 
 from .errors import ParameterError
 
+POSITION = "position"
+POSITION64 = "position64"
 
-def to_vec3(points: np.ndarray, name: str = "positions") -> np.ndarray:
-    """(N, 2) or (N, 3) finite points -> (N, 3) float32 with z = 0 for 2D input."""
+
+def to_points3(points, dim: int | None = None, name: str = "positions") -> np.ndarray:
+    """(N, 1), (N, 2) or (N, 3) finite points -> (N, 3) float64, unused axes zero.
+
+    With ``dim`` given, the points must have ``dim`` or 3 columns.
+    """
     p = np.asarray(points, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] not in (2, 3):
-        raise ParameterError(name, f"must have shape (N, 2) or (N, 3), got {p.shape}")
+    if p.ndim != 2 or p.shape[1] not in (1, 2, 3):
+        raise ParameterError(name, f"must have shape (N, 1), (N, 2) or (N, 3), got {p.shape}")
+    if dim is not None and p.shape[1] not in (dim, 3):
+        raise ParameterError(name, f"a {dim}D set needs (N, {dim}) or (N, 3) positions, got {p.shape}")
     if not np.all(np.isfinite(p)):
         raise ParameterError(name, "contains non-finite values")
-    if p.shape[1] == 2:
-        p = np.hstack([p, np.zeros((p.shape[0], 1))])
-    return p.astype(np.float32)
+    if p.shape[1] < 3:
+        p = np.hstack([p, np.zeros((p.shape[0], 3 - p.shape[1]))])
+    return p
+
+
+def to_vec3(points, name: str = "positions") -> np.ndarray:
+    """(N, 1..3) finite points -> (N, 3) float32 with unused axes zero (for ``wp.vec3`` arrays)."""
+    return to_points3(points, name=name).astype(np.float32)
 
 
 class ParticleSet:
-    """A named set of particles: ``positions`` plus any number of named per-particle arrays."""
+    """A named set of particles: ``position`` plus any number of named per-particle arrays.
 
-    def __init__(self, name: str, positions: np.ndarray, dim: int, device: str = "cpu"):
+    Parameters
+    ----------
+    name: the set's name (file stem of its outputs).
+    positions: (N, dim) or (N, 3) points.
+    dim: 1, 2 or 3.
+    float64: also keep ``position64`` in double precision.
+    """
+
+    def __init__(self, name: str, positions, dim: int, device: str = "cpu", float64: bool = False):
         if dim not in (1, 2, 3):
             raise ParameterError("dim", f"must be 1, 2 or 3, got {dim!r}")
-        p = to_vec3(positions, f"{name}.positions")
-        if dim == 3 and np.asarray(positions).shape[1] != 3:
-            raise ParameterError(f"{name}.positions", "a 3D set needs (N, 3) positions")
+        p = to_points3(positions, dim, f"{name}.positions")
         self.name = name
         self.dim = dim
         self.device = device
         self.n = p.shape[0]
-        self.fields: dict[str, wp.array] = {}
-        self.fields["x"] = wp.array(p, dtype=wp.vec3, device=device)
+        self.fields: dict[str, wp.array] = {POSITION: wp.array(p.astype(np.float32), dtype=wp.vec3, device=device)}
+        if float64:
+            self.fields[POSITION64] = wp.array(p, dtype=wp.vec3d, device=device)
 
     @classmethod
     def view(cls, name: str, dim: int, fields: dict[str, wp.array]) -> "ParticleSet":
-        """A set over existing arrays (e.g. slices of a solver's combined arrays); ``fields["x"]`` required."""
-        if "x" not in fields:
-            raise ParameterError(f"{name}.x", "a particle set needs positions 'x'")
-        n = fields["x"].shape[0]
+        """A set over existing arrays (e.g. slices of a solver's combined arrays); ``fields["position"]`` required."""
+        if POSITION not in fields:
+            raise ParameterError(f"{name}.{POSITION}", "a particle set needs positions")
+        n = fields[POSITION].shape[0]
         for k, arr in fields.items():
             if arr.shape[0] != n:
                 raise ParameterError(f"{name}.{k}", f"needs {n} rows, got {arr.shape[0]}")
         obj = cls.__new__(cls)
-        obj.name, obj.dim, obj.device, obj.n = name, dim, str(fields["x"].device), n
+        obj.name, obj.dim, obj.device, obj.n = name, dim, str(fields[POSITION].device), n
         obj.fields = dict(fields)
         return obj
 
     @property
-    def x(self) -> wp.array:
-        return self.fields["x"]
+    def position(self) -> wp.array:
+        return self.fields[POSITION]
 
     def add(self, name: str, values=None, dtype=wp.float32) -> wp.array:
-        """Add (or replace) a field; ``values`` is a scalar, an array, or None for zeros."""
+        """Add (or replace) a field; ``values`` is a scalar, an array, or None for zeros.
+        Vector fields given with fewer columns than the vector (2D or 1D data) are padded with zeros."""
         if values is None:
             arr = wp.zeros(self.n, dtype=dtype, device=self.device)
         else:
             v = np.asarray(values)
             if v.ndim == 0:
                 v = np.full(self.n, v)
-            elif dtype == wp.vec3 and v.ndim == 2 and v.shape[1] == 2:
-                v = np.hstack([v, np.zeros((v.shape[0], 1))])
+            width = getattr(dtype, "_length_", None)
+            if width and v.ndim == 2 and v.shape[1] < width:
+                v = np.hstack([v, np.zeros((v.shape[0], width - v.shape[1]), dtype=v.dtype)])
             if v.shape[0] != self.n:
                 raise ParameterError(f"{self.name}.{name}", f"needs {self.n} rows, got {v.shape[0]}")
             arr = wp.array(v, dtype=dtype, device=self.device)
@@ -80,15 +105,19 @@ class ParticleSet:
     def __contains__(self, name: str) -> bool:
         return name in self.fields
 
-    def numpy(self) -> dict[str, np.ndarray]:
-        """Copies of every field as NumPy arrays (positions trimmed to ``dim`` columns kept as 3)."""
+    def numpy(self, name: str | None = None):
+        """A copy of one field as a NumPy array, or of every field (a dict) when ``name`` is None."""
+        if name is not None:
+            return self.fields[name].numpy().copy()
         return {k: v.numpy().copy() for k, v in self.fields.items()}
 
     def load(self, data: dict[str, np.ndarray]) -> None:
-        """Overwrite fields from NumPy arrays (a checkpoint); shapes must match."""
+        """Overwrite fields from NumPy arrays; shapes must match."""
         for k, v in data.items():
             if k not in self.fields:
                 raise ParameterError(f"{self.name}.{k}", "is not a field of this set")
+            if tuple(np.shape(v)) != tuple(self.fields[k].numpy().shape):
+                raise ParameterError(f"{self.name}.{k}", f"needs shape {self.fields[k].numpy().shape}, got {np.shape(v)}")
             self.fields[k].assign(v)
 
     def __repr__(self) -> str:

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["VtuSeries", "read_pvd", "write_pvd"]
+__all__ = ["VtuSeries", "read_pvd", "write_pvd", "write_vtu"]
 
 
 def _atomic_target(path: Path) -> Path:
@@ -87,6 +87,29 @@ def _as_field(name: str, values, n: int) -> np.ndarray:
     return np.ascontiguousarray(v)
 
 
+def _check_step(step) -> int:
+    step = int(step)
+    if step < 0:
+        raise ParameterError("step", f"must be >= 0, got {step}")
+    return step
+
+
+def write_vtu(path: str | os.PathLike, points: np.ndarray, fields: dict[str, np.ndarray] | None = None) -> Path:
+    """One VTU file of vertex cells (atomically): ``points`` (N, 3) (or (N, 1), (N, 2), padded with zeros);
+    every entry of ``fields`` becomes point data: (N,) scalars, (N, 3) vectors ((N, 2) are padded), (N, k)."""
+    import meshio
+
+    path = Path(path)
+    pts = _as_points(points)
+    n = pts.shape[0]
+    point_data = {str(k): _as_field(str(k), v, n) for k, v in (fields or {}).items()}
+    cells = [("vertex", np.arange(n, dtype=np.int64).reshape(-1, 1))] if n > 0 else []
+    tmp = _atomic_target(path)
+    meshio.write(str(tmp), meshio.Mesh(pts, cells, point_data=point_data), file_format="vtu")
+    os.replace(tmp, path)
+    return path
+
+
 class VtuSeries:
     """A time series of particle snapshots: one VTU per step plus a PVD index.
 
@@ -123,36 +146,28 @@ class VtuSeries:
     def path_for(self, step: int) -> Path:
         return self.vtk_dir / f"{self.name}_{int(step):07d}.vtu"
 
-    def write(self, step: int, time: float, points: np.ndarray, fields: dict[str, np.ndarray] | None = None
-              ) -> Path:
-        """Write snapshot ``step`` at simulation time ``time`` (s) and update the index; returns the VTU path.
+    def record(self, step: int, time: float) -> tuple[Path, list[tuple[float, str]]]:
+        """Enter snapshot ``step`` at simulation time ``time`` (s) in the index, without writing anything.
 
-        ``points`` is (N, 3) (or (N, 2), padded with z = 0); every entry of ``fields`` becomes point data:
-        (N,) scalars, (N, 3) vectors ((N, 2) vectors are padded to 3), (N, k) tuples.
+        Returns the VTU path to write and the index entries to write after it (in that order, so that
+        the index never names a missing file). A step recorded again (after a resume) replaces its entry.
         """
-        import meshio
-
-        step = int(step)
-        if step < 0:
-            raise ParameterError("step", f"must be >= 0, got {step}")
+        step = _check_step(step)
         time = float(time)
         if not math.isfinite(time):
             raise ParameterError("time", f"must be finite, got {time}")
-        pts = _as_points(points)
-        n = pts.shape[0]
-        point_data = {str(k): _as_field(str(k), v, n) for k, v in (fields or {}).items()}
-        cells = [("vertex", np.arange(n, dtype=np.int64).reshape(-1, 1))] if n > 0 else []
-        mesh = meshio.Mesh(pts, cells, point_data=point_data)
         path = self.path_for(step)
-        tmp = _atomic_target(path)
-        meshio.write(str(tmp), mesh, file_format="vtu")
-        os.replace(tmp, path)
-
         rel = path.relative_to(self.out_dir).as_posix()
-        # A step written again (e.g. after a resume) replaces its entry rather than duplicating it.
         self._entries = [(t, f) for t, f in self._entries if f != rel]
         self._entries.append((time, rel))
-        write_pvd(self.pvd_path, self._entries)
+        return path, list(self._entries)
+
+    def write(self, step: int, time: float, points: np.ndarray, fields: dict[str, np.ndarray] | None = None
+              ) -> Path:
+        """Write snapshot ``step`` at simulation time ``time`` (s) now and update the index; returns the VTU path."""
+        path = write_vtu(self.path_for(_check_step(step)), points, fields)  # bad fields: nothing indexed
+        _, entries = self.record(step, time)
+        write_pvd(self.pvd_path, entries)
         return path
 
     def __len__(self) -> int:

@@ -1,0 +1,46 @@
+"""Reference data for the validated scenes: one subpackage per case (``warpfree.validation.<case>``).
+
+Each case folder holds its data as CSV files (shipped as package data) and a ``README.md`` giving
+every source; the case's ``__init__`` loads the CSVs with :func:`read_csv` and exposes them as arrays,
+so an installed scene can compare itself with them.
+"""
+
+from importlib import resources
+
+import numpy as np
+
+__all__ = ["read_csv"]
+
+
+def read_csv(case: str, filename: str) -> tuple[list[str], np.ndarray]:
+    """Read ``filename`` of the case package ``warpfree.validation.<case>``.
+
+    The file has one header line of comma-separated column names (with units where they have any)
+    followed by rows of numbers. Returns ``(header, data)`` with ``data`` a float64 array of shape
+    ``(rows, columns)``. Found through :mod:`importlib.resources`, so it works from an installed
+    package as well as from the source tree. Raises ``FileNotFoundError`` naming the case and the
+    file when either is missing, and ``ValueError`` when the rows do not match the header.
+    """
+    package = f"{__name__}.{case}"
+    try:
+        res = resources.files(package).joinpath(filename)
+    except ModuleNotFoundError as exc:
+        raise FileNotFoundError(f"no validation case {case!r} (package {package} not found) "
+                                f"while looking for {filename!r}") from exc
+    if not res.is_file():
+        raise FileNotFoundError(f"validation case {case!r} has no data file {filename!r} "
+                                f"(looked in package {package})")
+    lines = [ln.strip() for ln in res.read_text(encoding="utf-8").splitlines() if ln.strip()]
+    if not lines:
+        raise ValueError(f"validation data {case}/{filename} is empty")
+    header = [c.strip() for c in lines[0].split(",")]
+    try:
+        rows = [[float(v) for v in ln.split(",")] for ln in lines[1:]]
+    except ValueError as exc:
+        raise ValueError(f"validation data {case}/{filename}: {exc}") from exc
+    bad = [i + 2 for i, r in enumerate(rows) if len(r) != len(header)]
+    if bad:
+        raise ValueError(f"validation data {case}/{filename}: line(s) {bad} do not have "
+                         f"{len(header)} columns ({','.join(header)})")
+    data = np.array(rows, dtype=np.float64).reshape(len(rows), len(header))
+    return header, data

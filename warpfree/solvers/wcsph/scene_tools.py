@@ -1,10 +1,10 @@
-"""Helpers shared by the scene scripts: hydrostatic initial density, box walls, front probes."""
+"""Helpers shared by the fluid scenes: hydrostatic initial density, box walls, walls from a mesh section, front probe."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from .geometry import polygon_boundary_layers
+from warpfree.geometry import polygon_boundary_layers
 
 
 def hydrostatic_density(y: np.ndarray, surface: float, rho0: float, c0: float, g: float,
@@ -32,8 +32,8 @@ def walls_from_section(mesh, plane_origin, plane_normal, dx: float, layers: int,
     The section's polygons (see :func:`warpfree.geometry.mesh_section` for the in-plane axes) get
     ``layers`` lattice layers outside, aligned with a fluid lattice anchored at ``origin``.
     """
-    from .errors import ParameterError
-    from .geometry import load_mesh, mesh_section
+    from warpfree.errors import ParameterError
+    from warpfree.geometry import load_mesh, mesh_section
 
     polygons = mesh_section(load_mesh(mesh), plane_origin, plane_normal)
     if not polygons:

@@ -3,36 +3,47 @@
 Normalisation: Z = x_front / a, T = t sqrt(2 g / a), with a the initial column width and the column
 height 2a (Martin & Moyce's "n² = 2" case).
 
-Provenance: the values are the digitisations distributed with PySPH (``pysph/examples/db_exp_data.py``,
-``mm_data_1`` for Martin & Moyce, a = 1.125 in, and ``ko_data`` for Koshizuka & Oka's experiment),
-as transcribed in ``shared/reference/anchors.md`` §1.4a, plus DualSPHysics' digitisation of Koshizuka &
-Oka in physical units. The data sets disagree with each other by up to ~0.19 in Z at the same T; the
-issue's tolerance (±0.15 in Z for T <= 2.5) is of that order.
+The data live in this folder as CSV files, one per data set; ``README.md`` next to them gives each
+experiment, where the digitisation comes from and how it was transcribed:
+
+- ``surge_front_martin_moyce_1952.csv`` (``T,Z``): PySPH's ``mm_data_1`` (``pysph/examples/db_exp_data.py``),
+  Martin & Moyce, a = 1.125 in;
+- ``surge_front_koshizuka_oka_1996_pysph.csv`` (``T,Z``): PySPH's ``ko_data``, Koshizuka & Oka's experiment;
+- ``surge_front_koshizuka_oka_1996_dualsphysics.csv`` (``t_s,x_front_m``): DualSPHysics' digitisation of
+  Koshizuka & Oka in physical units for a = 1 m.
+
+The data sets disagree with each other by up to ~0.2 in Z at the same T <= 2.5; the issue's tolerance
+(±0.15 in Z for T <= 2.5) is of that order.
 """
 
 import numpy as np
 
+from warpfree.validation import read_csv
+
+__all__ = ["MARTIN_MOYCE", "KOSHIZUKA_OKA", "KOSHIZUKA_OKA_DSPH_SI", "KOSHIZUKA_OKA_DSPH", "DATASETS",
+           "front_errors"]
+
+CASE = "dam_break_2d"
+
+
+def _load(filename: str, columns: list[str]) -> np.ndarray:
+    header, data = read_csv(CASE, filename)
+    if header != columns:
+        raise ValueError(f"validation data {CASE}/{filename}: header {header}, expected {columns}")
+    return data
+
+
 #: Martin & Moyce (1952), n² = 2, a = 1.125 in: (T, Z)
-MARTIN_MOYCE = np.array([
-    (0.849, 1.245), (1.212, 1.443), (1.602, 1.884), (2.283, 2.689), (2.950, 3.728),
-    (3.598, 4.528), (3.905, 4.999), (4.592, 5.841), (4.961, 6.271), (5.316, 6.717),
-])
+MARTIN_MOYCE = _load("surge_front_martin_moyce_1952.csv", ["T", "Z"])
 
 #: Koshizuka & Oka (1996), experiment: (T, Z)
-KOSHIZUKA_OKA = np.array([
-    (0.0, 1.000), (0.381, 1.111), (0.769, 1.252), (1.153, 1.505), (1.537, 1.892),
-    (1.935, 2.241), (2.323, 2.615), (2.719, 3.003), (3.096, 3.624),
-])
+KOSHIZUKA_OKA = _load("surge_front_koshizuka_oka_1996_pysph.csv", ["T", "Z"])
 
 #: Koshizuka & Oka (1996), second digitisation, in physical units for a = 1 m (column 1 m x 2 m),
 #: distributed with DualSPHysics (``examples/main/01_DamBreak/EXP_X-DamTipPosition_Koshizula&Oka1996.txt``,
-#: transcribed in anchors.md §1.4a): (t [s], x_front [m]). It agrees with Martin & Moyce within ±0.12
-#: and differs from PySPH's digitisation of the same experiment by up to 0.19 in Z at T ≈ 2.3.
-KOSHIZUKA_OKA_DSPH_SI = np.array([
-    (0.0920, 1.128), (0.1907, 1.244), (0.2663, 1.464), (0.3221, 1.695), (0.3681, 1.903),
-    (0.4140, 2.123), (0.4466, 2.365), (0.4958, 2.584), (0.5219, 2.804), (0.5646, 3.034),
-    (0.5940, 3.219), (0.6366, 3.462), (0.6693, 3.704), (0.7021, 3.900), (0.7513, 4.132),
-])
+#: transcribed in anchors.md §1.4a): (t [s], x_front [m]). It agrees with Martin & Moyce within 0.07 in Z
+#: and differs from PySPH's digitisation of the same experiment by up to 0.2 in Z at T ≈ 2.3 (README.md).
+KOSHIZUKA_OKA_DSPH_SI = _load("surge_front_koshizuka_oka_1996_dualsphysics.csv", ["t_s", "x_front_m"])
 #: the same in (T, Z) with g = 9.81 m/s²
 KOSHIZUKA_OKA_DSPH = np.column_stack([KOSHIZUKA_OKA_DSPH_SI[:, 0] * np.sqrt(2 * 9.81 / 1.0),
                                       KOSHIZUKA_OKA_DSPH_SI[:, 1] / 1.0])

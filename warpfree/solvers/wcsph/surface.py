@@ -11,26 +11,25 @@
 2. Marching cubes (Warp's ``IsoSurfaceMarchingCubes``) at ``χ = iso`` (default 1/2), vertices in world
    coordinates, triangles wound counter-clockwise seen from outside (normals point out of the fluid).
 
-The result is a :class:`trimesh.Trimesh`; :func:`write_surface` saves it as PLY, OBJ or STL.
+The result is a :class:`trimesh.Trimesh` (``warpfree.io.meshes.write_mesh`` saves it as PLY, OBJ or STL).
 """
 
 from __future__ import annotations
 
 import math
-import os
-from pathlib import Path
 
 import numpy as np
 import trimesh
 import warp as wp
 
-from ..device import Launcher
-from ..errors import ParameterError, require_positive
-from ..neighbours import NeighbourGrid
-from warpfree.kernels import surface as sk
+from warpfree.device import Launcher
+from warpfree.errors import ParameterError, require_positive
+from warpfree.kernels import wcsph as K
 from warpfree.kernels.smoothing import kernel_id, support_factor
+from warpfree.neighbours import NeighbourGrid
+from warpfree.space import Space
 
-__all__ = ["colour_function_grid", "free_surface_mesh", "write_surface"]
+__all__ = ["colour_function_grid", "free_surface_mesh"]
 
 #: Refuse grids larger than this many nodes (a float32 field of 2e8 nodes is 800 MB).
 MAX_NODES = 200_000_000
@@ -81,11 +80,11 @@ def colour_function_grid(launcher: Launcher, positions: wp.array, volumes: wp.ar
         positions = positions.to(device)
     if str(volumes.device) != device:
         volumes = volumes.to(device)
-    ng = NeighbourGrid(positions, support, dim=3, policy="static", device=device)
+    grid = NeighbourGrid(launcher, support, Space.free(3), positions)
     chi = wp.zeros(nodes, dtype=float, device=device)
-    launcher.launch(sk.colour_function_grid, nodes,
-                    [ng.id, positions, volumes, wp.vec3(*lower.astype(np.float32)), float(cell),
-                     shape[1], shape[2], ng.query_radius, support, kind, h, chi])
+    launcher.launch(K.colour_function_grid, nodes,
+                    [grid.id, positions, volumes, wp.vec3(*lower.astype(np.float32)), float(cell),
+                     shape[1], shape[2], support, kind, h, chi])
     return chi.reshape(shape), lower, float(cell)
 
 
@@ -127,16 +126,3 @@ def _marching_cubes():
                            "(warp.geometry.IsoSurfaceMarchingCubes), "
                            f"this is {wp.config.version}") from None
     return IsoSurfaceMarchingCubes
-
-
-def write_surface(path: str | os.PathLike, mesh: trimesh.Trimesh) -> Path:
-    """Save ``mesh`` as PLY, OBJ or STL by the file extension (binary PLY/STL); returns the path."""
-    path = Path(path)
-    ext = path.suffix.lower().lstrip(".")
-    if ext not in ("ply", "obj", "stl"):
-        raise ParameterError("path", f"extension must be .ply, .obj or .stl, got {path.suffix!r}")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
-    mesh.export(str(tmp), file_type=ext)
-    os.replace(tmp, path)
-    return path

@@ -1,0 +1,372 @@
+"""Weakly-compressible SPH kernels (seed 004, chapter 5; Adami 2012 walls; Molteni–Colagrossi δ-SPH).
+
+Precision: float32 (fluid SPH tolerates it; densities vary by ~1%, pressures are O(ρ0 c0²)).
+Units: SI (m, s, kg; pressures in Pa, densities in kg/m³, accelerations in m/s²).
+
+Particles live in combined arrays: fluid indices ``[0, nf)``, boundary (wall) indices ``[nf, n)``;
+per-fluid arrays (rates, predictors, the step report) have nf entries, per-wall ones nb. Neighbours
+come as :class:`~warpfree.kernels.neighbours.NeighbourRows` (fluid → fluid, fluid → wall,
+wall → fluid) holding candidates within support + skin; every loop tests the true distance. Every
+kernel is a gather: thread ``i`` writes only particle ``i``. Displacements come from the shared
+space function (periodic boxes work through the minimum image).
+
+Optional physics is switched at compile time: :func:`make_kernels` builds the kernels of one
+:class:`FluidTerms` (smoothing kernel, dimension, which viscosities, δ-SPH, wall model, periodic
+axes), so a term a scene switches off is not in its compiled code.
+
+Equations (r_ij = x_i - x_j, v_ij = v_i - v_j, ∇W_ij = ∇_i W(r_ij, h)):
+
+- Tait EOS (seed 4-39):         p = B[(ρ/ρ0)^γ - 1],  B = ρ0 c0²/γ, γ = 7
+- continuity (seed 4-37):       dρ_i/dt = Σ_j m_j v_ij·∇W_ij + δ-SPH diffusion D_i
+- δ-SPH (Molteni & Colagrossi 2009, hydrostatic correction in the style of Fourtakas 2019):
+      D_i = δ h c0 Σ_{j fluid} V_j ψ_ij·∇W_ij,
+      ψ_ij = 2[(ρ_j - ρ_i) - ρ0 g·(x_j - x_i)/c0²] (x_j - x_i)/(r² + 0.01h²)
+- momentum (seed 4-38):         dv_i/dt = -Σ_j m_j (p_i/ρ_i² + p_j/ρ_j² + Π_ij) ∇W_ij + F^visc_i + g
+- laminar viscosity (Morris 1997): F^visc_i = Σ_j m_j 2μ/(ρ_i ρ_j) (r_ij·∇W_ij)/(r² + 0.01h²) v_ij
+- artificial viscosity (Monaghan 1992): Π_ij = -α c0 μ_ij/ρ̄_ij, μ_ij = h v_ij·r_ij/(r² + 0.01h²)
+  when v_ij·r_ij < 0, else 0
+- Lennard-Jones wall force (seed 5-6, with the printed condition corrected to r < r0):
+      Γ_ig = D[(r0/r)^12 - (r0/r)^4] r_ig/r²
+  With dynamic boundaries the same force, with r0 < dx, is a safety net that only acts on a fluid
+  particle closer to a wall particle than any particle of a settled flow is.
+- Adami et al. 2012 wall pressure (eq. 27) for dynamic boundary particles w:
+      p_w = [Σ_f p_f W_wf + (g - a_w)·Σ_f ρ_f r_wf W_wf] / Σ_f W_wf,  ρ_w from the inverse EOS,
+      ghost velocity for no-slip ṽ_w = 2 v_w - Σ_f v_f W_wf / Σ_f W_wf.
+      In the fluid–wall pressure term both pressures enter as max(p, 0): walls push and never pull
+      (with suction, free-surface particles running down a wall are glued to it and leak through).
+- leapfrog (seed 5-3 to 5-5) in kick–drift–kick form with Monaghan's predictor for the rates.
+
+Colour function (free surfaces): χ(x) = Σ_j V_j W(|x - x_j|, h), sampled on a grid (seed eq. 5-7).
+"""
+
+from dataclasses import dataclass
+from types import SimpleNamespace
+
+import warp as wp
+
+from .neighbours import NeighbourRows
+from .smoothing import kernel_grad_coef, kernel_shape, kernel_w
+from .space import Box, displacement, displacement_function, image_displacement, wrap
+
+# run status of a fluid particle (the 4th component of the step report; the worst one wins a max)
+STATUS_OK = wp.constant(0.0)
+STATUS_OUTSIDE = wp.constant(1.0)
+STATUS_NONFINITE = wp.constant(2.0)
+
+
+@wp.struct
+class FluidConstants:
+    """Constants of a WCSPH model (SI), derived once on the host (see WCSPHModel)."""
+
+    h: float                 # smoothing length (m)
+    inv_h: float
+    support2: float          # (support radius)² (m²)
+    grad_factor: float       # σ_d/h²: ∇W = grad_factor · (df/dq)/q · r_ij
+    eps: float               # 0.01 h² (m²), keeps 1/(r² + eps) finite
+    rho0: float              # reference density (kg/m³)
+    c0: float                # numerical speed of sound (m/s)
+    b: float                 # Tait stiffness B = ρ0 c0²/γ (Pa)
+    gamma: float             # Tait exponent
+    mu: float                # dynamic viscosity (Pa·s)
+    avisc: float             # α c0 h (m²/s), artificial viscosity
+    delta_coef: float        # δ h c0 (m²/s), δ-SPH
+    inv_c2: float            # 1/c0²
+    gravity: wp.vec3         # m/s²
+    lj_d: float              # Lennard-Jones strength D (m²/s²)
+    lj_r0: float             # Lennard-Jones range r0 (m)
+    container_lo: wp.vec3    # fluid must stay in this box (m)
+    container_hi: wp.vec3
+    box: Box                 # the space (periodic axes)
+
+
+@wp.struct
+class FluidArrays:
+    """The particle arrays every WCSPH kernel reads or writes (combined: fluid [0, nf), walls [nf, n))."""
+
+    nf: int
+    position: wp.array(dtype=wp.vec3)          # (n) m
+    velocity: wp.array(dtype=wp.vec3)          # (n) m/s; walls: their prescribed velocity
+    density: wp.array(dtype=float)             # (n) kg/m³; walls: from the inverse EOS of their pressure
+    pressure: wp.array(dtype=float)            # (n) Pa
+    mass: wp.array(dtype=float)                # (n) kg
+    acceleration: wp.array(dtype=wp.vec3)      # (nf) dv/dt, m/s²
+    density_rate: wp.array(dtype=float)        # (nf) dρ/dt, kg/(m³ s)
+    velocity_eval: wp.array(dtype=wp.vec3)     # (nf) predictor v* = v + ½Δt a
+    density_eval: wp.array(dtype=float)        # (nf) predictor ρ* = ρ + ½Δt dρ/dt
+    ghost_velocity: wp.array(dtype=wp.vec3)    # (nb) no-slip ghost velocity of the walls
+    position_at_build: wp.array(dtype=wp.vec3)  # (nf) positions when the neighbour tables were built
+    report: wp.array(dtype=wp.vec4)            # (nf) |Δx since build|², |v|², |a|², status
+
+
+@dataclass(frozen=True)
+class FluidTerms:
+    """What a WCSPH model compiles in (one set of kernels per distinct value)."""
+
+    kernel: int = 1                  # smoothing kernel id (warpfree.kernels.smoothing)
+    dim: int = 2
+    laminar: bool = True             # Morris laminar viscosity (μ > 0)
+    artificial: bool = False         # Monaghan artificial viscosity (α > 0)
+    delta_sph: bool = False          # δ-SPH density diffusion (δ > 0)
+    walls: str = "dynamic"           # "dynamic" (Adami), "lennard_jones" (seed 5-6) or "none"
+    wall_safety: bool = False        # Lennard-Jones safety net of dynamic walls (r0 > 0)
+    no_slip: bool = True             # walls enter the viscous terms with the ghost velocity
+    periodic: tuple = (False, False, False)
+
+
+@wp.func
+def tait_pressure(rho: float, rho0: float, b: float, gamma: float) -> float:
+    """Tait EOS p = B[(ρ/ρ0)^γ - 1] in Pa (γ = 7 by multiplications: pow costs ~10x more)."""
+    r = rho / rho0
+    if gamma == 7.0:
+        r2 = r * r
+        return b * (r2 * r2 * r2 * r - 1.0)
+    return b * (wp.pow(r, gamma) - 1.0)
+
+
+@wp.func
+def tait_density(p: float, rho0: float, b: float, gamma: float) -> float:
+    """Inverse Tait EOS ρ = ρ0 (1 + p/B)^(1/γ) in kg/m³."""
+    return rho0 * wp.pow(1.0 + p / b, 1.0 / gamma)
+
+
+@wp.func
+def lennard_jones(rij: wp.vec3, r2: float, d: float, r0: float) -> wp.vec3:
+    """Seed eq. 5-6: Γ = D[(r0/r)^12 - (r0/r)^4] r_ij/r² (m/s²), for r < r0 (the caller tests it)."""
+    q2 = r0 * r0 / r2
+    q4 = q2 * q2
+    q12 = q4 * q4 * q4
+    return (d * (q12 - q4) / r2) * rij
+
+
+@wp.func
+def particle_status(c: FluidConstants, x: wp.vec3, v: wp.vec3, a: wp.vec3, rho: float) -> float:
+    """STATUS_NONFINITE if any value is not finite, STATUS_OUTSIDE outside the container box, else STATUS_OK."""
+    s = float(x[0] + x[1] + x[2] + v[0] + v[1] + v[2] + a[0] + a[1] + a[2] + rho)
+    if not wp.isfinite(s):
+        return STATUS_NONFINITE
+    lo = c.container_lo
+    hi = c.container_hi
+    if x[0] < lo[0] or x[1] < lo[1] or x[2] < lo[2] or x[0] > hi[0] or x[1] > hi[1] or x[2] > hi[2]:
+        return STATUS_OUTSIDE
+    return STATUS_OK
+
+
+@wp.func
+def fluid_report(c: FluidConstants, f: FluidArrays, i: int) -> wp.vec4:
+    """The step report of fluid particle i: |x - x(at build)|² (m², minimum image), |v|², |a|², status."""
+    x = f.position[i]
+    v = f.velocity[i]
+    a = f.acceleration[i]
+    moved = displacement(c.box, x, f.position_at_build[i])
+    return wp.vec4(wp.dot(moved, moved), wp.dot(v, v), wp.dot(a, a), particle_status(c, x, v, a, f.density[i]))
+
+
+
+@wp.kernel
+def equation_of_state(first: int, c: FluidConstants, density: wp.array(dtype=float), pressure: wp.array(dtype=float)):
+    """p_i = B[(ρ_i/ρ0)^γ - 1] (fluid particles)."""
+    i = first + wp.tid()
+    pressure[i] = tait_pressure(density[i], c.rho0, c.b, c.gamma)
+
+
+@wp.kernel
+def step_report(first: int, c: FluidConstants, f: FluidArrays):
+    """report[i] for fluid particle i (at the start, and after a checkpoint was loaded)."""
+    i = first + wp.tid()
+    f.report[i] = fluid_report(c, f, i)
+
+
+@wp.kernel
+def colour_function_grid(
+    first: int,
+    grid: wp.uint64,
+    positions: wp.array(dtype=wp.vec3),
+    volumes: wp.array(dtype=float),
+    lower: wp.vec3,
+    cell: float,
+    ny: int,
+    nz: int,
+    support: float,
+    kind: int,
+    h: float,
+    chi: wp.array(dtype=float),
+):
+    """χ at grid node i = Σ_j V_j W(|x_i - x_j|, h) (dimensionless, 3D); node i = (ix·ny + iy)·nz + iz lies at
+    ``lower + cell · (ix, iy, iz)``."""
+    i = first + wp.tid()
+    iz = i % nz
+    iy = (i // nz) % ny
+    ix = i // (ny * nz)
+    x = lower + wp.vec3(float(ix) * cell, float(iy) * cell, float(iz) * cell)
+    s = float(0.0)
+    for j in wp.hash_grid_query(grid, x, support):
+        r = wp.length(image_displacement(x, positions[j]))
+        if r < support:
+            s += volumes[j] * kernel_w(kind, 3, r, h)
+    chi[i] = s
+
+
+_made: dict = {}
+
+
+def make_kernels(terms: FluidTerms) -> SimpleNamespace:
+    """The kernels of one model: ``drift``, ``wall_pressure``, ``rates``, ``kick`` (cached per ``terms``).
+
+    Each takes ``(first, c: FluidConstants, f: FluidArrays, ...)``; see their docstrings.
+    """
+    if terms in _made:
+        return _made[terms]
+    disp = displacement_function(terms.periodic)
+    kind, dim = terms.kernel, terms.dim
+    periodic_any = any(terms.periodic)
+    dynamic = terms.walls == "dynamic"
+    lj_walls = terms.walls == "lennard_jones" or (dynamic and terms.wall_safety)
+
+    def make_pair(viscous: bool):
+        @wp.func
+        def pair_terms(c: FluidConstants, vi: wp.vec3, rhoi: float, inv_rhoi: float, pi_term: float, rij: wp.vec3,
+                       r2: float, vj: wp.vec3, rhoj: float, pj: float, mj: float):
+            """Pressure (+ artificial viscosity) and laminar-viscosity acceleration of one pair.
+
+            ``pi_term`` = p_i/ρ_i². Returns (dv_i/dt contribution, ∇W_ij, 1/(r² + 0.01h²)).
+            """
+            gw = (c.grad_factor * kernel_grad_coef(wp.static(kind), wp.static(dim), wp.sqrt(r2) * c.inv_h)) * rij
+            inv_r2e = 1.0 / (r2 + c.eps)
+            inv_rhoj = 1.0 / rhoj
+            coef = pi_term + pj * inv_rhoj * inv_rhoj
+            a = wp.vec3(0.0, 0.0, 0.0)
+            if wp.static(viscous and (terms.artificial or terms.laminar)):
+                vij = vi - vj
+                if wp.static(terms.artificial):
+                    vr = wp.dot(vij, rij)
+                    if vr < 0.0:
+                        coef -= c.avisc * vr * inv_r2e / (0.5 * (rhoi + rhoj))
+                if wp.static(terms.laminar):
+                    a = (mj * 2.0 * c.mu * inv_rhoi * inv_rhoj * wp.dot(rij, gw) * inv_r2e) * vij
+            a -= (mj * coef) * gw
+            return a, gw, inv_r2e
+
+        return pair_terms
+
+    fluid_pair = make_pair(True)
+    wall_pair = make_pair(terms.no_slip)
+
+    @wp.kernel(module="unique")
+    def drift(first: int, c: FluidConstants, f: FluidArrays, dt: float):
+        """First half kick and drift (seed 5-3): v ← v + ½Δt a, ρ ← ρ + ½Δt dρ/dt, x ← x + Δt v (wrapped into
+        the periodic box); then the predictor for the rate evaluation (Monaghan 1994): v* = v + ½Δt a,
+        ρ* = ρ + ½Δt dρ/dt, p* = EOS(ρ*)."""
+        i = first + wp.tid()
+        a = f.acceleration[i]
+        d = f.density_rate[i]
+        vh = f.velocity[i] + (0.5 * dt) * a
+        rh = f.density[i] + (0.5 * dt) * d
+        xn = f.position[i] + dt * vh
+        if wp.static(periodic_any):
+            xn = wrap(c.box, xn)
+        f.velocity[i] = vh
+        f.density[i] = rh
+        f.position[i] = xn
+        re = rh + (0.5 * dt) * d
+        f.velocity_eval[i] = vh + (0.5 * dt) * a
+        f.density_eval[i] = re
+        f.pressure[i] = tait_pressure(re, c.rho0, c.b, c.gamma)
+
+    @wp.kernel(module="unique")
+    def wall_pressure(first: int, c: FluidConstants, f: FluidArrays, wall_fluid: NeighbourRows):
+        """Adami 2012 eq. 27: pressure, density and no-slip ghost velocity of wall particle k (index nf + k),
+        from the fluid candidates in row k of ``wall_fluid``."""
+        k = first + wp.tid()
+        i = f.nf + k
+        xi = f.position[i]
+        sw = float(0.0)
+        spw = float(0.0)
+        srw = wp.vec3(0.0, 0.0, 0.0)
+        svw = wp.vec3(0.0, 0.0, 0.0)
+        for n in range(wall_fluid.start[k], wall_fluid.start[k] + wall_fluid.count[k]):
+            j = wall_fluid.index[n]
+            rij = disp(c.box, xi, f.position[j])
+            r2 = wp.dot(rij, rij)
+            if r2 >= c.support2:
+                continue
+            w = kernel_shape(wp.static(kind), wp.static(dim), wp.sqrt(r2) * c.inv_h)  # σ_d cancels in the ratios
+            sw += w
+            spw += f.pressure[j] * w
+            srw += f.density_eval[j] * w * rij
+            svw += f.velocity_eval[j] * w
+        if sw > 0.0:
+            pw = (spw + wp.dot(c.gravity, srw)) / sw
+            f.pressure[i] = pw
+            f.density[i] = tait_density(pw, c.rho0, c.b, c.gamma)
+            f.ghost_velocity[k] = 2.0 * f.velocity[i] - svw / sw
+        else:
+            f.pressure[i] = 0.0
+            f.density[i] = c.rho0
+            f.ghost_velocity[k] = f.velocity[i]
+
+    @wp.kernel(module="unique")
+    def rates(first: int, c: FluidConstants, f: FluidArrays, fluid_fluid: NeighbourRows, fluid_wall: NeighbourRows):
+        """dρ/dt and dv/dt of fluid particle i (continuity 4-37, momentum 4-38; see the module docstring): one
+        sweep over its fluid candidates, one over its wall candidates (wall j is particle nf + j)."""
+        i = first + wp.tid()
+        xi = f.position[i]
+        vi = f.velocity_eval[i]
+        rhoi = f.density_eval[i]
+        inv_rhoi = 1.0 / rhoi
+        pi_term = f.pressure[i] * inv_rhoi * inv_rhoi
+        dr = float(0.0)
+        diff = float(0.0)
+        a = wp.vec3(0.0, 0.0, 0.0)
+        for n in range(fluid_fluid.start[i], fluid_fluid.start[i] + fluid_fluid.count[i]):
+            j = fluid_fluid.index[n]
+            rij = disp(c.box, xi, f.position[j])
+            r2 = wp.dot(rij, rij)
+            if r2 >= c.support2:
+                continue
+            mj = f.mass[j]
+            rhoj = f.density_eval[j]
+            vj = f.velocity_eval[j]
+            aj, gw, inv_r2e = fluid_pair(c, vi, rhoi, inv_rhoi, pi_term, rij, r2, vj, rhoj, f.pressure[j], mj)
+            a += aj
+            dr += mj * wp.dot(vi - vj, gw)
+            if wp.static(terms.delta_sph):
+                drho_dyn = (rhoj - rhoi) + c.rho0 * wp.dot(c.gravity, rij) * c.inv_c2
+                diff -= 2.0 * drho_dyn * (mj / rhoj) * wp.dot(rij, gw) * inv_r2e
+        if wp.static(terms.walls != "none"):
+            pi_plus_term = wp.max(f.pressure[i], 0.0) * inv_rhoi * inv_rhoi  # walls push, never pull
+            for n in range(fluid_wall.start[i], fluid_wall.start[i] + fluid_wall.count[i]):
+                jw = fluid_wall.index[n]
+                j = f.nf + jw
+                rij = disp(c.box, xi, f.position[j])
+                r2 = wp.dot(rij, rij)
+                if r2 >= c.support2:
+                    continue
+                if wp.static(dynamic):
+                    # Adami p, ρ; prescribed velocity in continuity, no-slip ghost velocity in viscosity.
+                    mj = f.mass[j]
+                    aj, gw, inv_r2e = wall_pair(c, vi, rhoi, inv_rhoi, pi_plus_term, rij, r2, f.ghost_velocity[jw],
+                                                f.density[j], wp.max(f.pressure[j], 0.0), mj)
+                    a += aj
+                    dr += mj * wp.dot(vi - f.velocity[j], gw)
+                if wp.static(lj_walls):
+                    # seed 5-6, only for r < r0: the whole wall model of Lennard-Jones walls, a short-range
+                    # safety net of dynamic ones (r0 < dx there)
+                    if r2 < c.lj_r0 * c.lj_r0:
+                        a += lennard_jones(rij, r2, c.lj_d, c.lj_r0)
+        if wp.static(terms.delta_sph):
+            dr += c.delta_coef * diff
+        f.density_rate[i] = dr
+        f.acceleration[i] = a + c.gravity
+
+    @wp.kernel(module="unique")
+    def kick(first: int, c: FluidConstants, f: FluidArrays, dt: float):
+        """Second half kick: v ← v + ½Δt a(t+Δt), ρ ← ρ + ½Δt dρ/dt(t+Δt) (seed 5-3/5-4); then the step
+        report of the particle (moved², |v|², |a|², status), reduced on the device."""
+        i = first + wp.tid()
+        f.velocity[i] = f.velocity[i] + (0.5 * dt) * f.acceleration[i]
+        f.density[i] = f.density[i] + (0.5 * dt) * f.density_rate[i]
+        f.report[i] = fluid_report(c, f, i)
+
+    kernels = SimpleNamespace(drift=drift, wall_pressure=wall_pressure, rates=rates, kick=kick)
+    _made[terms] = kernels
+    return kernels

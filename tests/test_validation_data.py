@@ -1,0 +1,148 @@
+"""Validation reference data (warpfree/validation/<case>/): the dam-break CSVs load as package data,
+hold exactly the transcription they replaced, and ``front_errors`` measures against them."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import zipfile
+from importlib import resources
+
+import numpy as np
+import pytest
+
+from warpfree.validation import read_csv
+from warpfree.validation import dam_break_2d as db
+
+# The literals of the former warpfree/validation/dam_break.py (transcribed from anchors.md §1.4a): the
+# check on the CSVs.
+MARTIN_MOYCE = np.array([
+    (0.849, 1.245), (1.212, 1.443), (1.602, 1.884), (2.283, 2.689), (2.950, 3.728),
+    (3.598, 4.528), (3.905, 4.999), (4.592, 5.841), (4.961, 6.271), (5.316, 6.717),
+])
+KOSHIZUKA_OKA = np.array([
+    (0.0, 1.000), (0.381, 1.111), (0.769, 1.252), (1.153, 1.505), (1.537, 1.892),
+    (1.935, 2.241), (2.323, 2.615), (2.719, 3.003), (3.096, 3.624),
+])
+KOSHIZUKA_OKA_DSPH_SI = np.array([
+    (0.0920, 1.128), (0.1907, 1.244), (0.2663, 1.464), (0.3221, 1.695), (0.3681, 1.903),
+    (0.4140, 2.123), (0.4466, 2.365), (0.4958, 2.584), (0.5219, 2.804), (0.5646, 3.034),
+    (0.5940, 3.219), (0.6366, 3.462), (0.6693, 3.704), (0.7021, 3.900), (0.7513, 4.132),
+])
+KOSHIZUKA_OKA_DSPH = np.column_stack([KOSHIZUKA_OKA_DSPH_SI[:, 0] * np.sqrt(2 * 9.81 / 1.0),
+                                      KOSHIZUKA_OKA_DSPH_SI[:, 1] / 1.0])
+
+CSV = {
+    "surge_front_martin_moyce_1952.csv": (["T", "Z"], MARTIN_MOYCE),
+    "surge_front_koshizuka_oka_1996_pysph.csv": (["T", "Z"], KOSHIZUKA_OKA),
+    "surge_front_koshizuka_oka_1996_dualsphysics.csv": (["t_s", "x_front_m"], KOSHIZUKA_OKA_DSPH_SI),
+}
+
+
+def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
+    return a.shape == b.shape and a.dtype == b.dtype == np.float64 and np.array_equal(a.view(np.uint64),
+                                                                                       b.view(np.uint64))
+
+
+@pytest.mark.parametrize("filename", list(CSV))
+def test_csv_header_shape_and_values(filename):
+    header, data = read_csv("dam_break_2d", filename)
+    want_header, want = CSV[filename]
+    assert header == want_header
+    assert data.shape == want.shape and data.shape[1] == 2
+    assert same_bits(data, want), np.argwhere(data != want)
+
+
+def test_module_arrays_equal_the_literals():
+    assert same_bits(db.MARTIN_MOYCE, MARTIN_MOYCE) and db.MARTIN_MOYCE.shape == (10, 2)
+    assert same_bits(db.KOSHIZUKA_OKA, KOSHIZUKA_OKA) and db.KOSHIZUKA_OKA.shape == (9, 2)
+    assert same_bits(db.KOSHIZUKA_OKA_DSPH_SI, KOSHIZUKA_OKA_DSPH_SI) and db.KOSHIZUKA_OKA_DSPH_SI.shape == (15, 2)
+    assert same_bits(db.KOSHIZUKA_OKA_DSPH, KOSHIZUKA_OKA_DSPH)
+    assert list(db.DATASETS) == ["Martin & Moyce 1952", "Koshizuka & Oka 1996",
+                                 "Koshizuka & Oka 1996 (DualSPHysics digitisation)"]
+    assert db.DATASETS["Martin & Moyce 1952"] is db.MARTIN_MOYCE
+    assert db.DATASETS["Koshizuka & Oka 1996"] is db.KOSHIZUKA_OKA
+    assert db.DATASETS["Koshizuka & Oka 1996 (DualSPHysics digitisation)"] is db.KOSHIZUKA_OKA_DSPH
+
+
+@pytest.mark.parametrize("name", ["MARTIN_MOYCE", "KOSHIZUKA_OKA", "KOSHIZUKA_OKA_DSPH_SI", "KOSHIZUKA_OKA_DSPH"])
+def test_time_and_front_increase(name):
+    data = getattr(db, name)
+    assert np.all(np.diff(data[:, 0]) > 0), name
+    assert np.all(np.diff(data[:, 1]) > 0), name
+    assert np.all(data >= 0) and np.all(data[:, 1] >= 1.0), name  # the front starts at the column, Z >= 1
+
+
+def test_front_errors_zero_on_martin_moyce_itself():
+    """Fed the Martin & Moyce points as the 'simulated' front, its own error is zero at its points."""
+    T, Z = MARTIN_MOYCE[:, 0], MARTIN_MOYCE[:, 1]
+    # a = 1, g = 0.5: sqrt(2 g / a) = 1, so t = T and x = Z exactly
+    err = db.front_errors(T, Z, a=1.0, g=0.5, t_max=10.0)
+    mm = err["Martin & Moyce 1952"]
+    assert mm["T"] == T.tolist() and mm["dZ"] == [0.0] * 10 and mm["max_abs"] == 0.0
+    # the default t_max = 2.5 keeps the four points with T <= 2.5
+    err = db.front_errors(T, Z, a=1.0, g=0.5)
+    assert err["Martin & Moyce 1952"]["T"] == [0.849, 1.212, 1.602, 2.283]
+    assert err["Martin & Moyce 1952"]["max_abs"] == 0.0
+    assert set(err) == set(db.DATASETS) | {"max_abs"}
+
+
+def test_front_errors_zero_on_martin_moyce_in_physical_units():
+    """The same in physical units (a = 1.125 in, g = 9.81): t and x from T and Z, zero up to round-off.
+    The front is padded beyond the data's T range so that round-off cannot drop the end points."""
+    a, g = 1.125 * 0.0254, 9.81
+    T = np.concatenate([[0.0], MARTIN_MOYCE[:, 0], [6.0]])
+    Z = np.concatenate([[1.0], MARTIN_MOYCE[:, 1], [MARTIN_MOYCE[-1, 1]]])
+    err = db.front_errors(T / np.sqrt(2.0 * g / a), Z * a, a, g, t_max=10.0)
+    mm = err["Martin & Moyce 1952"]
+    assert len(mm["T"]) == 10 and mm["max_abs"] < 1e-12
+    # the other sets are measured against the same curve and are not zero (they disagree with it)
+    assert err["Koshizuka & Oka 1996"]["max_abs"] > 0.05
+    assert err["max_abs"] == max(v["max_abs"] for k, v in err.items() if k != "max_abs")
+
+
+def test_package_data_found_through_importlib_resources():
+    root = resources.files("warpfree.validation")
+    for filename in CSV:
+        assert root.joinpath("dam_break_2d", filename).is_file(), filename
+        assert resources.files("warpfree.validation.dam_break_2d").joinpath(filename).is_file(), filename
+    for case in ("dam_break_2d", "tank_at_rest_2d"):
+        readme = resources.files(f"warpfree.validation.{case}").joinpath("README.md")
+        assert readme.is_file(), case
+        assert len(readme.read_text(encoding="utf-8")) > 200, case
+    text = resources.files("warpfree.validation.dam_break_2d").joinpath("README.md").read_text(encoding="utf-8")
+    for needle in ("10.1098/rsta.1952.0006", "10.13182/NSE96-A24205", "db_exp_data.py",
+                   "EXP_X-DamTipPosition_Koshizula&Oka1996.txt", "sqrt(2 g / a)"):
+        assert needle in text, needle
+
+
+def test_read_csv_names_the_missing_case_or_file():
+    with pytest.raises(FileNotFoundError, match=r"dam_break_2d.*no_such\.csv|no_such\.csv.*dam_break_2d"):
+        read_csv("dam_break_2d", "no_such.csv")
+    with pytest.raises(FileNotFoundError, match=r"no_such_case.*x\.csv|x\.csv.*no_such_case"):
+        read_csv("no_such_case", "x.csv")
+
+
+def test_loads_from_a_zipped_package(tmp_path):
+    """importlib.resources, not file paths next to the source: the case package loads its CSVs when
+    warpfree.validation is imported from a zip archive (a stand-in warpfree/__init__.py, no Warp)."""
+    src = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "warpfree", "validation")
+    archive = tmp_path / "pkg.zip"
+    with zipfile.ZipFile(archive, "w") as zf:
+        zf.writestr("warpfree/__init__.py", "")
+        for dirpath, dirnames, filenames in os.walk(src):
+            dirnames[:] = [d for d in dirnames if d != "__pycache__"]
+            for f in filenames:
+                if f.endswith((".py", ".csv", ".md")):
+                    path = os.path.join(dirpath, f)
+                    zf.write(path, os.path.join("warpfree", "validation", os.path.relpath(path, src)))
+    code = ("import warpfree.validation.dam_break_2d as d, numpy as np; "
+            "assert '.zip' in d.__file__, d.__file__; "
+            "print(list(d.DATASETS), d.MARTIN_MOYCE.shape, d.KOSHIZUKA_OKA_DSPH_SI.sum().hex())")
+    env = dict(os.environ, PYTHONPATH=str(archive))
+    res = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert "Martin & Moyce 1952" in res.stdout and "(10, 2)" in res.stdout
+    assert KOSHIZUKA_OKA_DSPH_SI.sum().hex() in res.stdout

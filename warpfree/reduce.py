@@ -1,0 +1,80 @@
+"""Reductions on the device: max, min and sum of an array into one value, read back once.
+
+A solver reduces what its step produced (largest displacement, speed, a status flag) on the device
+and reads one small value per step; on a GPU that read is the step's only synchronisation.
+:class:`Reduction` keeps its buffers between launches; :func:`reduce` is the one-off form.
+Deterministic for any thread count (fixed blocks, see ``warpfree.kernels.reduce``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from .device import Launcher
+from .errors import ParameterError
+from warpfree.kernels.reduce import OPERATIONS, block_reduce_kernel
+
+__all__ = ["Reduction", "reduce"]
+
+#: items per block of the first pass (fixed, so that sums do not depend on the thread count)
+BLOCK = 1024
+
+_SUM_ACCUMULATOR = {wp.float32: wp.float64, wp.float16: wp.float64}
+
+
+class Reduction:
+    """``op`` ("max", "min", "sum") over arrays of ``dtype`` on ``launcher``'s device.
+
+    :meth:`launch` enqueues the two passes and leaves the result in :attr:`result` (a one-element
+    device array); :meth:`value` reads it back once per launch (NumPy scalar or small vector).
+    Sums of float32 accumulate in float64. A reduction over zero items gives the type's zero.
+    """
+
+    def __init__(self, launcher: Launcher, dtype, op: str, block: int = BLOCK):
+        if op not in OPERATIONS:
+            raise ParameterError("op", f"must be one of {OPERATIONS}, got {op!r}")
+        self.launcher = launcher
+        self.op = op
+        self.dtype = dtype
+        self.acc_dtype = _SUM_ACCUMULATOR.get(dtype, dtype) if op == "sum" else dtype
+        self.block = int(block)
+        self._first = block_reduce_kernel(dtype, self.acc_dtype, op)
+        self._second = block_reduce_kernel(self.acc_dtype, self.acc_dtype, op)
+        self._partial: wp.array | None = None
+        # the accumulator type's zero (written for a block without items)
+        self._zero = self.acc_dtype() if wp.types.type_is_vector(self.acc_dtype) else self.acc_dtype(0)
+        self.result = wp.zeros(1, dtype=self.acc_dtype, device=launcher.device)
+        self._value = None
+
+    def launch(self, values: wp.array, n: int | None = None) -> wp.array:
+        """Reduce the first ``n`` items of ``values`` (all by default) into :attr:`result`."""
+        if values.dtype != self.dtype:
+            raise ParameterError("values", f"this reduction takes {self.dtype.__name__}, got {values.dtype.__name__}")
+        n = values.shape[0] if n is None else int(n)
+        blocks = max(1, -(-n // self.block))
+        if self._partial is None or self._partial.shape[0] < blocks:
+            self._partial = wp.zeros(blocks, dtype=self.acc_dtype, device=self.launcher.device)
+        L = self.launcher
+        L.launch(self._first, blocks, [values, n, self.block, self._zero, self._partial], light=True)
+        L.launch(self._second, 1, [self._partial, blocks, blocks, self._zero, self.result])
+        self._value = None
+        return self.result
+
+    def value(self):
+        """The last launch's result on the host (one read per launch, cached)."""
+        if self._value is None:
+            self._value = self.result.numpy()[0]
+        return self._value
+
+
+def reduce(launcher: Launcher, values: wp.array, op: str, n: int | None = None):
+    """One-off ``op`` over ``values`` (first ``n`` items), returned on the host."""
+    r = Reduction(launcher, values.dtype, op)
+    r.launch(values, n)
+    return r.value()
+
+
+def any_set(launcher: Launcher, flags: wp.array, n: int | None = None) -> bool:
+    """True if any of the first ``n`` integer flags is non-zero (a device max, one read)."""
+    return bool(np.asarray(reduce(launcher, flags, "max", n)).max() != 0)

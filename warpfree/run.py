@@ -1,0 +1,330 @@
+"""The run shell: what every run does, whatever advances its solver.
+
+A scene's ``build(**params)`` returns a :class:`Run`: a :class:`~warpfree.time_loop.TimeLoop` for a
+time-dependent solver or a :class:`StaticRun` for a one-off solve. The shell owns
+
+- the run directory (:class:`RunDirectory`: every path in one place);
+- ``summary.json``: parameters, model, device and threads, wall time per phase, throughput in the
+  solver's unit, diagnostics, analyses, status and error;
+- the outputs (VTU + PVD, PNG frames, PLY meshes), written beside the run by
+  :class:`~warpfree.io.writer.OutputWriter` from NumPy copies;
+- analyses (scene functions run at the end, e.g. an error against a reference), and errors: a run
+  that goes wrong raises :class:`~warpfree.errors.RunError` after keeping its last good state, and
+  ``summary.json`` says so.
+
+The CLI maps :class:`~warpfree.errors.ParameterError` to exit code 2 and RunError to 3.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from .errors import ParameterError, RunError
+from .io.writer import OutputError, OutputWriter
+from .solver import OutputSet, PhaseTimes, Solver, StaticSolver
+
+__all__ = ["OutputOptions", "RunDirectory", "Run", "StaticRun", "build_scene"]
+
+#: analysis: function(run, out_dir) -> dict merged into summary["analysis"]
+Analysis = Callable[["Run", str], dict]
+
+
+@dataclass
+class OutputOptions:
+    """What a run writes besides ``summary.json``.
+
+    frame_set / frame_field: the set and field frames colour (default: the first output set with a
+    ``frame_field``, and that field); frame_bounds: the plotted extent, ``((xmin, xmax), (ymin, ymax)[, (zmin,
+    zmax)])`` (default: the bounding box of the first output, 5% margin); meshes: write the solver's
+    ``output_meshes()`` (e.g. free surfaces) as PLY; background: write in a worker process beside the run.
+    """
+
+    vtk: bool = True
+    frames: bool = True
+    frame_set: str | None = None
+    frame_field: str | None = None
+    frame_bounds: tuple | None = None
+    meshes: bool = False
+    background: bool = True
+
+
+class RunDirectory:
+    """The layout of a run directory, in one place.
+
+    ``summary.json``, ``run.json`` (how the CLI ran it: scene, overrides), ``<set>.pvd`` + ``vtk/``,
+    ``frames/frame_NNNNN.png``, ``<mesh>/<mesh>_NNNNN.ply``, ``checkpoints/``, and the scene's own plots.
+    """
+
+    def __init__(self, root: str):
+        self.root = str(root)
+        os.makedirs(self.root, exist_ok=True)
+
+    @property
+    def summary(self) -> str:
+        return os.path.join(self.root, "summary.json")
+
+    @property
+    def run_json(self) -> str:
+        return os.path.join(self.root, "run.json")
+
+    @property
+    def checkpoints(self) -> str:
+        return os.path.join(self.root, "checkpoints")
+
+    def frame(self, index: int) -> str:
+        return os.path.join(self.root, "frames", f"frame_{index:05d}.png")
+
+    def mesh(self, name: str, index: int) -> str:
+        return os.path.join(self.root, name, f"{name}_{index:05d}.ply")
+
+    def path(self, name: str) -> str:
+        """A file of the scene's own (a plot, a table) at the top of the run directory."""
+        return os.path.join(self.root, name)
+
+
+class Run(ABC):
+    """The shell around a solver: run directory, outputs, summary, analyses, errors.
+
+    Parameters
+    ----------
+    solver: a :class:`~warpfree.solver.Solver`.
+    name: the scene's name (summary, frame titles, progress bar).
+    params: the scene's parameters, recorded in the summary.
+    analyses: functions ``(run, out_dir) -> dict`` run at the end, merged into ``summary["analysis"]``.
+    output: :class:`OutputOptions`.
+    """
+
+    kind: ClassVar[str] = "run"
+
+    def __init__(self, solver: Solver, name: str = "run", params: dict | None = None,
+                 analyses: list[Analysis] | None = None, output: OutputOptions | None = None):
+        self.solver = solver
+        self.name = name
+        self.params = dict(params or {})
+        self.analyses = list(analyses or [])
+        self.output = output or OutputOptions()
+        self.phases = PhaseTimes()           # the shell's own: setup, output, checkpoint, analysis
+        self.last_summary: dict | None = None
+        self._frame_set, self._frame_field = self._frame_choice()
+        self._writer: OutputWriter | None = None
+        self._series: dict = {}
+        self._bounds = None
+        self._resumed_time: float | None = None
+
+    # -- outputs --------------------------------------------------------------------------------
+    def _frame_choice(self) -> tuple[str | None, str | None]:
+        """The set and field frames show; bad names are refused before the run starts."""
+        if not self.output.frames:
+            return None, None
+        fields = self.solver.output_fields()
+        name = self.output.frame_set
+        if name is None:
+            name = next((s.name for s in self.solver.output_sets() if s.frame_field), None)
+            if name is None:
+                raise ParameterError("frame_set", "the solver marks no set to draw; name one or switch frames off")
+        if name not in fields:
+            raise ParameterError("frame_set", f"must be one of {sorted(fields)}, got {name!r}")
+        field = self.output.frame_field
+        if field is None:
+            field = next(s.frame_field for s in self.solver.output_sets() if s.name == name)
+        if field not in fields[name]:
+            raise ParameterError("frame_field", f"must be one of {sorted(fields[name])} for the set {name!r}, "
+                                                f"got {field!r}")
+        return name, field
+
+    def write_outputs(self, directory: RunDirectory, index: int, step: int, time_s: float, title: str) -> None:
+        """Hand the solver's output sets (and meshes) at this moment to the writer, as one batch."""
+        with self.phases("output"):
+            sets = self.solver.output_sets()
+            batch: list[tuple[str, dict]] = []
+            if self.output.vtk:
+                batch += self._vtu_jobs(directory, sets, step, time_s)
+            if self.output.frames:
+                batch.append(self._frame_job(directory, sets, index, title))
+            if self.output.meshes:
+                for mesh_name, (vertices, faces) in self.solver.output_meshes().items():
+                    batch.append(("mesh", {"path": directory.mesh(mesh_name, index), "vertices": vertices,
+                                           "faces": faces}))
+            self._writer.submit(batch)
+
+    def _vtu_jobs(self, directory: RunDirectory, sets: list[OutputSet], step: int, time_s: float) -> list:
+        from .io.vtk import VtuSeries
+
+        jobs = []
+        for s in sets:
+            if s.name not in self._series:
+                self._series[s.name] = VtuSeries(directory.root, s.name, resume_after_time=self._resumed_time)
+            series = self._series[s.name]
+            path, entries = series.record(step, time_s)
+            jobs.append(("vtu", {"path": str(path), "points": s.points, "fields": s.fields}))
+            jobs.append(("pvd", {"path": str(series.pvd_path), "entries": entries}))
+        return jobs
+
+    def _frame_job(self, directory: RunDirectory, sets: list[OutputSet], index: int, title: str):
+        shown = next(s for s in sets if s.name == self._frame_set)
+        others = [s.points for s in sets if s.name != self._frame_set and len(s.points)]
+        dim = self.solver.dim
+        if self._bounds is None:
+            self._bounds = self.output.frame_bounds or _bounding_box(sets, max(dim, 2))
+        return ("frame", {"path": directory.frame(index), "points": shown.points,
+                          "values": shown.fields[self._frame_field], "dim": dim, "field_name": self._frame_field,
+                          "bounds": self._bounds, "boundary_points": np.vstack(others) if others else None,
+                          "title": title})
+
+    # -- the run --------------------------------------------------------------------------------
+    def run(self, out_dir: str | None = None, resume: bool = False, progress: bool = True) -> dict:
+        """Run, writing outputs under ``out_dir`` (None: in memory, nothing written). Returns the summary."""
+        if resume and out_dir is None:
+            raise ParameterError("resume", "needs the run directory")
+        directory = RunDirectory(out_dir) if out_dir is not None else None
+        self._writer = OutputWriter(background=self.output.background and directory is not None)
+        self._series, self._bounds = {}, None
+        wall0 = time.perf_counter()
+        try:
+            try:
+                self._execute(directory, resume, progress)
+                with self.phases("output"):
+                    self._writer.finish()
+            except OutputError as exc:
+                raise RunError(str(exc).splitlines()[0], self._current_step()) from None
+        except RunError as err:
+            try:
+                self._writer.finish()  # what was handed over before the failure is still written
+            except OutputError:
+                pass
+            err = self._keep_last_good(directory, err)
+            summary = self.summary(time.perf_counter() - wall0, error=str(err))
+            self._write_summary(directory, summary)
+            raise err from None
+        finally:
+            self._writer.close()
+        summary = self.summary(time.perf_counter() - wall0)
+        if directory is not None:
+            analysis = {}
+            with self.phases("analysis"):
+                for fn in self.analyses:
+                    analysis.update(fn(self, directory.root) or {})
+            summary["analysis"] = analysis
+            summary["phases_s"] = self._phases()
+        self._write_summary(directory, summary)
+        return summary
+
+    @abstractmethod
+    def _execute(self, directory: RunDirectory | None, resume: bool, progress: bool) -> None:
+        """Advance or solve, writing outputs through :meth:`write_outputs`."""
+
+    def _current_step(self) -> int | None:
+        return None
+
+    def _keep_last_good(self, directory: RunDirectory | None, err: RunError) -> RunError:
+        """Keep the last good state on disk (time loops: a checkpoint); returns the error to raise."""
+        return err
+
+    # -- summary ----------------------------------------------------------------------------------
+    def _phases(self) -> dict[str, float]:
+        return {**self.phases.as_dict(), **self.solver.phases.as_dict()}
+
+    def summary(self, wall_s: float, error: str | None = None) -> dict:
+        """Parameters, model, device, wall time per phase, throughput, diagnostics, status."""
+        s = self.solver
+        out = {
+            "scene": self.name,
+            "kind": self.kind,
+            "solver": s.name,
+            "params": self.params,
+            "model": s.describe(),
+            "device": s.launcher.device,
+            "threads": s.launcher.threads,
+            "wall_s": wall_s,
+            "phases_s": self._phases(),
+            "throughput": self._throughput(),
+            "diagnostics": s.diagnostics(),
+            "status": "error" if error else "ok",
+        }
+        out.update(self._summary_fields(error))
+        if error:
+            out["error"] = error
+        self.last_summary = out
+        return out
+
+    def _summary_fields(self, error: str | None) -> dict:
+        return {}
+
+    @abstractmethod
+    def _throughput(self) -> dict:
+        """``{"unit": "<work unit>/s", "value": ..., "work_items": ...}``."""
+
+    def _write_summary(self, directory: RunDirectory | None, summary: dict) -> None:
+        if directory is not None:
+            write_json(directory.summary, summary)
+
+
+class StaticRun(Run):
+    """A one-off solve through the shell: the solver's ``solve()`` (its phases timed), then one output."""
+
+    kind: ClassVar[str] = "static"
+
+    def __init__(self, solver: StaticSolver, name: str = "run", params: dict | None = None,
+                 analyses: list[Analysis] | None = None, output: OutputOptions | None = None):
+        if not isinstance(solver, StaticSolver):
+            raise ParameterError("solver", f"a StaticRun needs a StaticSolver, got {type(solver).__name__}")
+        super().__init__(solver, name, params, analyses, output)
+        self.solve_s = 0.0
+
+    def _execute(self, directory: RunDirectory | None, resume: bool, progress: bool) -> None:
+        if resume:
+            raise ParameterError("resume", "a static solve has nothing to resume: run it again")
+        t0 = time.perf_counter()
+        self.solver.solve()
+        self.solve_s = time.perf_counter() - t0
+        if directory is not None:
+            self.write_outputs(directory, 0, 0, 0.0, self.name)
+
+    def _throughput(self) -> dict:
+        n = self.solver.work_items
+        return {"unit": f"{self.solver.work_unit}/s", "value": n / self.solve_s if self.solve_s > 0 else None,
+                "work_items": n}
+
+
+def build_scene(module, params: dict) -> Run:
+    """Call a scene's ``build(**params)``, timing it as the run's ``setup`` phase."""
+    t0 = time.perf_counter()
+    run = module.build(**params)
+    if not isinstance(run, Run):
+        raise ParameterError("scene", f"build() must return a warpfree Run (TimeLoop or StaticRun), "
+                                      f"got {type(run).__name__}")
+    run.phases.add("setup", time.perf_counter() - t0)
+    return run
+
+
+def _bounding_box(sets: list[OutputSet], dim: int) -> tuple:
+    pts = np.vstack([s.points[:, :dim] for s in sets if len(s.points)])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = 0.05 * np.maximum(hi - lo, 1e-12)
+    return tuple((float(a), float(b)) for a, b in zip(lo - pad, hi + pad))
+
+
+def write_json(path: str, data: dict) -> None:
+    """Write JSON atomically (NumPy scalars and arrays as numbers and lists)."""
+    tmp = path + ".tmp"
+    with open(tmp, "w") as f:
+        json.dump(data, f, indent=2, default=_json_default)
+    os.replace(tmp, path)
+
+
+def _json_default(o):
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, tuple):
+        return list(o)
+    return str(o)

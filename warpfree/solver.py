@@ -1,0 +1,194 @@
+"""The solver contract: the only thing the run shell and the time loop know about a solver.
+
+A solver is a static **model** (parameters, materials, neighbour structures, factorised matrices: an
+object another solver may hold), a **state** (the arrays that change; by construction exactly what a
+checkpoint saves), and the launches that advance or solve them. Two kinds:
+
+- :class:`TimeDependentSolver`: ``step(dt)`` and ``stable_dt()`` (``math.inf``: no limit), run by
+  :class:`warpfree.time_loop.TimeLoop`.
+- :class:`StaticSolver`: ``solve()``, run once by :class:`warpfree.run.StaticRun`, with the same run
+  directory, summary, outputs and errors and no time loop.
+
+Both declare what to write (:meth:`Solver.output_sets`, :meth:`Solver.output_meshes`), what to report
+(:meth:`Solver.diagnostics`, :meth:`Solver.describe`), their dimension and their work: ``work_items``
+counted in ``work_unit`` (particle-steps, Gauss points, particle pushes), from which the summary
+gives a throughput. Timed phases go to :attr:`Solver.phases`.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+import warp as wp
+
+from .device import Launcher
+from .errors import ParameterError
+
+__all__ = ["State", "OutputSet", "PhaseTimes", "Solver", "TimeDependentSolver", "StaticSolver"]
+
+
+class State:
+    """The arrays of a solver that change in time: exactly what a checkpoint saves and restores.
+
+    Set ``wp.array`` attributes on it (in ``__init__`` of a subclass, or on an instance); :meth:`arrays`
+    walks them in the order they were set. Name them as the outputs do (``position``, ``velocity``,
+    ``density``): one name per quantity in the API, the kernels, the checkpoints and the VTU files.
+    """
+
+    def arrays(self) -> dict[str, wp.array]:
+        return {k: v for k, v in vars(self).items() if isinstance(v, wp.array)}
+
+    def numpy(self) -> dict[str, np.ndarray]:
+        """Copies of every array (a checkpoint's content)."""
+        return {k: v.numpy().copy() for k, v in self.arrays().items()}
+
+    def assign(self, values: dict[str, np.ndarray], source: str = "checkpoint") -> None:
+        """Overwrite every array from ``values``; names, shapes and dtypes must match (else ParameterError
+        naming ``resume``: the checkpoint is of another scene or resolution)."""
+        arrays = self.arrays()
+        missing = sorted(set(arrays) - set(values))
+        if missing:
+            raise ParameterError("resume", f"{source} does not match this scene: it lacks {missing}")
+        for k, arr in arrays.items():
+            v = np.asarray(values[k])
+            ref = arr.numpy()
+            if v.shape != ref.shape or v.dtype != ref.dtype:
+                raise ParameterError("resume", f"{source} does not match this scene: {k!r} has shape {v.shape} "
+                                               f"{v.dtype}, this scene needs {ref.shape} {ref.dtype}")
+        for k, arr in arrays.items():
+            arr.assign(np.asarray(values[k]))
+
+
+@dataclass
+class OutputSet:
+    """One particle (or node) set to write: (N, 3) ``points`` and per-point ``fields`` (NumPy copies).
+
+    ``frame_field`` names the field frames colour this set by; ``None`` draws it grey, as context
+    (walls). The first set with a ``frame_field`` is the one frames show by default.
+    """
+
+    name: str
+    points: np.ndarray
+    fields: dict[str, np.ndarray] = field(default_factory=dict)
+    frame_field: str | None = None
+
+
+class PhaseTimes:
+    """Wall seconds per named phase, accumulated: ``with solver.phases("assembly"): ...``.
+
+    On the CPU, launches are synchronous and a phase's time is its work. On a GPU, launches only
+    enqueue; set ``WARPFREE_PROFILE=1`` to synchronise at the end of every phase (slower, but each
+    phase then holds its own kernel time) — otherwise the step's one read-back absorbs the GPU time.
+    """
+
+    def __init__(self, launcher: Launcher | None = None):
+        profile = os.environ.get("WARPFREE_PROFILE", "0") not in ("", "0")
+        self._sync: Callable[[], None] | None = (launcher.synchronize if launcher is not None and profile
+                                                 and not launcher.is_cpu else None)
+        self.seconds: dict[str, float] = {}
+
+    @contextmanager
+    def __call__(self, name: str):
+        t0 = time.perf_counter()
+        try:
+            yield
+        finally:
+            if self._sync is not None:
+                self._sync()
+            self.add(name, time.perf_counter() - t0)
+
+    def add(self, name: str, seconds: float) -> None:
+        self.seconds[name] = self.seconds.get(name, 0.0) + seconds
+
+    def as_dict(self) -> dict[str, float]:
+        return dict(self.seconds)
+
+
+class Solver(ABC):
+    """What every solver provides. Subclass :class:`TimeDependentSolver` or :class:`StaticSolver`.
+
+    Class attributes: ``name`` (the method family, e.g. "wcsph") and ``work_unit`` (what
+    :attr:`work_items` counts, e.g. "particle-steps" for a time-dependent solver, "Gauss points" for a
+    static one). Instance attributes set by :meth:`__init__`: ``model``, ``launcher``, ``phases``.
+    """
+
+    name: ClassVar[str] = "solver"
+    work_unit: ClassVar[str] = "items"
+
+    def __init__(self, model, launcher: Launcher):
+        self.model = model
+        self.launcher = launcher
+        self.phases = PhaseTimes(launcher)
+
+    @property
+    @abstractmethod
+    def dim(self) -> int:
+        """Spatial dimension (1, 2 or 3)."""
+
+    @property
+    @abstractmethod
+    def work_items(self) -> int:
+        """Work per step (time-dependent) or per solve (static), in :attr:`work_unit`."""
+
+    @abstractmethod
+    def output_sets(self) -> list[OutputSet]:
+        """The sets to write now (VTU files, frames), as NumPy copies."""
+
+    def output_fields(self) -> dict[str, list[str]]:
+        """Set name -> field names (for checking a scene's output options before the run)."""
+        return {s.name: list(s.fields) for s in self.output_sets()}
+
+    def output_meshes(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """Name -> (vertices (V, 3), triangles (F, 3)) to write as PLY (e.g. a free surface). None by default."""
+        return {}
+
+    def diagnostics(self) -> dict[str, float]:
+        """Scalars recorded at every output (energies, mass, extremes)."""
+        return {}
+
+    @abstractmethod
+    def describe(self) -> dict:
+        """Parameters and counts of the model, for ``summary.json``."""
+
+
+class TimeDependentSolver(Solver):
+    """A solver advanced in time by :class:`warpfree.time_loop.TimeLoop`.
+
+    ``state`` (a :class:`State`) holds every array that changes; a checkpoint saves it and
+    :meth:`after_load` rebuilds whatever derives from it, so that a resumed run continues bitwise.
+    """
+
+    work_unit: ClassVar[str] = "particle-steps"
+    state: State
+
+    @abstractmethod
+    def step(self, dt: float) -> None:
+        """Advance the state by ``dt`` seconds."""
+
+    @abstractmethod
+    def stable_dt(self) -> float:
+        """The largest stable step at the current state (s); ``math.inf`` when nothing limits it."""
+
+    def problem(self) -> str | None:
+        """Checked after every step: a message when the last step left the state bad, else None."""
+        return None
+
+    def after_load(self) -> None:
+        """Rebuild derived structures (neighbour tables, reductions) after the state was loaded."""
+
+
+class StaticSolver(Solver):
+    """A one-off solve (EFG, NEM) run by :class:`warpfree.run.StaticRun`."""
+
+    work_unit: ClassVar[str] = "items"
+
+    @abstractmethod
+    def solve(self) -> None:
+        """Assemble and solve, timing each phase in :attr:`phases` (e.g. "assembly", "factorisation", "solve")."""

@@ -1,0 +1,171 @@
+"""The static model of a WCSPH fluid: parameters, derived constants, what is compiled in, particle masses.
+
+:class:`FluidParams` is what a scene sets (SI units). :class:`WCSPHModel` derives from it, once, the
+``@wp.struct`` constants every kernel takes (:class:`~warpfree.kernels.wcsph.FluidConstants`) and the
+compile-time switches (:class:`~warpfree.kernels.wcsph.FluidTerms`): a term whose coefficient is 0
+(μ, α, δ, the wall safety net) is not compiled into the scene's kernels.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import warp as wp
+
+from warpfree.errors import ParameterError, require_positive
+from warpfree.kernels.smoothing import kernel_id, normalisation, support_factor
+from warpfree.kernels.wcsph import FluidConstants, FluidTerms
+from warpfree.space import Space
+
+__all__ = ["FluidParams", "WCSPHModel"]
+
+
+@dataclass
+class FluidParams:
+    """Model parameters of a WCSPH fluid (SI units)."""
+
+    dim: int = 2
+    dx: float = 0.02                 # initial particle spacing (m)
+    h_factor: float = 1.3            # h = h_factor * dx
+    kernel: str = "wendland_c2"
+    rho0: float = 1000.0             # reference density (kg/m³)
+    c0: float = 40.0                 # numerical speed of sound (m/s), ~10 × the largest flow speed
+    gamma: float = 7.0               # Tait exponent
+    mu: float = 1.0e-3               # dynamic viscosity (Pa·s), laminar term of Morris 1997 (0 = off)
+    alpha: float = 0.0               # Monaghan artificial viscosity (0 = off)
+    delta: float = 0.0               # δ-SPH density diffusion coefficient (0 = off; 0.1 typical)
+    gravity: tuple = (0.0, -9.81, 0.0)
+    boundary_model: str = "dynamic"  # "dynamic" (Adami 2012) or "lennard_jones" (seed 5-6)
+    no_slip: bool = True             # walls enter the viscous terms with a no-slip ghost velocity
+    lj_d: float = 0.0                # Lennard-Jones strength D (m²/s²), ~ (largest speed)²
+    lj_r0: float = 0.0               # Lennard-Jones range r0 (m): ~ dx for "lennard_jones" walls; with
+                                     # "dynamic" walls a safety net when > 0 (e.g. 0.75 dx), 0 = off
+    skin: float = 0.15               # neighbour-list skin as a fraction of the support (0 = rebuild every step)
+    cfl: float = 0.1                 # Courant number of seed eq. 5-12
+    dt: float | None = None          # fixed time step (s); None = the stable step every step
+    container_lo: tuple = (-1e30, -1e30, -1e30)   # fluid must stay inside this box (m)
+    container_hi: tuple = (1e30, 1e30, 1e30)
+    periodic: tuple = (False, False, False)       # periodic axes; their period is the container box
+
+    @property
+    def h(self) -> float:
+        return self.h_factor * self.dx
+
+    @property
+    def b(self) -> float:
+        """Tait stiffness B = ρ0 c0²/γ (Pa)."""
+        return self.rho0 * self.c0 ** 2 / self.gamma
+
+    @property
+    def support(self) -> float:
+        return support_factor(self.kernel) * self.h
+
+    def validate(self) -> None:
+        if self.dim not in (2, 3):
+            raise ParameterError("dim", f"must be 2 or 3, got {self.dim!r}")
+        require_positive("dx", self.dx)
+        require_positive("h_factor", self.h_factor)
+        if self.kernel not in ("cubic_spline", "wendland_c2", "quintic_spline"):
+            raise ParameterError("kernel", f"must be cubic_spline, wendland_c2 or quintic_spline, got {self.kernel!r}")
+        for name in ("rho0", "c0", "gamma"):
+            require_positive(name, getattr(self, name))
+        for name in ("mu", "alpha", "delta", "skin"):
+            require_positive(name, getattr(self, name), allow_zero=True)
+        g = np.asarray(self.gravity, dtype=float)
+        if g.shape != (3,) or not np.all(np.isfinite(g)):
+            raise ParameterError("gravity", f"must be 3 finite numbers, got {self.gravity!r}")
+        if self.boundary_model not in ("dynamic", "lennard_jones"):
+            raise ParameterError("boundary_model", f"must be 'dynamic' or 'lennard_jones', got {self.boundary_model!r}")
+        if self.boundary_model == "lennard_jones":
+            require_positive("lj_d", self.lj_d)
+            require_positive("lj_r0", self.lj_r0)
+        else:
+            require_positive("lj_d", self.lj_d, allow_zero=True)
+            require_positive("lj_r0", self.lj_r0, allow_zero=True)
+            if self.lj_r0 >= self.dx:
+                raise ParameterError("lj_r0", f"the safety net of dynamic walls must act below dx = {self.dx}, "
+                                              f"got {self.lj_r0}")
+        cfl = require_positive("cfl", self.cfl)
+        if cfl > 1.0:
+            raise ParameterError("cfl", f"must be in (0, 1], got {cfl}")
+        if self.dt is not None:
+            require_positive("dt", self.dt)
+        lo = np.asarray(self.container_lo, dtype=float)
+        hi = np.asarray(self.container_hi, dtype=float)
+        if lo.shape != (3,) or hi.shape != (3,) or np.any(hi <= lo):
+            raise ParameterError("container_hi", f"container box must have lo < hi, got {lo} .. {hi}")
+        if len(tuple(self.periodic)) != 3:
+            raise ParameterError("periodic", f"must be three booleans, got {self.periodic!r}")
+        for a, p in enumerate(self.periodic):
+            if p and not (np.isfinite(lo[a]) and np.isfinite(hi[a]) and hi[a] - lo[a] < 1e20):
+                raise ParameterError("periodic", f"a periodic axis needs a finite container along {'xyz'[a]}")
+
+    def space(self) -> Space:
+        """The space of the fluid: the container box carries the period of the periodic axes."""
+        if any(self.periodic):
+            return Space(self.dim, self.container_lo, self.container_hi, self.periodic)
+        return Space.free(self.dim)
+
+
+class WCSPHModel:
+    """The static part of a WCSPH fluid: parameters, constants, terms, counts and masses.
+
+    ``nf`` fluid and ``nb`` wall particles; ``mass`` (n, kg): ρ0 dx^dim per fluid particle, ρ0 ×
+    ``boundary_volume`` per wall particle. ``constants`` and ``terms`` are what the kernels take.
+    """
+
+    def __init__(self, params: FluidParams, n_fluid: int, n_boundary: int, boundary_volume: float | None,
+                 device: str):
+        params.validate()
+        self.params = params
+        self.dim = params.dim
+        self.nf = int(n_fluid)
+        self.nb = int(n_boundary)
+        self.n = self.nf + self.nb
+        self.space = params.space()
+        self.kernel_id = kernel_id(params.kernel)
+        vol_f = params.dx ** params.dim
+        vol_b = vol_f if boundary_volume is None else require_positive("boundary_volume", boundary_volume)
+        self.mass = wp.array(np.concatenate([np.full(self.nf, params.rho0 * vol_f),
+                                             np.full(self.nb, params.rho0 * vol_b)]).astype(np.float32),
+                             dtype=float, device=device)
+        self.terms = FluidTerms(
+            kernel=self.kernel_id, dim=params.dim, laminar=params.mu > 0.0, artificial=params.alpha > 0.0,
+            delta_sph=params.delta > 0.0,
+            walls="none" if self.nb == 0 else params.boundary_model,
+            wall_safety=params.boundary_model == "dynamic" and params.lj_r0 > 0.0,
+            no_slip=bool(params.no_slip), periodic=self.space.periodic)
+        self.constants = self._constants()
+
+    def _constants(self) -> FluidConstants:
+        P = self.params
+        c = FluidConstants()
+        h = P.h
+        c.h = h
+        c.inv_h = 1.0 / h
+        c.support2 = P.support ** 2
+        c.grad_factor = normalisation(P.kernel, P.dim, h) / (h * h)
+        c.eps = 0.01 * h * h
+        c.rho0, c.c0, c.b, c.gamma, c.mu = P.rho0, P.c0, P.b, P.gamma, P.mu
+        c.avisc = P.alpha * P.c0 * h
+        c.delta_coef = P.delta * h * P.c0
+        c.inv_c2 = 1.0 / P.c0 ** 2
+        c.gravity = wp.vec3(*[float(g) for g in P.gravity])
+        c.lj_d, c.lj_r0 = float(P.lj_d), float(P.lj_r0)
+        c.container_lo = wp.vec3(*[float(v) for v in np.maximum(P.container_lo, -3e38)])
+        c.container_hi = wp.vec3(*[float(v) for v in np.minimum(P.container_hi, 3e38)])
+        c.box = self.space.box
+        return c
+
+    @property
+    def skin(self) -> float:
+        """Neighbour-table skin (m)."""
+        return self.params.skin * self.params.support
+
+    def describe(self) -> dict:
+        P = self.params
+        d = asdict(P)
+        d.update({"h": P.h, "support": P.support, "B": P.b, "n_fluid": self.nf, "n_boundary": self.nb,
+                  "n_particles": self.n, "compiled_terms": asdict(self.terms)})
+        return d

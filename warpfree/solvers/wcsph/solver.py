@@ -1,0 +1,293 @@
+"""Weakly-compressible SPH solver (seed 004): orders the launches of :mod:`warpfree.kernels.wcsph`.
+
+One step reads as the scheme: drift (half kick, drift, predictor), rebuild the neighbour tables if a
+particle may have moved half the skin, wall pressure (dynamic walls), rates, kick (which also writes
+the step report), and a device reduction of the report. The host reads that one reduced value per
+step (largest displacement since the build, speed, acceleration, worst status): it gives the next
+stable step, the rebuild decision and the run's health. Fluid particles are indices ``[0, nf)`` of
+the combined arrays, walls ``[nf, n)``; :attr:`fluid` and :attr:`boundary` expose them as views.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import warp as wp
+
+from warpfree.device import Launcher, current_launcher
+from warpfree.errors import ParameterError
+from warpfree.kernels import wcsph as K
+from warpfree.neighbours import MovingNeighbours, NeighbourGrid, NeighbourList
+from warpfree.particles import ParticleSet, to_vec3
+from warpfree.reduce import Reduction
+from warpfree.solver import OutputSet, State, TimeDependentSolver
+
+from .model import FluidParams, WCSPHModel
+
+__all__ = ["WCSPHSolver", "WCSPHState"]
+
+#: minimum neighbour count of the best-surrounded fluid particle (seed §5.5 recommends 20 in 2D, 56 in
+#: 3D; a lattice with h = 1.3 dx and support 2h has 20 and 80). Below this, h is too small for dx.
+MIN_NEIGHBOURS = {1: 4, 2: 20, 3: 56}
+
+
+class WCSPHState(State):
+    """What changes in time (the checkpoint): combined fluid + wall arrays and the fluid's rates.
+
+    position, velocity, density, pressure (n); acceleration, density_rate (nf); position_at_build (nf):
+    the fluid positions of the last neighbour-table build (the tables are rebuilt from it on resume).
+    """
+
+    def __init__(self, position, velocity, density, pressure, acceleration, density_rate, position_at_build):
+        self.position = position
+        self.velocity = velocity
+        self.density = density
+        self.pressure = pressure
+        self.acceleration = acceleration
+        self.density_rate = density_rate
+        self.position_at_build = position_at_build
+
+
+class WCSPHSolver(TimeDependentSolver):
+    """WCSPH fluid with dynamic (Adami) or Lennard-Jones boundary particles.
+
+    Parameters
+    ----------
+    fluid: (N, dim) initial fluid positions (m).
+    boundary: (M, dim) boundary particle positions (m); static.
+    params: :class:`FluidParams`.
+    density: optional (N,) initial fluid densities (e.g. hydrostatic); default ρ0.
+    velocity: optional (N, dim) initial velocities (m/s); default 0.
+    boundary_volume: volume (area in 2D) per boundary particle; default dx^dim.
+    """
+
+    name = "wcsph"
+    work_unit = "particle-steps"
+
+    def __init__(self, fluid, boundary, params: FluidParams, density=None, velocity=None,
+                 boundary_volume: float | None = None, launcher: Launcher | None = None):
+        params.validate()
+        launcher = launcher or current_launcher()
+        dev = launcher.device
+        xf = to_vec3(fluid, "fluid") if np.size(fluid) else np.zeros((0, 3), np.float32)
+        if xf.shape[0] == 0:
+            raise ParameterError("fluid", "is empty: the scene made no fluid particles")
+        xb = to_vec3(boundary, "boundary") if np.size(boundary) else np.zeros((0, 3), np.float32)
+        lo, hi = np.asarray(params.container_lo, float), np.asarray(params.container_hi, float)
+        outside = np.any((xf < lo) | (xf > hi), axis=1)
+        if outside.any():
+            raise ParameterError("fluid", f"{int(outside.sum())} of {len(xf)} fluid particles lie outside the "
+                                          f"container box {lo.tolist()} .. {hi.tolist()}")
+        model = WCSPHModel(params, len(xf), len(xb), boundary_volume, dev)
+        super().__init__(model, launcher)
+        nf, nb, n = model.nf, model.nb, model.n
+        rho_f = np.full(nf, params.rho0) if density is None else np.asarray(density, float)
+        if rho_f.shape != (nf,) or not np.all(np.isfinite(rho_f)) or np.any(rho_f <= 0):
+            raise ParameterError("density", f"must be {nf} finite positive values")
+        v_f = np.zeros((nf, 3)) if velocity is None else to_vec3(velocity, "velocity")
+        if v_f.shape != (nf, 3):
+            raise ParameterError("velocity", f"must have {nf} rows")
+
+        def arr(values, dtype):
+            return wp.array(values, dtype=dtype, device=dev)
+
+        position = arr(np.vstack([xf, xb]).astype(np.float32), wp.vec3)
+        self.state = WCSPHState(
+            position=position,
+            velocity=arr(np.vstack([v_f, np.zeros((nb, 3))]).astype(np.float32), wp.vec3),
+            density=arr(np.concatenate([rho_f, np.full(nb, params.rho0)]).astype(np.float32), float),
+            pressure=wp.zeros(n, dtype=float, device=dev),
+            acceleration=wp.zeros(nf, dtype=wp.vec3, device=dev),
+            density_rate=wp.zeros(nf, dtype=float, device=dev),
+            position_at_build=wp.zeros(nf, dtype=wp.vec3, device=dev))
+        S = self.state
+        self.arrays = K.FluidArrays()
+        a = self.arrays
+        a.nf = nf
+        a.position, a.velocity, a.density, a.pressure = S.position, S.velocity, S.density, S.pressure
+        a.mass = model.mass
+        a.acceleration, a.density_rate = S.acceleration, S.density_rate
+        a.velocity_eval = wp.zeros(nf, dtype=wp.vec3, device=dev)
+        a.density_eval = wp.zeros(nf, dtype=float, device=dev)
+        a.ghost_velocity = wp.zeros(max(nb, 1), dtype=wp.vec3, device=dev)
+        a.report = wp.zeros(nf, dtype=wp.vec4, device=dev)
+        self.kernels = K.make_kernels(model.terms)
+
+        def part(array, start, stop):  # a view of rows [start, stop); Warp refuses empty slices
+            return array[start:stop] if stop > start else wp.zeros(0, dtype=array.dtype, device=dev)
+
+        f, b = (0, nf), (nf, n)
+        #: the fluid and boundary particle sets: named views into the combined arrays
+        self.fluid = ParticleSet.view("fluid", params.dim, {
+            "position": part(S.position, *f), "velocity": part(S.velocity, *f), "density": part(S.density, *f),
+            "pressure": part(S.pressure, *f), "mass": part(model.mass, *f)})
+        self.boundary = ParticleSet.view("boundary", params.dim, {
+            "position": part(S.position, *b), "density": part(S.density, *b), "pressure": part(S.pressure, *b),
+            "mass": part(model.mass, *b)})
+
+        self.max_neighbours = self._check_neighbours()
+        # Neighbour candidates within support + skin, rebuilt once a fluid particle may have moved skin/2.
+        self.neighbours = MovingNeighbours(launcher, model.space, self.fluid.position, params.support, model.skin,
+                                           static_sets={"walls": self.boundary.position} if nb else None,
+                                           position_at_build=S.position_at_build)
+        a.position_at_build = S.position_at_build
+        cap = int(self.max_neighbours * (1.0 + params.skin) ** params.dim * 1.2) + 8  # grows if ever too small
+        self.fluid_fluid = self.neighbours.add_table("fluid_fluid", "moving", "moving", cap, exclude_self=True)
+        if nb:
+            self.fluid_wall = self.neighbours.add_table("fluid_wall", "moving", "walls", cap)
+            self.wall_fluid = self.neighbours.add_table("wall_fluid", "walls", "moving", cap)
+        else:  # valid empty rows for the kernels
+            self.fluid_wall = self.wall_fluid = _EmptyRows(nf, dev)
+        self._report = Reduction(launcher, wp.vec4, "max")
+        self.initialise()
+
+    # -- set-up --------------------------------------------------------------------------------
+    def _check_neighbours(self) -> int:
+        """Reject an h too small for the spacing, reporting the neighbour count (fluid–fluid)."""
+        P = self.model.params
+        x = wp.clone(self.fluid.position)
+        counts = NeighbourList(NeighbourGrid(self.launcher, P.support, self.model.space, x), x,
+                               exclude_self=True).counts()
+        need = MIN_NEIGHBOURS[P.dim]
+        best = int(counts.max())
+        if best < need and self.model.nf > 8 * need:
+            raise ParameterError(
+                "h_factor", f"h = {P.h:.4g} is too small for dx = {P.dx:.4g}: the best-surrounded "
+                f"fluid particle has {best} neighbours, need >= {need} in {P.dim}D "
+                f"(use h_factor >= 1.2 with support 2h)")
+        return best
+
+    def initialise(self) -> None:
+        """Pressure from the EOS, the tables and the rates at t = 0 (the leapfrog start-up, seed 5-5)."""
+        a, c = self.arrays, self.model.constants
+        wp.copy(a.velocity_eval, self.fluid["velocity"])
+        wp.copy(a.density_eval, self.fluid["density"])
+        self.launcher.launch(K.equation_of_state, self.model.nf, [c, a.density_eval, self.state.pressure], light=True)
+        with self.phases("neighbours"):
+            self.neighbours.rebuild()
+        self.compute_rates()
+        self._launch_report()
+
+    # -- stepping --------------------------------------------------------------------------------
+    def compute_rates(self) -> None:
+        """Wall pressure (dynamic walls), then dρ/dt and dv/dt at the predicted state."""
+        L, a, c = self.launcher, self.arrays, self.model.constants
+        if self.model.terms.walls == "dynamic":
+            with self.phases("boundary"):
+                L.launch(self.kernels.wall_pressure, self.model.nb, [c, a, self.wall_fluid.rows])
+        with self.phases("rates"):
+            L.launch(self.kernels.rates, self.model.nf, [c, a, self.fluid_fluid.rows, self.fluid_wall.rows])
+
+    def _launch_report(self) -> None:
+        self.launcher.launch(K.step_report, self.model.nf, [self.model.constants, self.arrays], light=True)
+        self._report.launch(self.arrays.report)
+
+    def report(self) -> np.ndarray:
+        """The last step's reduced report (one read per step): max |Δx since build|², |v|², |a|², status."""
+        return np.asarray(self._report.value(), dtype=np.float64)
+
+    def stable_dt(self) -> float:
+        """Δt = min(C h/(max|v| + c0) [seed 5-12], 0.25 sqrt(h/max|a|), 0.125 h² ρ0/μ)."""
+        P = self.model.params
+        _, v2, a2, _ = self.report()
+        dt = P.cfl * P.h / (math.sqrt(v2) + P.c0)
+        if a2 > 0:
+            dt = min(dt, 0.25 * math.sqrt(P.h / math.sqrt(a2)))
+        if P.mu > 0:
+            dt = min(dt, 0.125 * P.h * P.h * P.rho0 / P.mu)
+        return dt
+
+    def step(self, dt: float) -> None:
+        """Advance one leapfrog step of ``dt`` seconds (kick–drift, rates, kick)."""
+        L, a, c, nf = self.launcher, self.arrays, self.model.constants, self.model.nf
+        moved2, v2, a2, _ = self.report()  # at the end of the previous step
+        # bound on the displacement since the build after this drift: |Δx| <= Δt (|v| + ½Δt |a|)
+        moved_bound = math.sqrt(moved2) + dt * (math.sqrt(v2) + 0.5 * dt * math.sqrt(a2))
+        with self.phases("integrate"):
+            L.launch(self.kernels.drift, nf, [c, a, float(dt)], light=True)
+        if self.neighbours.needs_rebuild(moved_bound):
+            with self.phases("neighbours"):
+                self.neighbours.rebuild()
+        self.compute_rates()
+        with self.phases("integrate"):
+            L.launch(self.kernels.kick, nf, [c, a, float(dt)], light=True)
+            self._report.launch(a.report)
+
+    def problem(self) -> str | None:
+        """Non-finite values or particles outside the container after the last step (from its report)."""
+        if self.report()[3] == K.STATUS_OK:
+            return None
+        status = self.arrays.report.numpy()[:, 3]  # only on failure: which particles
+        bad = np.flatnonzero(status != K.STATUS_OK)
+        kind = "non-finite values" if np.any(status[bad] == K.STATUS_NONFINITE) else "particles outside the container"
+        return f"{kind} in {bad.size} fluid particle(s), first index {int(bad[0])}"
+
+    def after_load(self) -> None:
+        """After a checkpoint: the tables from the loaded ``position_at_build``, the report from the loaded state."""
+        self.neighbours.build_tables()
+        self._launch_report()
+
+    # -- outputs, diagnostics ------------------------------------------------------------------------
+    @property
+    def dim(self) -> int:
+        return self.model.dim
+
+    @property
+    def work_items(self) -> int:
+        """Particles a step touches (fluid + boundary: walls get a pressure pass every step)."""
+        return self.model.n
+
+    def output_sets(self) -> list[OutputSet]:
+        """The fluid (coloured by speed by default) and the walls, as NumPy copies."""
+        fluid = {k: self.fluid.numpy(k) for k in ("velocity", "density", "pressure")}
+        fluid["speed"] = np.linalg.norm(fluid["velocity"], axis=1)
+        walls = {k: self.boundary.numpy(k) for k in ("density", "pressure")}
+        return [OutputSet("fluid", self.fluid.numpy("position"), fluid, frame_field="speed"),
+                OutputSet("boundary", self.boundary.numpy("position"), walls)]
+
+    def output_fields(self) -> dict[str, list[str]]:
+        return {"fluid": ["velocity", "density", "pressure", "speed"], "boundary": ["density", "pressure"]}
+
+    def output_meshes(self) -> dict:
+        """The free surface (3D): the χ = 1/2 iso-surface of the colour function (seed eq. 5-7)."""
+        if self.dim != 3:
+            return {}
+        from .surface import free_surface_mesh
+
+        m = self.fluid.numpy("mass") / self.fluid.numpy("density")
+        volumes = wp.array(m.astype(np.float32), dtype=float, device=self.launcher.device)
+        mesh = free_surface_mesh(self.launcher, self.fluid.position, volumes, self.model.params.h,
+                                 kernel=self.model.params.kernel)
+        return {"surface": (mesh.vertices, mesh.faces)}
+
+    def fluid_positions(self) -> np.ndarray:
+        """(nf, 3) fluid positions (m), a copy."""
+        return self.fluid.numpy("position")
+
+    def diagnostics(self) -> dict[str, float]:
+        """Kinetic energy (J, per metre of depth in 2D), fluid mass (kg), max speed (m/s), density range."""
+        v = self.fluid.numpy("velocity").astype(np.float64)
+        m = self.fluid.numpy("mass").astype(np.float64)
+        rho = self.fluid.numpy("density")
+        v2 = np.einsum("ij,ij->i", v, v)
+        return {"kinetic_energy": float(0.5 * np.sum(m * v2)), "mass": float(np.sum(m)),
+                "max_speed": float(np.sqrt(v2.max())), "density_min": float(rho.min()),
+                "density_max": float(rho.max())}
+
+    def describe(self) -> dict:
+        d = self.model.describe()
+        d.update({"max_neighbours": self.max_neighbours, "list_builds": self.neighbours.builds})
+        return d
+
+
+class _EmptyRows:
+    """Rows of a table with no sources (a fluid without walls): every row empty."""
+
+    def __init__(self, n: int, device: str):
+        from warpfree.kernels.neighbours import NeighbourRows
+
+        self.rows = NeighbourRows()
+        self.rows.start = wp.zeros(max(n, 1), dtype=wp.int32, device=device)
+        self.rows.count = wp.zeros(max(n, 1), dtype=wp.int32, device=device)
+        self.rows.index = wp.zeros(1, dtype=wp.int32, device=device)

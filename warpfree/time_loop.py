@@ -1,0 +1,247 @@
+"""The time loop: steps, probes, the output schedule and checkpoints of a time-dependent solver.
+
+Time step: the solver's stable step (``stable_dt()``; ``math.inf`` means no limit, and then a fixed
+``dt`` is required), shortened only to land exactly on output times; or a fixed ``dt`` that must stay
+within the stable step (else the run stops naming ``dt``).
+
+At every output time the loop records the probes and the solver's diagnostics, hands the output sets
+to the writer and keeps a copy of the state (the last good state, written as a checkpoint if the run
+goes wrong later). Every ``checkpoint_every`` steps it writes a checkpoint (``warpfree.io.checkpoint``);
+``run(..., resume=True)`` continues from the newest one and reproduces the uninterrupted run bitwise.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Callable
+from typing import ClassVar
+
+import numpy as np
+
+from .errors import ParameterError, RunError, require_positive
+from .io import checkpoint
+from .run import Analysis, OutputOptions, Run, RunDirectory
+from .solver import TimeDependentSolver
+
+__all__ = ["TimeLoop", "Probe"]
+
+#: probe: name -> function(solver, time) -> float, recorded at every output time
+Probe = Callable[[TimeDependentSolver, float], float]
+
+
+class TimeLoop(Run):
+    """Runs a time-dependent solver from t = 0 to ``t_end``, with outputs every ``output_interval`` seconds.
+
+    Parameters (besides those of :class:`~warpfree.run.Run`)
+    ----------
+    t_end, output_interval: seconds (> 0).
+    probes: name -> ``f(solver, t)``, recorded at every output time into ``series`` and the summary.
+    dt: a fixed step (s) instead of the stable one; refused if above the stable limit.
+    checkpoint_every: write a checkpoint every K steps (0: none; the two newest are kept).
+    max_steps: stop after this many steps of this call to :meth:`run` (an interrupted run, for tests).
+    """
+
+    kind: ClassVar[str] = "time-dependent"
+
+    def __init__(self, solver: TimeDependentSolver, t_end: float, output_interval: float, name: str = "run",
+                 params: dict | None = None, probes: dict[str, Probe] | None = None,
+                 analyses: list[Analysis] | None = None, dt: float | None = None, checkpoint_every: int = 0,
+                 output: OutputOptions | None = None, max_steps: int | None = None):
+        if not isinstance(solver, TimeDependentSolver):
+            raise ParameterError("solver", f"a TimeLoop needs a TimeDependentSolver, got {type(solver).__name__}")
+        super().__init__(solver, name, params, analyses, output)
+        self.t_end = require_positive("t_end", t_end)
+        self.output_interval = require_positive("output_interval", output_interval)
+        self.dt_fixed = None if dt is None else require_positive("dt", dt)
+        self.checkpoint_every = checkpoint_every
+        self.probes = dict(probes or {})
+        self.max_steps = max_steps
+        self.time = 0.0
+        self.step_count = 0
+        self.steps_this_run = 0
+        self.n_outputs = 0
+        self.series: dict[str, list[float]] = {"time": [], **{k: [] for k in self.probes}}
+        self.diag_series: dict[str, list[float]] = {}
+        self.step_s = 0.0
+        self.last_checkpoint: str | None = None
+        self._good = None                  # (loop scalars, state copies, series lengths) at the last output
+        self._checkpoint_step = -1
+        limit = solver.stable_dt()
+        if self.dt_fixed is None and not math.isfinite(limit):
+            raise ParameterError("dt", "this solver has no stable-step limit: give a fixed dt")
+        if self.dt_fixed is not None and self.dt_fixed > limit:
+            raise ParameterError("dt", f"{self.dt_fixed:.4g} s exceeds the stable (CFL) limit {limit:.4g} s")
+
+    @property
+    def checkpoint_every(self) -> int:
+        return self._checkpoint_every
+
+    @checkpoint_every.setter
+    def checkpoint_every(self, value) -> None:
+        if isinstance(value, bool) or int(value) != value or value < 0:
+            raise ParameterError("checkpoint_every", f"must be an integer >= 0, got {value!r}")
+        self._checkpoint_every = int(value)
+
+    # -- time step -------------------------------------------------------------------------------
+    def _next_output_time(self) -> float:
+        """Outputs 0, 1, 2, ... fall at 0, Δ, 2Δ, ...; ``n_outputs`` have been recorded."""
+        return self.n_outputs * self.output_interval
+
+    def next_dt(self) -> float:
+        """The step to take now: stable or fixed, shortened to land on the next output time or the end."""
+        limit = self.solver.stable_dt()
+        if math.isnan(limit) or limit <= 0:
+            raise RunError(f"non-finite or broken state: the stable time step is {limit}", self.step_count)
+        if self.dt_fixed is not None:
+            if self.dt_fixed > limit * (1 + 1e-6):
+                raise RunError(f"dt = {self.dt_fixed:.4g} s exceeds the stable (CFL) limit {limit:.4g} s",
+                               self.step_count)
+            dt = self.dt_fixed
+        else:
+            dt = limit
+        remaining = min(self._next_output_time(), self.t_end) - self.time
+        if remaining <= dt * (1 + 1e-9):
+            dt = remaining
+        elif remaining < 2 * dt:
+            dt = 0.5 * remaining  # no sliver step before the output time
+        return dt
+
+    # -- outputs and the last good state ------------------------------------------------------------
+    def _record(self, directory: RunDirectory | None) -> None:
+        """Probes, diagnostics and outputs at the current time; keep the state as the last good one."""
+        index = self.n_outputs
+        self.n_outputs += 1
+        with self.phases("output"):
+            self.series["time"].append(self.time)
+            for name, probe in self.probes.items():
+                self.series[name].append(float(probe(self.solver, self.time)))
+            for k, v in self.solver.diagnostics().items():
+                self.diag_series.setdefault(k, []).append(float(v))
+            if directory is not None:
+                self._good = (self._loop_scalars(), self.solver.state.numpy(), self._series_lengths())
+        if directory is not None:
+            self.write_outputs(directory, index, self.step_count, self.time, f"{self.name}  t = {self.time:.4f} s")
+
+    def _loop_scalars(self) -> dict:
+        return {"time": self.time, "step": self.step_count, "n_outputs": self.n_outputs}
+
+    def _series_lengths(self) -> dict[str, int]:
+        return {**{f"probe:{k}": len(v) for k, v in self.series.items()},
+                **{f"diagnostic:{k}": len(v) for k, v in self.diag_series.items()}}
+
+    def _series_arrays(self, lengths: dict[str, int] | None = None) -> dict[str, np.ndarray]:
+        """The series as float64 arrays (cut to ``lengths``: the series are append-only, so a kept
+        state needs only their lengths, never a copy)."""
+        out = {}
+        for prefix, series in (("probe:", self.series), ("diagnostic:", self.diag_series)):
+            for k, v in series.items():
+                n = len(v) if lengths is None else lengths.get(prefix + k, 0)
+                out[prefix + k] = np.asarray(v[:n], dtype=np.float64)
+        return out
+
+    def save_checkpoint(self, directory: RunDirectory) -> str:
+        """Write the current state, loop scalars and series as a checkpoint."""
+        with self.phases("checkpoint"):
+            self.last_checkpoint = checkpoint.save(directory.checkpoints, self.step_count, self._loop_scalars(),
+                                                   self._series_arrays(), self.solver.state.numpy())
+            self._checkpoint_step = self.step_count
+        return self.last_checkpoint
+
+    def _keep_last_good(self, directory: RunDirectory | None, err: RunError) -> RunError:
+        """Write the state of the last output as a checkpoint when none newer exists; name it in the error."""
+        if directory is not None and self._good is not None and self._good[0]["step"] > self._checkpoint_step:
+            loop, state, lengths = self._good
+            with self.phases("checkpoint"):
+                self.last_checkpoint = checkpoint.save(directory.checkpoints, loop["step"], loop,
+                                                       self._series_arrays(lengths), state)
+        if self.last_checkpoint and not err.last_good:
+            err = RunError(err.message, err.step, self.last_checkpoint)
+        return err
+
+    def load_checkpoint(self, path: str) -> None:
+        loop, series, state = checkpoint.load(path)
+        self.solver.state.assign(state, f"checkpoint {path}")
+        self.solver.after_load()
+        self.time = float(loop["time"])
+        self.step_count = int(loop["step"])
+        self.n_outputs = int(loop["n_outputs"])
+        self.series = {k[len("probe:"):]: v.tolist() for k, v in series.items() if k.startswith("probe:")}
+        for k in self.probes:
+            self.series.setdefault(k, [])
+        self.diag_series = {k[len("diagnostic:"):]: v.tolist() for k, v in series.items()
+                            if k.startswith("diagnostic:")}
+        self.last_checkpoint = path
+        self._checkpoint_step = self.step_count
+
+    # -- the loop ----------------------------------------------------------------------------------
+    def _execute(self, directory: RunDirectory | None, resume: bool, progress: bool) -> None:
+        self._good = None
+        self._checkpoint_step = -1
+        self.last_checkpoint = None
+        self._resumed_time = None
+        if resume:
+            path = checkpoint.latest(directory.checkpoints)
+            if path is None:
+                raise ParameterError("resume", f"no checkpoint in {directory.checkpoints}")
+            self.load_checkpoint(path)
+            self._resumed_time = self.time
+        else:
+            self._record(directory)
+            if directory is not None and self.checkpoint_every:
+                self.save_checkpoint(directory)
+        bar = _progress(self.t_end, self.time, progress, self.name)
+        steps0 = self.step_count
+        try:
+            while self.time < self.t_end * (1 - 1e-12):
+                if self.max_steps is not None and self.step_count - steps0 >= self.max_steps:
+                    break
+                dt = self.next_dt()
+                t0 = time.perf_counter()
+                self.solver.step(dt)
+                problem = self.solver.problem()  # the step's one read-back
+                self.step_s += time.perf_counter() - t0
+                self.step_count += 1
+                self.steps_this_run = self.step_count - steps0
+                target = self._next_output_time()
+                self.time = target if abs(self.time + dt - target) <= 1e-12 * max(1.0, self.time) else self.time + dt
+                if problem:
+                    raise RunError(problem, self.step_count)
+                if self.time >= target * (1 - 1e-12) or self.time >= self.t_end * (1 - 1e-12):
+                    self._record(directory)
+                if directory is not None and self.checkpoint_every and self.step_count % self.checkpoint_every == 0:
+                    self.save_checkpoint(directory)
+                if bar is not None:
+                    bar.update(self.time - bar.n)
+        finally:
+            if bar is not None:
+                bar.close()
+
+    def _current_step(self) -> int | None:
+        return self.step_count
+
+    # -- summary -------------------------------------------------------------------------------------
+    def _throughput(self) -> dict:
+        n = self.solver.work_items
+        rate = n * self.steps_this_run / self.step_s if self.step_s > 0 else None
+        return {"unit": f"{self.solver.work_unit}/s", "value": rate, "work_items": n}
+
+    def _summary_fields(self, error: str | None) -> dict:
+        out = {"time": self.time, "t_end": self.t_end, "steps": self.step_count,
+               "steps_this_run": self.steps_this_run, "probes": self.series, "diagnostic_series": self.diag_series}
+        if self.last_checkpoint:
+            out["last_good_checkpoint" if error else "last_checkpoint"] = self.last_checkpoint
+        return out
+
+    def _phases(self) -> dict[str, float]:
+        return {"step": self.step_s, **super()._phases()}
+
+
+def _progress(total: float, start: float, enabled: bool, name: str):
+    if not enabled:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=start, desc=name, unit="s(sim)", mininterval=0.5 if sys.stderr.isatty() else 10.0,
+                bar_format="{desc}: {percentage:3.0f}%|{bar}| t={n:.4f}/{total:.4f} s [{elapsed}<{remaining}]")
