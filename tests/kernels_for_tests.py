@@ -141,3 +141,26 @@ def gather_weights(
             t = 1.0 - r / radius
             s += t * t
     out[i] = s
+
+
+from warpfree.kernels.assembly import Triplets, write_triplet  # noqa: E402
+
+
+@wp.kernel
+def interpolation_matrix(
+    first: int,
+    rows: NeighbourRows,
+    box: Box,
+    x: wp.array(dtype=wp.vec3),
+    volume: wp.array(dtype=float),
+    kind: int,
+    dim: int,
+    h: float,
+    t: Triplets,
+):
+    """M_ij = W(|x_i - x_j|, h) V_j (seed 000 eq. 3.31), one triplet per entry of row i (slot = its CSR position)."""
+    i = first + wp.tid()
+    for c in range(rows.start[i], rows.start[i] + rows.count[i]):
+        j = rows.index[c]
+        r = wp.length(displacement(box, x[i], x[j]))
+        write_triplet(t, c, i, j, wp.float64(kernel_w(kind, dim, r, h) * volume[j]))

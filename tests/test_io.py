@@ -6,10 +6,8 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
-import warp as wp
 
-import warpfree  # noqa: F401  (quiet Warp)
-from warpfree.device import Launcher
+
 from warpfree.errors import ParameterError
 from warpfree.io.frames import _splat, estimate_spacing, plot_series, render_frame
 from warpfree.io.vtk import VtuSeries, read_pvd

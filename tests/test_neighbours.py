@@ -290,7 +290,7 @@ def test_moving_tables_with_skin_equal_rebuild_every_step(launcher, vec3, period
     """Particles random-walk (in a periodic box, wrapping across its faces); the tables with a skin,
     rebuilt only when a particle may have moved skin/2, keep exactly the pairs within the radius that a
     rebuild every step finds: fluid-fluid, fluid → wall (static), wall → fluid and node → particle."""
-    dim, r, skin = 2, 0.1, 0.03
+    r, skin = 0.1, 0.03
     sp = Space(2, (0, 0, 0), (1, 1, 0), (periodic, periodic, False)) if periodic else free(2)
     rng = np.random.default_rng(30)
     p = np.zeros((1200, 3))

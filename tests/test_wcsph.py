@@ -83,42 +83,7 @@ def test_tank_at_rest_is_hydrostatic_and_energy_decays(tank, tmp_path):
     assert np.all((x[:, 0] > 0) & (x[:, 0] < 0.5) & (x[:, 1] > 0))
 
 
-# -- determinism and resume -------------------------------------------------------------------------
-
-def _state_after(dam_break, threads, steps=25):
-    device.use("cpu", threads, min_items_per_thread=1)  # chunk even this small set
-    sim = dam_break.build(dx=0.08, t_end=10.0, frames=False, vtk=False)
-    s = sim.solver
-    for _ in range(steps):
-        s.step(s.stable_dt())
-    return s.state.numpy()
-
-
-def test_step_is_bitwise_identical_for_1_2_3_threads(dam_break):
-    ref = _state_after(dam_break, 1)
-    for threads in (2, 3):
-        other = _state_after(dam_break, threads)
-        for k in ref:
-            assert np.array_equal(ref[k].view(np.uint32), other[k].view(np.uint32)), (threads, k)
-
-
-def test_resume_reproduces_uninterrupted_run_bitwise(dam_break, tmp_path):
-    device.use("cpu", 2)
-    kw = dict(dx=0.08, t_end=0.05, output_interval=0.01, frames=False, vtk=True, checkpoint_every=15)
-    full = dam_break.build(**kw)
-    full.run(str(tmp_path / "full"), progress=False)
-    cut = dam_break.build(**kw)
-    cut.max_steps = 40                      # "interrupted" after 40 steps; last checkpoint at step 30
-    cut.run(str(tmp_path / "cut"), progress=False)
-    assert cut.step_count == 40
-    resumed = dam_break.build(**kw)
-    summary = resumed.run(str(tmp_path / "cut"), resume=True, progress=False)
-    assert resumed.step_count == full.step_count and summary["time"] == full.time
-    for k, v in full.solver.state.numpy().items():
-        assert np.array_equal(v, resumed.solver.state.numpy()[k]), k
-    assert resumed.series["front"] == full.series["front"]
-    pvd = (tmp_path / "cut" / "fluid.pvd").read_text()
-    assert pvd.count("<DataSet") == len(full.series["time"])
+# (determinism across thread counts and bitwise resume: tests/test_contract.py, for every solver)
 
 
 # -- bad input --------------------------------------------------------------------------------------

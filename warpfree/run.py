@@ -173,7 +173,7 @@ class Run(ABC):
         others = [s.points for s in sets if s.name != self._frame_set and len(s.points)]
         dim = self.solver.dim
         if self._bounds is None:
-            self._bounds = self.output.frame_bounds or _bounding_box(sets, max(dim, 2))
+            self._bounds = self.output.frame_bounds or _bounding_box(sets, dim)
         return ("frame", {"path": directory.frame(index), "points": shown.points,
                           "values": shown.fields[self._frame_field], "dim": dim, "field_name": self._frame_field,
                           "bounds": self._bounds, "boundary_points": np.vstack(others) if others else None,

@@ -38,7 +38,7 @@ import warp.sparse
 
 from .device import init_warp
 from .errors import ParameterError
-from .kernels.assembly import Loads, Triplets
+from warpfree.kernels.assembly import Loads, Triplets
 
 UNUSED = -1  # row index of an unused slot
 

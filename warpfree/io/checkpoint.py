@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import zipfile
 
 import numpy as np
 
@@ -66,6 +67,6 @@ def load(path: str) -> tuple[dict, dict[str, np.ndarray], dict[str, np.ndarray]]
             loop = json.loads(str(data["loop"]))
             series = {k[len("series__"):]: data[k] for k in data.files if k.startswith("series__")}
             state = {k[len("state__"):]: data[k] for k in data.files if k.startswith("state__")}
-    except (OSError, ValueError, KeyError, EOFError) as exc:
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
         raise ParameterError("resume", f"cannot read checkpoint {path}: {exc}") from None
     return loop, series, state

@@ -3,7 +3,7 @@
 Matplotlib is used through ``matplotlib.figure.Figure`` and the Agg canvas directly (no pyplot, no global
 backend switch, safe from worker threads).
 
-- :func:`render_frame` draws one frame. 2D: the particles as discs coloured by a field, sized so that
+- :func:`render_frame` draws one frame. 1D: the field against x. 2D: the particles as discs coloured by a field, sized so that
   particles at the mean spacing touch, boundary particles grey. 3D: two views side by side, an oblique
   perspective view (painter's algorithm: particles drawn far to near so near ones cover far ones, darker
   with depth) and an orthographic side (x–z) or top (x–y) view, also depth sorted; the container bounds
@@ -231,13 +231,13 @@ def render_frame(path, points, values, dim: int, field_name: str, bounds, bounda
                  title: str = "", cmap="viridis", vmin: float | None = None, vmax: float | None = None, *,
                  time: float | None = None, spacing: float | None = None, dpi: int = 100,
                  view: str = "side", azimuth: float = -60.0, elevation: float = 25.0) -> Path:
-    """Write a PNG of particles coloured by a field; returns the path.
+    """Write a PNG of particles coloured by a field (1D: the field against x); returns the path.
 
     Parameters
     ----------
     points: (N, 3) (or (N, dim)) positions (m); values: (N,) field values.
-    dim: 2 or 3. field_name: colour-bar label. bounds: ``((xmin, xmax), (ymin, ymax)[, (zmin, zmax)])``
-        of the scene (the container), the extent of the plot.
+    dim: 1, 2 or 3. field_name: colour-bar (1D: axis) label. bounds: ``((xmin, xmax)[, (ymin, ymax)[, (zmin,
+        zmax)]])`` of the scene (the container), the extent of the plot (one pair per dimension).
     boundary_points: optional (M, 3) wall particles, grey (2D) or faint behind the fluid (3D).
     title: text of the title; ``time`` (s), if given, is appended as ``t = ... s``.
     vmin, vmax: colour range (default: the finite range of ``values``).
@@ -245,8 +245,8 @@ def render_frame(path, points, values, dim: int, field_name: str, bounds, bounda
     view: 3D only, the second panel: ``"side"`` (x–z, looking along +y) or ``"top"`` (x–y, looking down).
     azimuth, elevation: 3D only, the oblique camera direction in degrees (z up).
     """
-    if dim not in (2, 3):
-        raise ParameterError("dim", f"must be 2 or 3, got {dim!r}")
+    if dim not in (1, 2, 3):
+        raise ParameterError("dim", f"must be 1, 2 or 3, got {dim!r}")
     b = _check_bounds(bounds, dim)
     p = _check_points("points", points, dim)
     v = np.asarray(values, dtype=np.float64).reshape(-1)
@@ -256,6 +256,8 @@ def render_frame(path, points, values, dim: int, field_name: str, bounds, bounda
     if view not in ("side", "top"):
         raise ParameterError("view", f"must be 'side' or 'top', got {view!r}")
     h = _spacing(p, spacing, b[:, 1] - b[:, 0])
+    if dim == 1:
+        return _save(_frame_1d(p, v, b, field_name, _title(title, time), dpi, vmin, vmax), path)
     norm, cm = _norm_cmap(v, cmap, vmin, vmax)
     if dim == 2:
         fig = _frame_2d(p, v, b, bp, h, norm, cm, field_name, _title(title, time), dpi)
@@ -296,6 +298,23 @@ def _frame_2d(p, v, b, bp, h, norm, cm, field_name, title, dpi):
         _add_colorbar(fig, norm, cm, [left / W, 0.35 / H, wa / W, 0.18 / H], field_name, "horizontal")
     else:
         _add_colorbar(fig, norm, cm, [(left + wa + 0.2) / W, bottom / H, 0.2 / W, ha / H], field_name)
+    return fig
+
+
+def _frame_1d(p, v, b, field_name, title, dpi, vmin, vmax):
+    """A 1D set: the field against x, one marker per particle joined in x order."""
+    fig = _figure(7.0, 3.6, dpi)
+    ax = fig.add_axes([0.11, 0.15, 0.85, 0.74])
+    order = np.argsort(p[:, 0], kind="stable")
+    ax.plot(p[order, 0], v[order], "-", color="C0", lw=1.0)
+    ax.plot(p[order, 0], v[order], ".", color="C0", ms=3)
+    ax.set_xlim(b[0, 0], b[0, 1])
+    if vmin is not None or vmax is not None:
+        ax.set_ylim(vmin, vmax)
+    ax.set_xlabel("x")
+    ax.set_ylabel(field_name)
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
     return fig
 
 

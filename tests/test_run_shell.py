@@ -1,0 +1,136 @@
+"""The run shell for static solves and time loops: summary, phases, outputs written beside the run (the
+same files as inline), a writer that fails, checkpoints killed mid-write, bad output options."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from example_static_solver import NodalValuesSolver
+from warpfree import device
+from warpfree.errors import ParameterError, RunError
+from warpfree.geometry import jittered_lattice
+from warpfree.io import checkpoint
+from warpfree.io.vtk import read_pvd
+from warpfree.run import OutputOptions, StaticRun
+from warpfree.solvers.heat import HeatModel, HeatSolver
+from warpfree.space import Space
+from warpfree.time_loop import TimeLoop
+
+
+def nodal_values_run(**output):
+    device.use("cpu", 2)
+    dx = 0.05
+    x = jittered_lattice((0.0, 0.0), (1.0, 1.0), dx, amplitude=0.2, seed=3)
+    f = np.sin(3.0 * x[:, 0]) * np.cos(2.0 * x[:, 1])
+    solver = NodalValuesSolver(x, dx, f, Space.free(2))
+    return StaticRun(solver, name="nodal_values", params={"dx": dx}, output=OutputOptions(**output),
+                     analyses=[lambda run, out: {"error": run.solver.diagnostics()["max_interpolation_error"]}])
+
+
+def test_static_solve_through_the_run_shell(tmp_path):
+    """Seed 000 eq. 3.35 solved once: the SPH interpolant of the nodal values reproduces the imposed values at
+    every particle (jittered), to the round-off of the float64 solve; the shell writes the summary with the
+    solve's phases and throughput, one VTU, one frame, the analysis."""
+    run = nodal_values_run()
+    summary = run.run(str(tmp_path))
+    assert summary["status"] == "ok" and summary["kind"] == "static" and summary["solver"] == "nodal_values"
+    assert {"neighbours", "assembly", "factorisation", "solve", "output", "analysis"} <= set(summary["phases_s"])
+    assert summary["throughput"]["unit"] == "particles/s" and summary["throughput"]["value"] > 0
+    assert summary["analysis"]["error"] < 1e-9
+    # the nodal values differ from the imposed ones (no Kronecker delta), by more than the solve's error
+    s = run.solver
+    assert np.max(np.abs(s.nodal - s.imposed)) > 1e-3
+    assert read_pvd(tmp_path / "particles.pvd")[0][0] == 0.0
+    assert (tmp_path / "frames" / "frame_00000.png").stat().st_size > 5000
+    assert json.loads((tmp_path / "summary.json").read_text())["status"] == "ok"
+
+
+def test_static_run_refuses_resume_and_time_loop_refuses_static_solver(tmp_path):
+    run = nodal_values_run()
+    with pytest.raises(ParameterError, match="resume"):
+        run.run(str(tmp_path), resume=True)
+    with pytest.raises(ParameterError, match="solver"):
+        TimeLoop(run.solver, t_end=1.0, output_interval=0.1)
+
+
+def heat_run(tmp_dim=2, n=16, t_end=0.4, **output):
+    device.use("cpu", 2)
+    length = 1.0
+    dx = length / n
+    if tmp_dim == 1:
+        x = (np.arange(n) + 0.5)[:, None] * dx
+        space = Space(1, (0, 0, 0), (length, 0, 0), (True, False, False))
+    else:
+        g = (np.arange(n) + 0.5) * dx
+        x = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
+        space = Space(2, (0, 0, 0), (length, length, 0), (True, True, False))
+    model = HeatModel(x, dx, 0.01, space)
+    solver = HeatSolver(model, 300.0 + np.sin(2 * np.pi * x[:, 0]))
+    return TimeLoop(solver, t_end=t_end, output_interval=0.1, name="heat", output=OutputOptions(**output),
+                    checkpoint_every=5)
+
+
+def test_background_writer_writes_the_same_files_as_inline(tmp_path):
+    """VTU, PVD and PNG files are byte for byte the same whether a worker process writes them or the run does."""
+    heat_run(background=True).run(str(tmp_path / "bg"), progress=False)
+    heat_run(background=False).run(str(tmp_path / "inline"), progress=False)
+    files = sorted(p.relative_to(tmp_path / "bg") for p in (tmp_path / "bg").rglob("*")
+                   if p.is_file() and p.suffix in (".vtu", ".pvd", ".png"))
+    assert len([f for f in files if f.suffix == ".png"]) == 5 and len([f for f in files if f.suffix == ".vtu"]) == 5
+    for rel in files:
+        assert (tmp_path / "bg" / rel).read_bytes() == (tmp_path / "inline" / rel).read_bytes(), rel
+
+
+def test_one_dimensional_run_writes_line_frames(tmp_path):
+    summary = heat_run(tmp_dim=1, n=64).run(str(tmp_path), progress=False)
+    assert summary["status"] == "ok" and summary["model"]["space"]["dim"] == 1
+    assert len(list((tmp_path / "frames").glob("*.png"))) == 5
+
+
+@pytest.mark.parametrize("background", [True, False])
+def test_a_failing_writer_stops_the_run_cleanly(tmp_path, background):
+    """The frames folder cannot be made (a file stands in its place): the run stops with a RunError naming the
+    failed write, keeps its last good state as a checkpoint, and the summary says so."""
+    (tmp_path / "frames").write_text("not a folder")
+    run = heat_run(background=background)
+    with pytest.raises(RunError, match="frame") as info:
+        run.run(str(tmp_path), progress=False)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["status"] == "error" and "frame" in summary["error"]
+    assert info.value.last_good and os.path.isfile(info.value.last_good)
+    assert run.step_count < 40  # stopped early: 0.4 s at the heat step is ~40 steps
+
+
+def test_checkpoint_killed_mid_write_is_never_picked_up(tmp_path):
+    """Leftovers of a write killed before its move (a hidden temporary, the old '.tmp.npz' name) are ignored
+    by the newest-checkpoint search and removed by the next save."""
+    cdir = str(tmp_path / "checkpoints")
+    state = {"temperature": np.arange(4, dtype=np.float32)}
+    good = checkpoint.save(cdir, 10, {"time": 0.1, "step": 10, "n_outputs": 2}, {"probe:time": np.zeros(2)}, state)
+    (tmp_path / "checkpoints" / ".step_00000020.npz.tmp123").write_bytes(b"PK\x03\x04 half a zip")
+    (tmp_path / "checkpoints" / "step_00000030.npz.tmp.npz").write_bytes(b"PK\x03\x04 half a zip")
+    assert checkpoint.latest(cdir) == good
+    loop, series, arrays = checkpoint.load(good)
+    assert loop["step"] == 10 and np.array_equal(arrays["temperature"], state["temperature"])
+    checkpoint.save(cdir, 40, loop, series, state)
+    assert not (tmp_path / "checkpoints" / ".step_00000020.npz.tmp123").exists()
+    (tmp_path / "checkpoints" / "step_00000050.npz").write_bytes(b"PK\x03\x04 damaged")
+    with pytest.raises(ParameterError, match="resume"):
+        checkpoint.load(checkpoint.latest(cdir))
+
+
+def test_resume_from_a_checkpoint_of_another_scene_is_refused(tmp_path):
+    heat_run(n=16).run(str(tmp_path), progress=False)
+    other = heat_run(n=12)
+    with pytest.raises(ParameterError, match="resume.*temperature"):
+        other.run(str(tmp_path), resume=True, progress=False)
+
+
+@pytest.mark.parametrize("option,value", [("frame_field", "pressure"), ("frame_set", "fluid")])
+def test_bad_frame_options_name_the_option(option, value):
+    with pytest.raises(ParameterError, match=option):
+        heat_run(**{option: value})
