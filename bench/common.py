@@ -1,18 +1,26 @@
 """Shared helpers of the benchmark harness: scene building, the step timer, worker subprocesses,
 machine information and the writers of the JSON / Markdown / PNG results.
 
+Everything here goes through the solver contract (``warpfree/solver.py``), so any scene of any method
+family can be timed: ``solver.step(dt)``, ``solver.problem()`` (the step's one read-back),
+``solver.work_items`` counted in ``solver.work_unit`` (particle-steps, Gauss points, ...), the timed
+``solver.phases``, and, for solvers whose particles move, ``solver.moving_neighbours``.
+
 Timing protocol (:func:`time_steps`): ``warmup`` untimed steps first (the first launch of every kernel
 loads or JIT-compiles its Warp module, so compilation never enters a timing), then ``repeats`` timed
 blocks of ``steps`` steps each, every block bracketed by ``time.perf_counter``; the figure reported is
 the median block. Every step of every block uses the same ``dt`` (given by the caller), so the work is
-identical whatever the thread count. The solver's ``step`` synchronises at its end, so the wall time
-of a block is the time of its work. The WCSPH solver rebuilds its neighbour lists only when a particle
-has used up half the skin, which from rest takes hundreds of steps; :func:`time_solver` therefore
-forces a rebuild every ``rebuild_interval`` steps, the rate of the developed flow, so that a block
-costs what a step of the running dam break costs.
+identical whatever the thread count. Each step ends with the solver's problem check, which reads the
+step's reduced report back (on a GPU: the step's synchronisation), so a block's wall time is its work.
 
-Throughput is counted in particle-steps per second: ``particles * steps / wall``, with particles =
-fluid + boundary (every particle the solver's kernels touch) and, separately, fluid only.
+Moving sets rebuild their neighbour tables once a particle may have moved half the skin; from rest
+that takes hundreds of steps, so :func:`time_solver` forces a rebuild every ``rebuild_every`` steps
+(default :data:`DEVELOPED_REBUILD_EVERY`, the interval of the dam breaks' developed flow) and a block
+costs what a step of a running flow costs.
+
+Throughput is ``work_items * steps / wall`` in the solver's unit per second (for WCSPH: particle-steps/s
+with particles = fluid + boundary, every particle the kernels touch) and, where the model reports a
+fluid count, fluid-particle-steps/s.
 
 Speed is measured only here, never in the tests. Absolute numbers hold only for the machine that
 made them; ratios measured side by side in one run are the figures that travel.
@@ -103,24 +111,40 @@ def machine_info() -> dict:
 
 # -- scenes -------------------------------------------------------------------------------------
 def build_scene(scene: str, threads: int, device: str = "cpu", **params):
-    """Set the launcher (``warpfree.device.use(device, threads)``) and build ``scenes/<scene>.py``.
-
-    Frames and VTU output are switched off; every other parameter is the scene's default unless
-    given. Returns the :class:`~warpfree.simulation.Simulation`.
-    """
+    """Set the launcher (``warpfree.device.use(device, threads)``) and build a scene: a name under
+    ``scenes/`` or a path to a scene file. Frames and VTU output are switched off when the scene has those
+    parameters; every other parameter is the scene's default unless given. Returns the scene's run
+    (``TimeLoop`` or ``StaticRun``)."""
     os.environ.setdefault("WARPFREE_VERBOSE", "0")
     import warpfree.device
-    from warpfree.cli import load_scene
+    from warpfree.cli import load_scene, scene_parameters
 
     warpfree.device.use(device, threads)
-    module = load_scene(str(SCENES / f"{scene}.py"))
-    params.setdefault("frames", False)
-    params.setdefault("vtk", False)
+    path = scene if scene.endswith(".py") else str(SCENES / f"{scene}.py")
+    module = load_scene(path)
+    defaults = scene_parameters(module)
+    for off in ("frames", "vtk"):
+        if off in defaults:
+            params.setdefault(off, False)
     return module.build(**params)
 
 
-def particle_counts(solver) -> dict:
-    return {"n_fluid": int(solver.nf), "n_boundary": int(solver.nb), "n_particles": int(solver.n)}
+def parse_sets(scene: str, pairs: list[str]) -> dict:
+    """``name=value`` overrides of a scene's parameters, typed as the CLI types them."""
+    from warpfree.cli import load_scene, parse_overrides, scene_parameters
+
+    path = scene if scene.endswith(".py") else str(SCENES / f"{scene}.py")
+    return parse_overrides(pairs, scene_parameters(load_scene(path)))
+
+
+def work_counts(solver) -> dict:
+    """The solver's work per step and its unit, and the model's particle counts where it reports them."""
+    d = solver.describe()
+    out = {"work_items": int(solver.work_items), "work_unit": solver.work_unit}
+    for k in ("n_fluid", "n_boundary", "n_particles"):
+        if k in d:
+            out[k] = int(d[k])
+    return out
 
 
 # -- the timer ----------------------------------------------------------------------------------
@@ -156,71 +180,63 @@ def time_steps(step: Callable[[], None], steps: int, warmup: int = 3, repeats: i
             "max_s": max(blocks), "steps": steps, "repeats": repeats, "warmup": warmup}
 
 
-def rebuild_interval(solver, dt: float) -> int | None:
-    """Steps between neighbour-list rebuilds in a developed flow, or None (solver without lists).
-
-    The WCSPH solver rebuilds its lists once a fluid particle has moved half the skin; at t = 0 nothing
-    moves, so a short timing from rest would see no rebuild at all. We take the flow speed of the
-    developed dam break, v = c0 / 10 (the scenes set c0 = 10 sqrt(2 g H)), and rebuild every
-    floor(skin / 2 / (v dt)) steps (= 8 at the scenes' CFL 0.2, skin 0.15 support).
-    """
-    skin = getattr(solver, "skin", 0.0)
-    if not (skin and hasattr(solver, "build_lists") and hasattr(solver, "x_built")):
-        return None
-    v = solver.params.c0 / 10.0
-    return max(1, int(0.5 * skin / (v * dt)))
-
-
-def force_rebuild(solver) -> None:
-    """Rebuild the neighbour lists now, as ``update_lists`` does when the skin is used up."""
-    import warp as wp
-
-    wp.copy(solver.x_built, solver.fluid.x)
-    solver.build_lists()
+#: forced neighbour-table rebuild interval (steps) when timing from rest: the dam breaks' developed flow,
+#: where particles move at v ≈ c0/10 = sqrt(2 g H) and the skin (0.15 support) lasts skin/2 / (v dt) = 7-8
+#: steps at Courant number 0.2
+DEVELOPED_REBUILD_EVERY = 8
 
 
 def time_solver(solver, dt: float, steps: int, warmup: int = 3, repeats: int = 3,
-                rebuild_every: int | str | None = "developed") -> dict:
-    """:func:`time_steps` on ``solver.step(dt)`` with a fixed ``dt``; adds the throughput figures and
-    the solver's own per-phase wall times per step over the timed blocks (``phase_s_per_step``).
+                rebuild_every: int | None = DEVELOPED_REBUILD_EVERY) -> dict:
+    """:func:`time_steps` on ``solver.step(dt)`` with a fixed ``dt``; adds the throughput and the solver's own
+    per-phase wall times per step over the timed blocks (``phase_s_per_step``).
 
-    ``rebuild_every``: force a neighbour-list rebuild before every k-th step (``"developed"``: the
-    rate of the developed flow, :func:`rebuild_interval`; None: only the solver's own rebuilds,
-    i.e. hardly any from rest).
+    ``rebuild_every``: for a solver with ``moving_neighbours``, force a table rebuild before every k-th step
+    (None: only the solver's own rebuilds, i.e. hardly any from rest); ignored for other solvers.
     """
-    if rebuild_every == "developed":
-        rebuild_every = rebuild_interval(solver, dt)
+    moving = getattr(solver, "moving_neighbours", None)
+    if moving is None:
+        rebuild_every = None
     if rebuild_every:  # whole rebuild periods, so every block holds the same number of rebuilds
         steps = -(-steps // rebuild_every) * rebuild_every
         warmup = -(-warmup // rebuild_every) * rebuild_every
-    before = {}
+    before: dict = {}
     count = [0]
-
-    def snapshot():
-        before.update(getattr(solver, "timings", {}) or {})
 
     def step():
         if rebuild_every and count[0] % rebuild_every == 0:
-            force_rebuild(solver)
+            with solver.phases("neighbours"):  # where solvers time their own rebuilds
+                moving.rebuild()
         count[0] += 1
         solver.step(dt)
 
-    res = time_steps(step, steps, warmup, repeats, check=lambda: solver.problem, after_warmup=snapshot)
+    res = time_steps(step, steps, warmup, repeats, check=solver.problem,
+                     after_warmup=lambda: before.update(solver.phases.as_dict()))
     total = steps * repeats
-    res["phase_s_per_step"] = {k: (v - before.get(k, 0.0)) / total
-                               for k, v in (getattr(solver, "timings", {}) or {}).items()}
+    res["phase_s_per_step"] = {k: (v - before.get(k, 0.0)) / total for k, v in solver.phases.as_dict().items()}
     res["rebuild_every"] = rebuild_every
-    res.update(particle_counts(solver))
+    res.update(work_counts(solver))
     res["dt"] = dt
-    res.update(throughput(solver.n, solver.nf, steps, res["median_s"]))
-    res["block_particle_steps_per_s"] = [solver.n * steps / b for b in res["block_s"]]
+    res.update(throughput(res, steps, res["median_s"]))
+    res["block_work_per_s"] = [solver.work_items * steps / b for b in res["block_s"]]
     return res
 
 
-def throughput(n_particles: int, n_fluid: int, steps: int, wall_s: float) -> dict:
+def throughput(counts: dict, steps: int, wall_s: float) -> dict:
+    """Work items per second in the solver's unit (``work_per_s``), fluid-particle-steps/s where the model
+    has a fluid count, and seconds per step."""
+    out = {"work_per_s": counts["work_items"] * steps / wall_s, "unit": f"{counts['work_unit']}/s",
+           "s_per_step": wall_s / steps}
+    if "n_fluid" in counts:
+        out["fluid_particle_steps_per_s"] = counts["n_fluid"] * steps / wall_s
+    return out
+
+
+def particle_throughput(n_particles: int, n_fluid: int, steps: int, wall_s: float) -> dict:
+    """Particle-steps/s of all particles and of the fluid alone, and seconds per step (the comparisons with
+    fluid peers, whose own figures come in these units)."""
     return {"particle_steps_per_s": n_particles * steps / wall_s,
-            "fluid_particle_steps_per_s": n_fluid * steps / wall_s,
-            "s_per_step": wall_s / steps}
+            "fluid_particle_steps_per_s": n_fluid * steps / wall_s, "s_per_step": wall_s / steps}
 
 
 def median(values):
@@ -266,7 +282,7 @@ def md_table(headers: list[str], rows: list[list], align: str | None = None) -> 
 
 
 def fmt_rate(x: float | None) -> str:
-    """Particle-steps/s in engineering notation (e.g. ``1.23e5``)."""
+    """A rate in engineering notation (e.g. ``1.23e5``)."""
     if x is None or not np.isfinite(x):
         return "–"
     return f"{x:.3g}"
@@ -336,32 +352,56 @@ DAM_BREAK_T_MAX = 2.5
 
 
 def dam_break_front_errors(t, x_front) -> dict:
-    """``front_errors`` (T <= 2.5) of warpfree.validation.dam_break for a = 1, g = 9.81."""
+    """``front_errors`` (T <= 2.5) of warpfree.validation.dam_break_2d for a = 1, g = 9.81."""
     from warpfree.validation.dam_break_2d import front_errors
 
     return front_errors(np.asarray(t, float), np.asarray(x_front, float), DAM_BREAK_A, DAM_BREAK_G,
                         t_max=DAM_BREAK_T_MAX)
 
 
+def scene_run(cfg: dict) -> dict:
+    """Run a scene through its run shell into a temporary directory, frames and VTU off (call it in a worker).
+
+    cfg: scene, threads, params. Returns the work counts, steps, the run's ``wall_s`` (steps, probes and
+    records; not the build, not the analysis), its phases, throughput and the scene's analysis.
+    """
+    import tempfile
+
+    t0 = time.perf_counter()
+    run = build_scene(cfg["scene"], cfg["threads"], **cfg["params"])
+    build_s = time.perf_counter() - t0
+    with tempfile.TemporaryDirectory() as out:
+        summ = run.run(out, progress=False)
+    counts = work_counts(run.solver)
+    steps = summ.get("steps", 1)
+    out = dict(scene=cfg["scene"], params=cfg["params"], threads=run.solver.launcher.threads, **counts, steps=steps,
+               wall_s=summ["wall_s"], build_s=build_s, phases_s=summ["phases_s"], analysis=summ.get("analysis", {}),
+               loadavg=loadavg())
+    out.update(throughput(counts, steps, out["wall_s"]))
+    return out
+
+
 def dam_break_2d_run(cfg: dict) -> dict:
     """Run ``scenes/dam_break_2d.py`` in memory (call it in a worker process).
 
-    cfg: dx, threads, tf, optional cfl. Wall time = the run's own ``wall_s`` (steps plus the probe and
-    diagnostic records every ``output_interval``; the build, which loads the kernels, is excluded).
-    Returns counts, steps, wall times, the front history [(t, x_front)] and its errors.
+    cfg: dx, threads, tf, optional cfl. Wall time = the run's step time (the summary's ``phases_s["step"]``:
+    every step with its read-back) plus its probe and diagnostic records every ``output_interval``
+    (``phases_s["output"]``); the build, which loads the kernels, is excluded. Returns counts, steps, wall
+    times, the front history [(t, x_front)] and its errors.
     """
     params = dict(dx=cfg["dx"], t_end=cfg["tf"])
     if cfg.get("cfl"):
         params["cfl"] = cfg["cfl"]
     t0 = time.perf_counter()
-    sim = build_scene("dam_break_2d", cfg["threads"], **params)
+    run = build_scene("dam_break_2d", cfg["threads"], **params)
     build_s = time.perf_counter() - t0
-    s = sim.solver
-    summ = sim.run(None, progress=False)
-    t, x = sim.series["time"], sim.series["front"]
-    out = dict(code="warpfree WCSPH 2D", dx=cfg["dx"], threads=s.launcher.threads, cfl=s.params.cfl,
-               **particle_counts(s), steps=summ["steps"], t_final=sim.time, wall_s=summ["wall_s"],
-               step_wall_s=sim.wall["step"], build_s=build_s, front=list(zip(t, x)),
+    s = run.solver
+    summ = run.run(None, progress=False)
+    t, x = run.series["time"], run.series["front"]
+    counts = work_counts(s)
+    out = dict(code="warpfree WCSPH 2D", dx=cfg["dx"], threads=s.launcher.threads, cfl=s.model.params.cfl,
+               **counts, steps=summ["steps"], t_final=run.time, wall_s=summ["wall_s"],
+               step_wall_s=summ["phases_s"]["step"], build_s=build_s, front=list(zip(t, x)),
                errors=dam_break_front_errors(t, x), loadavg=loadavg())
-    out.update(throughput(s.n, s.nf, out["steps"], out["wall_s"]))
+    out.update(particle_throughput(counts["n_particles"], counts["n_fluid"], out["steps"], out["wall_s"]))
     return out

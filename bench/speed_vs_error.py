@@ -1,26 +1,31 @@
-"""Speed against error: the 2D dam break at several resolutions, front error against wall time.
+"""Speed against error: a scene at several resolutions, its error against its reference against wall time.
 
 What it measures
-    ``scenes/dam_break_2d.py`` (a = 1, tank 4a x 4a, the scene's defaults otherwise) at dx = 0.05,
-    0.04, 0.03, 0.02 (``--dx``; quick: 0.1, 0.08, 0.06), each run from t = 0 to T = 2.5, i.e.
-    t = 2.5 / sqrt(2 g / a) = 0.564 s. Per resolution: particles (fluid + boundary, fluid), steps, wall
-    time of the run, particle-steps/s, and the surge-front error max |dZ| over the experimental points
-    with T <= 2.5 (Martin & Moyce 1952 and Koshizuka & Oka 1996, ``front_errors`` of
-    ``warpfree.validation.dam_break``; the front is sampled every 0.02 s and interpolated linearly),
-    also per data set.
+    A scene run at several values of its resolution parameter; per value: work items per step (in the
+    solver's unit), steps, wall time of the run, throughput, and the error the scene's own analysis
+    reports against its reference (a key of ``summary["analysis"]``). Built-in cases:
+
+    * ``dam_break_2d`` (default): ``scenes/dam_break_2d.py`` at dx = 0.05, 0.04, 0.03, 0.02 (quick: 0.1,
+      0.08, 0.06) from t = 0 to T = 2.5 (t = 2.5 / sqrt(2 g / a) = 0.564 s); error: the surge-front max |ΔZ|
+      over the experimental points with T <= 2.5 (``warpfree.validation.dam_break_2d``), also per data set;
+    * ``heat``: ``scenes/heat_conduction_2d.py`` at n = 20, 40, 80 particles per side (quick: 10, 20);
+      error: the largest amplitude error of the decaying sine mode against exp(-α k² t), relative to A;
+    * any scene: ``--scene PATH --param NAME --values ... --error analysis.key.path [--set name=value]``.
 
 How
-    Each resolution runs in a fresh subprocess (``bench/common.py: dam_break_2d_run``):
-    ``warpfree.device.use('cpu', threads)`` (default: all cores), build (kernels load here, not timed),
-    then ``Simulation.run`` in memory; the wall time is the run's own ``wall_s`` (steps plus the probe
-    records, no files). The median of ``--repeats`` runs per resolution (default 3).
+    Each run is a fresh subprocess (``bench/common.py: scene_run``): ``warpfree.device.use('cpu', threads)``
+    (default: all cores), build (kernels load here, not timed), then the scene's run into a temporary
+    directory with frames and VTU off; the wall time is the run's own ``wall_s`` (steps, probe and
+    diagnostic records; not the build, not the analysis). The median of ``--repeats`` runs per value
+    (default 3).
 
 Usage
-    python bench/speed_vs_error.py            # full: ~5 min on 2 cores
-    python bench/speed_vs_error.py --quick    # ~30 s
-    python bench/speed_vs_error.py --dx 0.05 0.03 0.02 0.015 --threads 2
-Writes bench/results/speed_vs_error[_quick].{json,md,png} (PNG: error against wall time, and against
-particle count).
+    python bench/speed_vs_error.py                  # dam break, full: ~5 min on 2 cores
+    python bench/speed_vs_error.py --case heat
+    python bench/speed_vs_error.py --quick          # ~30 s
+    python bench/speed_vs_error.py --values 0.05 0.03 0.02 0.015 --threads 2
+Writes bench/results/speed_vs_error[_<case>][_quick].{json,md,png} (PNG: error against wall time and
+against work items per step).
 """
 
 from __future__ import annotations
@@ -36,38 +41,56 @@ import common  # noqa: E402
 
 T_END = common.DAM_BREAK_T_MAX / math.sqrt(2 * common.DAM_BREAK_G / common.DAM_BREAK_A)
 
+CASES = {
+    "dam_break_2d": dict(
+        scene="dam_break_2d", param="dx", values=[0.05, 0.04, 0.03, 0.02], quick=[0.1, 0.08, 0.06],
+        params={"t_end": T_END}, error="front.errors.max_abs", label="front max abs(ΔZ), T ≤ 2.5", tolerance=0.15,
+        extra={f"vs {name}": f"front.errors.{name}.max_abs" for name in (
+            "Martin & Moyce 1952", "Koshizuka & Oka 1996", "Koshizuka & Oka 1996 (DualSPHysics digitisation)")}),
+    "heat": dict(
+        scene="heat_conduction_2d", param="n", values=[20, 40, 80], quick=[10, 20], params={},
+        error="decay.max_amplitude_error", label="max abs(A - A exp(-α k² t)) / A", tolerance=None,
+        extra={"decay-rate error": "decay.rate_rel_error"}),
+}
 
-def markdown(rows: list[dict], threads: int) -> str:
-    names = [k for k in rows[0]["errors"] if k != "max_abs"]
+
+def lookup(analysis: dict, path: str):
+    """``analysis["a"]["b"]`` for the path "a.b" (keys may contain spaces and '&', not dots)."""
+    node = analysis
+    for part in path.split("."):
+        node = node[part]
+    return node
+
+
+def markdown(case: dict, rows: list[dict], threads: int) -> str:
     table = []
     for r in rows:
-        table.append([r["dx"], f"{r['n_fluid']} + {r['n_boundary']} = {r['n_particles']}", r["steps"],
-                      f"{r['wall_s']:.1f}", common.fmt_rate(r["particle_steps_per_s"]),
-                      f"{r['errors']['max_abs']:.3f}", *[f"{r['errors'][n]['max_abs']:.3f}" for n in names]])
-    head = ["dx", "particles (fluid + boundary)", "steps", "wall s", "particle-steps/s (all)",
-            "front max abs dZ (T<=2.5)", *[f"max abs dZ vs {n}" for n in names]]
-    return (f"## Speed vs error: 2D dam break to T = 2.5 (t = {T_END:.4f} s), {threads} thread(s), CPU\n\n"
-            + common.md_table(head, table)
-            + "\n\nThe two experiments differ from each other by up to ~0.1 in Z; the issue's tolerance is 0.15.")
+        table.append([r["value"], r["work_items"], r["steps"], f"{r['wall_s']:.2f}", common.fmt_rate(r["work_per_s"]),
+                      f"{r['error']:.3g}", *[f"{r['extra'][k]:.3g}" for k in case["extra"]]])
+    head = [case["param"], f"{rows[0]['work_unit'].split('-')[0]}s per step", "steps", "wall s", rows[0]["unit"],
+            case["label"], *case["extra"]]
+    return (f"## Speed vs error: `{case['scene']}` ({', '.join(f'{k} = {v:.4g}' for k, v in case['params'].items())}),"
+            f" {threads} thread(s), CPU\n\n" + common.md_table(head, table))
 
 
-def plot(rows: list[dict], threads: int):
+def plot(case: dict, rows: list[dict], threads: int):
     fig, (a1, a2) = common.new_figure(1, 2, figsize=(10, 4))
-    w = [r["wall_s"] for r in rows]
-    n = [r["n_particles"] for r in rows]
-    e = [r["errors"]["max_abs"] for r in rows]
-    for ax, xs, xl in ((a1, w, "wall time to T = 2.5 (s)"), (a2, n, "particles (fluid + boundary)")):
+    e = [abs(r["error"]) for r in rows]
+    for ax, xs, xl in ((a1, [r["wall_s"] for r in rows], "wall time of the run (s)"),
+                       (a2, [r["work_items"] for r in rows], f"{rows[0]['work_unit'].split('-')[0]}s per step")):
         ax.plot(xs, e, "o-")
         for r, xv, ev in zip(rows, xs, e):
-            ax.annotate(f"dx={r['dx']}", (xv, ev), textcoords="offset points", xytext=(4, 4), fontsize=8)
+            ax.annotate(f"{case['param']}={r['value']}", (xv, ev), textcoords="offset points", xytext=(4, 4), fontsize=8)
         ax.set_xscale("log")
         ax.set_xlabel(xl)
-        ax.set_ylabel("front max |ΔZ|, T ≤ 2.5")
-        ax.axhline(0.15, color="0.5", ls=":", label="tolerance 0.15")
+        ax.set_ylabel(case["label"])
+        if case["tolerance"]:
+            ax.axhline(case["tolerance"], color="0.5", ls=":", label=f"tolerance {case['tolerance']}")
+            ax.legend(fontsize=8)
+        else:
+            ax.set_yscale("log")
         ax.grid(alpha=0.3, which="both")
-        ax.set_ylim(0, max(0.2, max(e) * 1.15))
-        ax.legend(fontsize=8)
-    a1.set_title(f"2D dam break: error vs wall time ({threads} thread(s), CPU)")
+    a1.set_title(f"{case['scene']}: error vs wall time ({threads} thread(s), CPU)")
     fig.tight_layout()
     return fig
 
@@ -75,31 +98,50 @@ def plot(rows: list[dict], threads: int):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--dx", nargs="+", type=float, default=None)
+    ap.add_argument("--case", default="dam_break_2d", choices=sorted(CASES))
+    ap.add_argument("--scene", default=None, help="any scene (with --param, --values and --error)")
+    ap.add_argument("--param", default=None, help="the scene's resolution parameter")
+    ap.add_argument("--values", nargs="+", default=None, help="its values")
+    ap.add_argument("--error", default=None, help="the error's key path in summary['analysis'], e.g. decay.rate_rel_error")
+    ap.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE")
     ap.add_argument("--threads", type=int, default=None, help="default: all cores")
-    ap.add_argument("--repeats", type=int, default=None, help="runs per resolution (default 3; quick 1)")
+    ap.add_argument("--repeats", type=int, default=None, help="runs per value (default 3; quick 1)")
     args = ap.parse_args(argv)
     q = args.quick
+    if args.scene:
+        if not (args.param and args.values and args.error):
+            ap.error("--scene needs --param, --values and --error")
+        case = dict(scene=args.scene, param=args.param, values=None, quick=None, params={}, error=args.error,
+                    label=args.error, tolerance=None, extra={})
+        name = Path(args.scene).stem
+    else:
+        case, name = dict(CASES[args.case]), args.case
+    case["params"] = {**case["params"], **common.parse_sets(case["scene"], args.overrides)}
+    typed = common.parse_sets(case["scene"], [f"{case['param']}={v}" for v in args.values]) if args.values else None
+    values = ([common.parse_sets(case["scene"], [f"{case['param']}={v}"])[case["param"]] for v in args.values]
+              if typed is not None else (case["quick"] if q else case["values"]))
     args.repeats = args.repeats or (1 if q else 3)
-    dxs = args.dx or ([0.1, 0.08, 0.06] if q else [0.05, 0.04, 0.03, 0.02])
     threads = args.threads or common.cpu_count()
     machine = common.machine_info()
     rows = []
-    for dx in dxs:
+    for value in values:
         runs = []
         for _ in range(args.repeats):
-            cfg = dict(dx=dx, threads=threads, tf=T_END)
-            r = common.run_worker(common.BENCH / "_worker.py", ["dam_break_2d_run", json.dumps(cfg)])
+            cfg = dict(scene=case["scene"], threads=threads, params={**case["params"], case["param"]: value})
+            r = common.run_worker(common.BENCH / "_worker.py", ["scene_run", json.dumps(cfg)])
+            r["error"] = lookup(r["analysis"], case["error"])
+            r["extra"] = {k: lookup(r["analysis"], path) for k, path in case["extra"].items()}
             runs.append(r)
-            print(f"  dx={dx}: {r['n_particles']} particles, {r['steps']} steps, {r['wall_s']:.1f} s, "
-                  f"front err {r['errors']['max_abs']:.3f} (load {r['loadavg']})", flush=True)
-        row = dict(runs[0])
+            print(f"  {case['param']}={value}: {r['work_items']} items, {r['steps']} steps, {r['wall_s']:.2f} s, "
+                  f"error {r['error']:.3g} (load {r['loadavg']})", flush=True)
+        row = dict(runs[0], value=value)
         row["wall_s_runs"] = [x["wall_s"] for x in runs]
         row["wall_s"] = common.median(row["wall_s_runs"])
-        row.update(common.throughput(row["n_particles"], row["n_fluid"], row["steps"], row["wall_s"]))
+        row.update(common.throughput(row, row["steps"], row["wall_s"]))
         rows.append(row)
-    common.write_results("speed_vs_error", {"machine": machine, "t_end": T_END, "threads": threads, "rows": rows},
-                         markdown(rows, threads), plot(rows, threads), quick=q)
+    stem = "speed_vs_error" + ("" if name == "dam_break_2d" else f"_{name}")
+    common.write_results(stem, {"machine": machine, "case": case, "threads": threads, "rows": rows},
+                         markdown(case, rows, threads), plot(case, rows, threads), quick=q)
     return 0
 
 

@@ -96,7 +96,7 @@ def summarise(runs: list[dict]) -> dict:
     r = dict(runs[0])
     r["wall_s_runs"] = [x["wall_s"] for x in runs]
     r["wall_s"] = common.median(r["wall_s_runs"])
-    r.update(common.throughput(r["n_particles"], r["n_fluid"], r["steps"], r["wall_s"]))
+    r.update(common.particle_throughput(r["n_particles"], r["n_fluid"], r["steps"], r["wall_s"]))
     return r
 
 

@@ -55,18 +55,18 @@ SCENE = "dam_break_3d"
 
 # -- workers ----------------------------------------------------------------------------------------
 def worker_ours(cfg: dict) -> dict:
-    sim = common.build_scene(SCENE, cfg["threads"], dx=cfg["dx"], t_end=10.0)
-    s = sim.solver
+    run = common.build_scene(SCENE, cfg["threads"], dx=cfg["dx"], t_end=10.0)
+    s = run.solver
     dt = cfg.get("dt") or s.stable_dt()
     res = common.time_solver(s, dt, cfg["steps"], cfg["warmup"], cfg["repeats"])
-    from warpfree.neighbours import NeighbourGrid, neighbour_counts
+    from warpfree.neighbours import NeighbourGrid, NeighbourList
 
     # neighbours within the support among all particles (fluid + wall), now
-    grid = NeighbourGrid(s.x, s.params.support, s.params.dim, policy="static", device=s.launcher.device)
-    nf_counts = neighbour_counts(s.launcher, grid, s.x[: s.nf], exclude_self=True)
-    nb_counts = neighbour_counts(s.launcher, grid, s.x[s.nf:], exclude_self=True) if s.nb else [0]
-    res.update(threads=s.launcher.threads, dx=cfg["dx"], mean_neighbours_fluid=float(nf_counts.mean()),
-               mean_neighbours_boundary=float(sum(nb_counts) / max(len(nb_counts), 1)), loadavg=common.loadavg())
+    x, nf = s.state.position, s.model.nf
+    grid = NeighbourGrid(s.launcher, s.model.params.support, s.model.space, x)
+    counts = NeighbourList(grid, x, exclude_self=True).counts()
+    res.update(threads=s.launcher.threads, dx=cfg["dx"], mean_neighbours_fluid=float(counts[:nf].mean()),
+               mean_neighbours_boundary=float(counts[nf:].mean()) if s.model.nb else 0.0, loadavg=common.loadavg())
     return res
 
 
@@ -86,8 +86,8 @@ def worker_count(cfg: dict) -> dict:
     """Particle counts of our scene for a list of dx (build only)."""
     out = []
     for dx in cfg["dxs"]:
-        sim = common.build_scene(SCENE, 1, dx=dx, t_end=10.0)
-        out.append(dict(dx=dx, **common.particle_counts(sim.solver)))
+        run = common.build_scene(SCENE, 1, dx=dx, t_end=10.0)
+        out.append(dict(dx=dx, **common.work_counts(run.solver)))
     return {"counts": out}
 
 
@@ -109,7 +109,8 @@ def match_dx(n_target: int, key: str, dx0: float = 0.035) -> dict:
 
 def collect(blocks: list[float], steps: int, n: int, nf: int) -> dict:
     med = common.median(blocks)
-    return dict(median_block_s=med, blocks_s=blocks, steps_per_block=steps, **common.throughput(n, nf, steps, med))
+    return dict(median_block_s=med, blocks_s=blocks, steps_per_block=steps,
+                **common.particle_throughput(n, nf, steps, med))
 
 
 def compare(args, match: str, threads_all: int) -> dict:
@@ -140,7 +141,7 @@ def compare(args, match: str, threads_all: int) -> dict:
                 dt = res["dt"]
             blocks[(who, t)].extend(res["block_s"])
             raw[str((who, t))].append(res)
-            print(f"  {who} threads={t} round={r}: {common.fmt_rate(res.get('particle_steps_per_s'))} "
+            print(f"  {who} threads={t} round={r}: {common.fmt_rate(res.get('particle_steps_per_s', res.get('work_per_s')))} "
                   f"particle-steps/s (blocks {[round(b, 3) for b in res['block_s']]} s, load {res['loadavg']})",
                   flush=True)
     o1 = raw[str(("ours", 1))][0]

@@ -167,6 +167,10 @@ class TimeDependentSolver(Solver):
 
     work_unit: ClassVar[str] = "particle-steps"
     state: State
+    #: the :class:`~warpfree.neighbours.MovingNeighbours` of a solver whose particles move (None otherwise),
+    #: rebuilt inside the phase "neighbours": the benchmark harness forces its rebuilds at a developed flow's
+    #: rate when it times steps from rest
+    moving_neighbours = None
 
     @abstractmethod
     def step(self, dt: float) -> None:

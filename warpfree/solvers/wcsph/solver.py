@@ -128,15 +128,15 @@ class WCSPHSolver(TimeDependentSolver):
 
         self.max_neighbours = self._check_neighbours()
         # Neighbour candidates within support + skin, rebuilt once a fluid particle may have moved skin/2.
-        self.neighbours = MovingNeighbours(launcher, model.space, self.fluid.position, params.support, model.skin,
-                                           static_sets={"walls": self.boundary.position} if nb else None,
-                                           position_at_build=S.position_at_build)
+        self.moving_neighbours = MovingNeighbours(
+            launcher, model.space, self.fluid.position, params.support, model.skin,
+            static_sets={"walls": self.boundary.position} if nb else None, position_at_build=S.position_at_build)
         a.position_at_build = S.position_at_build
         cap = int(self.max_neighbours * (1.0 + params.skin) ** params.dim * 1.2) + 8  # grows if ever too small
-        self.fluid_fluid = self.neighbours.add_table("fluid_fluid", "moving", "moving", cap, exclude_self=True)
+        self.fluid_fluid = self.moving_neighbours.add_table("fluid_fluid", "moving", "moving", cap, exclude_self=True)
         if nb:
-            self.fluid_wall = self.neighbours.add_table("fluid_wall", "moving", "walls", cap)
-            self.wall_fluid = self.neighbours.add_table("wall_fluid", "walls", "moving", cap)
+            self.fluid_wall = self.moving_neighbours.add_table("fluid_wall", "moving", "walls", cap)
+            self.wall_fluid = self.moving_neighbours.add_table("wall_fluid", "walls", "moving", cap)
         else:  # valid empty rows for the kernels
             self.fluid_wall = self.wall_fluid = _EmptyRows(nf, dev)
         self._report = Reduction(launcher, wp.vec4, "max")
@@ -165,7 +165,7 @@ class WCSPHSolver(TimeDependentSolver):
         wp.copy(a.density_eval, self.fluid["density"])
         self.launcher.launch(K.equation_of_state, self.model.nf, [c, a.density_eval, self.state.pressure], light=True)
         with self.phases("neighbours"):
-            self.neighbours.rebuild()
+            self.moving_neighbours.rebuild()
         self.compute_rates()
         self._launch_report()
 
@@ -206,9 +206,9 @@ class WCSPHSolver(TimeDependentSolver):
         moved_bound = math.sqrt(moved2) + dt * (math.sqrt(v2) + 0.5 * dt * math.sqrt(a2))
         with self.phases("integrate"):
             L.launch(self.kernels.drift, nf, [c, a, float(dt)], light=True)
-        if self.neighbours.needs_rebuild(moved_bound):
+        if self.moving_neighbours.needs_rebuild(moved_bound):
             with self.phases("neighbours"):
-                self.neighbours.rebuild()
+                self.moving_neighbours.rebuild()
         self.compute_rates()
         with self.phases("integrate"):
             L.launch(self.kernels.kick, nf, [c, a, float(dt)], light=True)
@@ -225,7 +225,7 @@ class WCSPHSolver(TimeDependentSolver):
 
     def after_load(self) -> None:
         """After a checkpoint: the tables from the loaded ``position_at_build``, the report from the loaded state."""
-        self.neighbours.build_tables()
+        self.moving_neighbours.build_tables()
         self._launch_report()
 
     # -- outputs, diagnostics ------------------------------------------------------------------------
@@ -277,7 +277,7 @@ class WCSPHSolver(TimeDependentSolver):
 
     def describe(self) -> dict:
         d = self.model.describe()
-        d.update({"max_neighbours": self.max_neighbours, "list_builds": self.neighbours.builds})
+        d.update({"max_neighbours": self.max_neighbours, "list_builds": self.moving_neighbours.builds})
         return d
 
 
