@@ -1,13 +1,21 @@
 #!/usr/bin/env bash
 # Run every benchmark one after the other (they must not overlap: each one times the CPU).
 # Usage: bench/run_all.sh [--quick]     (extra arguments go to every script)
-# Results: bench/results/*.json, *.md, *.png. Full run: ~20 min on a 2-core machine.
+# Results: bench/results/*.json, *.md, *.png. Full run: ~25 min on a 2-core machine.
+# Not included: vs_baseline.py and kernel_variants.py (they need --baseline DIR, a worktree of another commit).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-PY="${PYTHON:-/work/venv/bin/python}"
+PY="${PYTHON:-.venv/bin/python}"
 [ -x "$PY" ] || PY=python
-for script in thread_sweep vs_warp_example vs_pysph speed_vs_error; do
-    echo "=== bench/${script}.py $* ($(date -Is), load $(cut -d' ' -f1-3 /proc/loadavg))"
-    "$PY" "bench/${script}.py" "$@"
+run() {
+    echo "=== bench/$* ($(date -Is), load $(cut -d' ' -f1-3 /proc/loadavg))"
+    "$PY" "bench/$@"
     echo
-done
+}
+run thread_sweep.py "$@"
+run thread_sweep.py --cases control heat --rounds 3 --name thread_sweep_heat "$@"
+run speed_vs_error.py "$@"
+run speed_vs_error.py --case heat "$@"
+run particle_order.py "$@"
+run vs_warp_example.py "$@"
+run vs_pysph.py "$@"

@@ -30,9 +30,9 @@ How
 Usage
     python bench/thread_sweep.py            # full: control, 2D, 3D; 5 rounds x 3 blocks, ~4 min on 2 cores
     python bench/thread_sweep.py --quick    # smoke run, small sizes (~30 s)
-    python bench/thread_sweep.py --cases 2d heat --threads 1 2 --rounds 3
+    python bench/thread_sweep.py --cases heat --rounds 3 --name thread_sweep_heat
     python bench/thread_sweep.py --scene scenes/tank_at_rest_2d.py --set dx=0.005
-Writes bench/results/thread_sweep[_quick].{json,md,png}.
+Writes bench/results/<name>[_quick].{json,md,png} (name: thread_sweep by default).
 """
 
 from __future__ import annotations
@@ -209,6 +209,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=None, help="timed blocks per worker (default 3; quick 2)")
     ap.add_argument("--rounds", type=int, default=None, help="sweeps over the thread counts (default 5; quick 1)")
     ap.add_argument("--dt", type=float, default=None, help="fixed dt (default: stable_dt() at t = 0)")
+    ap.add_argument("--name", default="thread_sweep", help="results file stem (default thread_sweep)")
     ap.add_argument("--worker", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.worker:
@@ -229,7 +230,7 @@ def main(argv=None) -> int:
         print(f"{name}: {scene} {params}, threads {threads}", flush=True)
         cases.append(sweep_case(name, scene, params, threads, args))
     md = "## Thread sweep (CPU)\n\n" + markdown(cases)
-    common.write_results("thread_sweep", {"machine": machine, "cases": cases}, md, plot(cases), quick=q)
+    common.write_results(args.name, {"machine": machine, "cases": cases}, md, plot(cases), quick=q)
     return 0
 
 
