@@ -9,6 +9,7 @@ import os
 
 import numpy as np
 
+from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.geometry import lattice_box
 from warpfree.run import OutputOptions
 from warpfree.solvers.heat import HeatModel, HeatSolver
@@ -20,6 +21,13 @@ def build(n: int = 40, length: float = 1.0, alpha: float = 0.01, mode: int = 1, 
           t_end: float = 2.5, output_interval: float = 0.05, frames: bool = True, vtk: bool = True) -> TimeLoop:
     """``n`` particles per side of the L × L box (m), diffusivity α (m²/s), sine mode ``mode``, T0 = 300 K."""
     params = dict(locals())
+    if isinstance(n, bool) or int(n) != n or n < 6:
+        raise ParameterError("n", f"must be an integer >= 6 (the box must hold two supports of 2.6 dx), got {n!r}")
+    if isinstance(mode, bool) or int(mode) != mode or not 1 <= mode < n / 2:
+        raise ParameterError("mode", f"must be an integer from 1 to {(n - 1) // 2} (below n/2), got {mode!r}")
+    require_positive("length", length)
+    if require_finite("amplitude", amplitude) == 0.0:
+        raise ParameterError("amplitude", "must not be 0 (the decay of a zero mode is not measurable)")
     dx = length / n
     space = Space(2, (0.0, 0.0, 0.0), (length, length, 0.0), (True, True, False))
     model = HeatModel(lattice_box((0.0, 0.0), (length, length), dx), dx, alpha, space)

@@ -55,6 +55,17 @@ def test_stable_step_from_gershgorin_bound_is_stable_and_twice_it_is_not():
     assert amplitude[1.0] < 0.5 and amplitude[2.5] > 10.0
 
 
+@pytest.mark.parametrize("setting,name", [("n=0", "n"), ("n=3", "n"), ("mode=0", "mode"), ("mode=20", "mode"),
+                                          ("length=0", "length"), ("amplitude=nan", "amplitude"),
+                                          ("alpha=-1", "alpha")])
+def test_bad_scene_parameters_exit_2_naming_them(setting, name, tmp_path, capsys):
+    from warpfree.cli import main
+
+    scene = os.path.join(ROOT, "scenes", "heat_conduction_2d.py")
+    assert main(["run", scene, "--set", setting, "--out", str(tmp_path), "--no-progress"]) == 2
+    assert capsys.readouterr().err.startswith(f"warpfree: error: {name}:")
+
+
 def test_bad_input_names_the_parameter():
     space = Space(2, (0, 0, 0), (1, 1, 0), (True, True, False))
     x = np.random.default_rng(0).uniform(0, 1, (50, 2))

@@ -134,3 +134,34 @@ def test_resume_from_a_checkpoint_of_another_scene_is_refused(tmp_path):
 def test_bad_frame_options_name_the_option(option, value):
     with pytest.raises(ParameterError, match=option):
         heat_run(**{option: value})
+
+
+STATIC_SCENE = '''
+import numpy as np
+from example_static_solver import NodalValuesSolver
+from warpfree.geometry import jittered_lattice
+from warpfree.run import OutputOptions, StaticRun
+from warpfree.space import Space
+
+
+def build(dx: float = 0.05, frames: bool = True):
+    x = jittered_lattice((0.0, 0.0), (1.0, 1.0), dx, amplitude=0.2, seed=3)
+    solver = NodalValuesSolver(x, dx, np.sin(3.0 * x[:, 0]), Space.free(2))
+    return StaticRun(solver, name="nodal_values", params={"dx": dx}, output=OutputOptions(frames=frames))
+'''
+
+
+def test_static_scene_through_the_cli(tmp_path, capsys):
+    """Same CLI, run directory and exit codes as a time loop: exit 0 with a static summary; checkpoints, which a
+    static solve has not, are refused naming the option (exit 2)."""
+    from warpfree.cli import main
+
+    scene = tmp_path / "nodal_values.py"
+    scene.write_text(STATIC_SCENE)
+    out = tmp_path / "run"
+    assert main(["run", str(scene), "--out", str(out), "--no-progress"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["kind"] == "static" and summary["status"] == "ok" and "setup" in summary["phases_s"]
+    assert "solved" in capsys.readouterr().out and (out / "frames" / "frame_00000.png").is_file()
+    assert main(["run", str(scene), "--out", str(out), "--checkpoint-every", "5", "--no-progress"]) == 2
+    assert "--checkpoint-every" in capsys.readouterr().err

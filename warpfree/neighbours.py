@@ -168,6 +168,7 @@ class NeighbourTable:
         self.capacity = max(1, int(capacity))
         self.rows = nk.NeighbourRows()
         self.n = -1
+        self._starts_for: int | None = None   # the capacity the row starts were laid out for
         self.grows = 0
         self._longest = Reduction(launcher, wp.int32, "max")
 
@@ -178,7 +179,7 @@ class NeighbourTable:
             self.rows.start = wp.zeros(max(n, 1), dtype=wp.int32, device=dev)
             self.n = n
             self._starts_for = None
-        if getattr(self, "_starts_for", None) != self.capacity:
+        if self._starts_for != self.capacity:
             self.launcher.launch(nk.table_starts, n, [self.capacity, self.rows.start], light=True)
             self.rows.index = wp.zeros(max(n * self.capacity, 1), dtype=wp.int32, device=dev)
             self._starts_for = self.capacity
