@@ -23,12 +23,17 @@ How
     interval), so both trees do the same work. Rounds alternate the order (new, baseline / baseline, new) and
     the thread counts; the figure is the median over all blocks of a row.
 
+    ``--end-to-end``: instead, the default command ``warpfree run scenes/dam_break_2d.py`` (frames and VTU
+    files included) in each tree, whole process wall time, alternating, ``--rounds`` times (default 3), with
+    each run's own split of its time (steps, outputs on the stepping thread) from its ``summary.json``.
+
 Usage
     git worktree add /tmp/baseline <commit> && python3 -m venv /tmp/baseline/.venv \\
         && /tmp/baseline/.venv/bin/pip install -e /tmp/baseline
     python bench/vs_baseline.py --baseline /tmp/baseline            # ~8 min on 2 cores
     python bench/vs_baseline.py --baseline /tmp/baseline --quick    # small sizes
-Writes bench/results/vs_baseline[_quick].{json,md,png}.
+    python bench/vs_baseline.py --baseline /tmp/baseline --end-to-end   # ~5 min
+Writes bench/results/vs_baseline[_quick].{json,md,png} (end to end: vs_baseline_end_to_end.{json,md}).
 """
 
 from __future__ import annotations
@@ -157,6 +162,43 @@ def compare(name: str, params: dict, trees: dict, threads: list[int], args) -> d
                 rounds=args.rounds, repeats=args.repeats, rows=rows)
 
 
+def end_to_end(trees: dict, rounds: int, baseline_rev: str) -> int:
+    """The default command in each tree, whole process, alternating; wall time and the run's own phases."""
+    import tempfile
+
+    walls = {tree: [] for tree in trees}
+    phases = {tree: [] for tree in trees}
+    for r in range(rounds):
+        for tree in (list(trees) if r % 2 == 0 else list(trees)[::-1]):
+            python, root = trees[tree]
+            with tempfile.TemporaryDirectory() as out:
+                env = dict(os.environ, WARPFREE_VERBOSE="0")
+                env.pop("PYTHONPATH", None)
+                t0 = time.perf_counter()
+                subprocess.run([python, "-m", "warpfree.cli", "run", "scenes/dam_break_2d.py", "--out", out,
+                                "--no-progress"], cwd=root, env=env, check=True, capture_output=True)
+                walls[tree].append(time.perf_counter() - t0)
+                summary = json.load(open(os.path.join(out, "summary.json")))
+            phases[tree].append(summary.get("phases_s") or summary.get("wall_s_per_phase"))
+            print(f"  {tree} round={r}: {walls[tree][-1]:.1f} s", flush=True)
+    rows = []
+    for tree in trees:
+        ph = {k: statistics.median([p[k] for p in phases[tree]]) for k in ("step", "output")}
+        rows.append(dict(tree=tree, wall_s=statistics.median(walls[tree]), walls_s=walls[tree], step_s=ph["step"],
+                         output_s=ph["output"]))
+    ratio = rows[0]["wall_s"] / rows[1]["wall_s"]
+    md = (f"## The default scene, whole process: this tree against `{baseline_rev}`, CPU\n\n"
+          "`warpfree run scenes/dam_break_2d.py` (frames and VTU included), median of "
+          f"{rounds} alternating runs each.\n\n"
+          + common.md_table(["tree", "wall s (process)", "runs", "steps s (summary)", "output s on the stepping thread"],
+                            [[r["tree"], f"{r['wall_s']:.1f}", ", ".join(f"{w:.1f}" for w in r["walls_s"]),
+                              f"{r['step_s']:.1f}", f"{r['output_s']:.1f}"] for r in rows])
+          + f"\n\nnew / baseline wall time: {ratio:.2f}.")
+    common.write_results("vs_baseline_end_to_end", {"machine": common.machine_info(), "baseline": baseline_rev,
+                                                    "rows": rows, "ratio": ratio}, md)
+    return 0
+
+
 def markdown(cases: list[dict], baseline_rev: str) -> str:
     out = [f"## This tree against the baseline (`{baseline_rev}`), same steps, CPU\n"]
     for c in cases:
@@ -206,6 +248,7 @@ def main(argv=None) -> int:
     ap.add_argument("--warmup", type=int, default=7)
     ap.add_argument("--repeats", type=int, default=None, help="blocks per worker (default 3; quick 1)")
     ap.add_argument("--rounds", type=int, default=None, help="default 4; quick 1")
+    ap.add_argument("--end-to-end", action="store_true", help="the default command in each tree, whole process")
     ap.add_argument("--worker", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.worker:
@@ -222,6 +265,8 @@ def main(argv=None) -> int:
     trees = {"new": (sys.executable, str(common.ROOT)),
              "baseline": (args.baseline_python or os.path.join(base, ".venv", "bin", "python"), base)}
     rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=base, capture_output=True, text=True).stdout.strip()
+    if args.end_to_end:
+        return end_to_end(trees, args.rounds or 3, rev)
     machine = common.machine_info()
     cases = []
     for name in args.cases:
