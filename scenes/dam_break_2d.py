@@ -18,7 +18,8 @@ import os
 import numpy as np
 
 from warpfree.geometry import lattice_box
-from warpfree.solvers.wcsph.scene_tools import box_walls_2d, front_position, hydrostatic_density
+from warpfree.errors import ParameterError
+from warpfree.solvers.wcsph.scene_tools import box_walls_2d, front_position, hydrostatic_density, require_scene_values
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
 from warpfree.time_loop import TimeLoop
@@ -33,6 +34,11 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
           vtk: bool = True) -> TimeLoop:
     """Build the dam break; lengths in units of a (tank_length, tank_height), SI otherwise."""
     params = dict(locals())
+    require_scene_values(positive=dict(a=a, dx=dx, tank_length=tank_length, tank_height=tank_height, g=g, rho0=rho0),
+                         layers=dict(wall_layers=wall_layers))
+    if tank_length <= 1.0 or tank_height <= 2.0:
+        raise ParameterError("tank_length" if tank_length <= 1.0 else "tank_height",
+                             f"the tank (in units of a) must hold the 1 x 2 column: got {tank_length} x {tank_height}")
     height = 2.0 * a
     length, top = tank_length * a, tank_height * a
     c0 = 10.0 * np.sqrt(2.0 * g * height)

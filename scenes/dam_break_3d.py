@@ -18,7 +18,8 @@ import os
 import numpy as np
 
 from warpfree.geometry import fill_mesh, load_mesh, shell_lattice
-from warpfree.solvers.wcsph.scene_tools import hydrostatic_density
+from warpfree.errors import ParameterError
+from warpfree.solvers.wcsph.scene_tools import hydrostatic_density, require_scene_values
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
 from warpfree.time_loop import TimeLoop
@@ -35,8 +36,14 @@ def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
           checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "speed", vtk: bool = True,
           surface: bool = False) -> TimeLoop:
     params = dict(locals())
+    require_scene_values(positive=dict(dx=dx, column_length=column_length, column_height=column_height, g=g,
+                                       rho0=rho0), layers=dict(wall_layers=wall_layers))
     tank = load_mesh(tank_mesh)
     lo, hi = tank.bounds
+    for name, value, room in (("column_length", column_length, hi[0] - lo[0]), ("column_height", column_height,
+                                                                               hi[2] - lo[2])):
+        if value >= room:
+            raise ParameterError(name, f"must be below the tank's {room:.4g} m, got {value}")
     origin = lo
     obstacle = load_mesh(obstacle_mesh) if obstacle_mesh else None
     # fluid: the tank's lattice inside the column box, minus the obstacle

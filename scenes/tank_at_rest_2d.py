@@ -11,7 +11,7 @@ import os
 import numpy as np
 
 from warpfree.geometry import lattice_box
-from warpfree.solvers.wcsph.scene_tools import box_walls_2d, hydrostatic_density
+from warpfree.solvers.wcsph.scene_tools import box_walls_2d, hydrostatic_density, require_scene_values
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
 from warpfree.time_loop import TimeLoop
@@ -24,6 +24,8 @@ def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float
           checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "pressure", vtk: bool = True) -> TimeLoop:
     """Build the tank; the container is twice as high as the water."""
     params = dict(locals())
+    require_scene_values(positive=dict(width=width, depth=depth, dx=dx, g=g, rho0=rho0),
+                         layers=dict(wall_layers=wall_layers))
     c0 = 10.0 * np.sqrt(2.0 * g * depth)
     fluid = lattice_box((0.0, 0.0), (width, depth), dx)
     walls = box_walls_2d(width, 2.0 * depth, dx, wall_layers)

@@ -35,7 +35,11 @@ def load_scene(path: str):
     name = "warpfree_scene_" + os.path.splitext(os.path.basename(path))[0]
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    try:
+        spec.loader.exec_module(module)
+    except Exception as exc:  # a scene that does not import is bad input, not a crash of warpfree
+        where = f" (line {exc.lineno})" if isinstance(exc, SyntaxError) else ""
+        raise ParameterError("scene", f"{path} cannot be loaded{where}: {type(exc).__name__}: {exc}") from None
     if not hasattr(module, "build"):
         raise ParameterError("scene", f"{path} has no build(**params) function")
     return module
@@ -108,11 +112,18 @@ def run_command(args) -> int:
         meta_path = os.path.join(args.resume, "run.json")
         if not os.path.isfile(meta_path):
             raise ParameterError("--resume", f"{args.resume} has no run.json (not a warpfree run directory)")
-        with open(meta_path) as f:
-            meta = json.load(f)
-        scene_path, overrides, out_dir = meta["scene"], meta["overrides"], args.resume
+        try:
+            with open(meta_path) as f:
+                meta = json.load(f)
+            scene_path, overrides, out_dir = meta["scene"], dict(meta["overrides"]), args.resume
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise ParameterError("--resume", f"{meta_path} is damaged: {exc}") from None
         if args.scene and os.path.abspath(args.scene) != os.path.abspath(scene_path):
             raise ParameterError("--resume", f"the run in {args.resume} is of {scene_path}, not {args.scene}")
+        if args.out and os.path.abspath(args.out) != os.path.abspath(args.resume):
+            raise ParameterError("--out", f"a resumed run continues in its own directory {args.resume}; "
+                                          "copy it first to continue elsewhere")
+        overrides.update(resume_overrides(args.overrides, overrides, load_scene(scene_path)))
     else:
         if not args.scene:
             raise ParameterError("scene", "give a scene file, e.g. warpfree run scenes/dam_break_2d.py")
@@ -129,6 +140,7 @@ def run_command(args) -> int:
         for k, v in scene_parameters(module).items():
             print(f"{k} = {v!r}")
         return 0
+    require_writable(out_dir)
     device.use(args.device, args.threads)
     run = build_scene(module, overrides)
     checkpoint_every = meta.get("checkpoint_every") if args.resume else args.checkpoint_every
@@ -138,12 +150,17 @@ def run_command(args) -> int:
         if checkpoint_every < 0:
             raise ParameterError("--checkpoint-every", f"must be >= 0, got {checkpoint_every}")
         run.checkpoint_every = checkpoint_every
-    os.makedirs(out_dir, exist_ok=True)
+    meta = {"scene": os.path.abspath(scene_path), "overrides": overrides, "checkpoint_every": checkpoint_every}
     if not args.resume:
-        with open(os.path.join(out_dir, "run.json"), "w") as f:
-            json.dump({"scene": os.path.abspath(scene_path), "overrides": overrides,
-                       "checkpoint_every": checkpoint_every}, f, indent=2)
-    summary = run.run(out_dir, resume=bool(args.resume), progress=not args.no_progress)
+        _write_meta(out_dir, meta)
+    try:
+        summary = run.run(out_dir, resume=bool(args.resume), progress=not args.no_progress)
+    except RunError:
+        if args.resume:
+            _write_meta(out_dir, meta)  # the checkpoint was loaded: the run now belongs to its new end time
+        raise
+    if args.resume:
+        _write_meta(out_dir, meta)
     rate = summary["throughput"]
     done = (f"{summary['steps']} steps to t = {summary['time']:.4g} s" if "steps" in summary else "solved")
     print(f"{summary['scene']}: {done} in {summary['wall_s']:.1f} s"
@@ -156,6 +173,43 @@ def run_command(args) -> int:
                     print(f"  {key}.{k2} = {v2:.4g}")
     print(f"outputs in {out_dir}")
     return 0
+
+
+#: parameters a resumed run may change: they move the end, not the model
+RESUMABLE = ("t_end",)
+
+
+def resume_overrides(pairs: list[str], previous: dict, module) -> dict:
+    """``--set`` on ``--resume``: only the end time may change (the model must stay the one checkpointed)."""
+    changes = parse_overrides(pairs, scene_parameters(module))
+    refused = sorted(k for k in changes if k not in RESUMABLE and changes[k] != previous.get(k))
+    if refused:
+        raise ParameterError(refused[0], f"cannot change on --resume (the checkpoint holds a run with the earlier "
+                                         f"value); only {', '.join(RESUMABLE)} can")
+    for k, v in changes.items():
+        if k in RESUMABLE and v != previous.get(k, scene_parameters(module).get(k)):
+            print(f"warpfree: resuming with {k} = {v} (was {previous.get(k, scene_parameters(module).get(k))})",
+                  file=sys.stderr)
+    return changes
+
+
+def require_writable(out_dir: str) -> None:
+    """Refuse, naming --out, a run directory that cannot be created or written, before anything runs."""
+    try:
+        os.makedirs(out_dir, exist_ok=True)
+        probe = os.path.join(out_dir, f".warpfree_write_test_{os.getpid()}")
+        with open(probe, "w") as f:
+            f.write("")
+        os.remove(probe)
+    except OSError as exc:
+        raise ParameterError("--out", f"cannot write the run directory {out_dir}: {exc.strerror or exc}") from None
+
+
+def _write_meta(out_dir: str, meta: dict) -> None:
+    tmp = os.path.join(out_dir, "run.json.tmp")
+    with open(tmp, "w") as f:
+        json.dump(meta, f, indent=2)
+    os.replace(tmp, os.path.join(out_dir, "run.json"))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -6,6 +6,7 @@ after the simulation loop has kept its last good checkpoint on disk.
 """
 
 import math
+import os
 
 
 class ParameterError(ValueError):
@@ -46,3 +47,31 @@ def require_positive(name: str, value, allow_zero: bool = False) -> float:
     if v < 0 or (v == 0 and not allow_zero):
         raise ParameterError(name, f"must be {'>= 0' if allow_zero else '> 0'}, got {v}")
     return v
+
+
+def available_memory() -> int | None:
+    """Bytes of memory this machine has free now (None where the system does not say)."""
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
+        return None
+
+
+def require_memory(name: str, count: float, bytes_each: float, what: str) -> None:
+    """Refuse, naming ``name``, work that needs more memory than the machine has free, before allocating it.
+
+    ``count`` items of ``bytes_each`` bytes (``what`` says what they are, e.g. "lattice points").
+    """
+    need = float(count) * float(bytes_each)
+    free = available_memory()
+    if free is not None and need > free:
+        raise ParameterError(name, f"gives {count:.3g} {what}, which need {_bytes(need)} of memory; this machine has "
+                                   f"{_bytes(free)} free (use a coarser spacing or a smaller domain)")
+
+
+def _bytes(n: float) -> str:
+    for unit in ("B", "KB", "MB", "GB", "TB", "PB"):
+        if n < 1024 or unit == "PB":
+            return f"{n:.3g} {unit}"
+        n /= 1024
+    return f"{n:.3g} PB"  # pragma: no cover

@@ -30,7 +30,7 @@ import os
 import numpy as np
 import trimesh
 
-from .errors import ParameterError, require_positive
+from .errors import ParameterError, require_memory, require_positive
 
 __all__ = [
     "lattice_box",
@@ -146,6 +146,8 @@ def _index_range(lo, hi, origin, dx) -> tuple[np.ndarray, np.ndarray]:
 
 def _lattice(origin, dx, kmin, shape) -> np.ndarray:
     """Points ``origin + (kmin + i + 0.5) dx`` for the dense index block ``shape``, C order."""
+    # the grids, their stack and a float32 copy downstream: about 4 float64 per coordinate per point
+    require_memory("dx", float(np.prod(np.asarray(shape, dtype=np.float64))), 32.0 * len(shape), "lattice points")
     axes = [origin[a] + (kmin[a] + np.arange(n) + 0.5) * dx for a, n in enumerate(shape)]
     grids = np.meshgrid(*axes, indexing="ij")
     return np.stack([g.ravel() for g in grids], axis=1)
@@ -325,6 +327,8 @@ def _mesh_block(mesh, dx, origin, pad):
     b0, b1 = mesh.bounds
     kmin, kmax = _index_range(b0 - pad, b1 + pad, origin, dx)
     shape = tuple(int(n) for n in np.maximum(kmax - kmin + 1, 0))
+    # the inside/near grids over the block and the points kept: about 64 bytes per cell
+    require_memory("dx", float(np.prod(np.asarray(shape, dtype=np.float64))), 64.0, "lattice cells around the mesh")
     tri = (mesh.vertices[mesh.faces] - origin) / dx - 0.5 - kmin
     return kmin, shape, tri
 

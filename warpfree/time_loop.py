@@ -13,6 +13,7 @@ goes wrong later). Every ``checkpoint_every`` steps it writes a checkpoint (``wa
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time
 from collections.abc import Callable
@@ -68,6 +69,7 @@ class TimeLoop(Run):
         self.last_checkpoint: str | None = None
         self._good = None                  # (loop scalars, state copies, series lengths) at the last output
         self._checkpoint_step = -1
+        self.skipped_checkpoints: list[str] = []  # damaged checkpoints a resume passed over
         limit = solver.stable_dt()
         if self.dt_fixed is None and not math.isfinite(limit):
             raise ParameterError("dt", "this solver has no stable-step limit: give a fixed dt")
@@ -175,6 +177,25 @@ class TimeLoop(Run):
         self.last_checkpoint = path
         self._checkpoint_step = self.step_count
 
+    def _resume(self, directory: RunDirectory) -> None:
+        """Load the newest checkpoint that reads back and fits this scene; a damaged newer one (a write cut
+        short by a crash, a foreign file) is skipped, with a line on stderr and in the summary."""
+        skipped = []
+        for path in checkpoint.newest_first(directory.checkpoints):
+            try:
+                self.load_checkpoint(path)
+            except ParameterError as exc:
+                skipped.append(f"{os.path.basename(path)} ({str(exc).removeprefix('resume: ')})")
+                continue
+            if skipped:
+                print(f"warpfree: resuming from {os.path.basename(path)}; skipped the newer {'; '.join(skipped)}",
+                      file=sys.stderr)
+            self.skipped_checkpoints = skipped
+            return
+        if not skipped:
+            raise ParameterError("resume", f"no checkpoint in {directory.checkpoints}")
+        raise ParameterError("resume", f"no usable checkpoint in {directory.checkpoints}: {'; '.join(skipped)}")
+
     # -- the loop ----------------------------------------------------------------------------------
     def _execute(self, directory: RunDirectory | None, resume: bool, progress: bool) -> None:
         self._good = None
@@ -182,10 +203,7 @@ class TimeLoop(Run):
         self.last_checkpoint = None
         self._resumed_time = None
         if resume:
-            path = checkpoint.latest(directory.checkpoints)
-            if path is None:
-                raise ParameterError("resume", f"no checkpoint in {directory.checkpoints}")
-            self.load_checkpoint(path)
+            self._resume(directory)
             self._resumed_time = self.time
         else:
             self._record(directory)
@@ -232,6 +250,8 @@ class TimeLoop(Run):
                "steps_this_run": self.steps_this_run, "probes": self.series, "diagnostic_series": self.diag_series}
         if self.last_checkpoint:
             out["last_good_checkpoint" if error else "last_checkpoint"] = self.last_checkpoint
+        if self.skipped_checkpoints:
+            out["skipped_checkpoints"] = self.skipped_checkpoints
         return out
 
     def _phases(self) -> dict[str, float]:

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["save", "load", "latest", "KEEP"]
+__all__ = ["save", "load", "latest", "newest_first", "KEEP"]
 
 #: checkpoints kept per run (the newest)
 KEEP = 2
@@ -52,12 +52,18 @@ def save(directory: str, step: int, loop: dict, series: dict[str, np.ndarray], s
     return path
 
 
-def latest(directory: str) -> str | None:
-    """The newest complete checkpoint in ``directory``, or None."""
+def newest_first(directory: str) -> list[str]:
+    """The checkpoints in ``directory`` (complete names only), newest first."""
     if not os.path.isdir(directory):
-        return None
-    names = sorted(f for f in os.listdir(directory) if _NAME.match(f))
-    return os.path.join(directory, names[-1]) if names else None
+        return []
+    return [os.path.join(directory, f) for f in sorted((f for f in os.listdir(directory) if _NAME.match(f)),
+                                                       reverse=True)]
+
+
+def latest(directory: str) -> str | None:
+    """The newest checkpoint in ``directory``, or None."""
+    paths = newest_first(directory)
+    return paths[0] if paths else None
 
 
 def load(path: str) -> tuple[dict, dict[str, np.ndarray], dict[str, np.ndarray]]:

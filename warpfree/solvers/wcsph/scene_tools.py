@@ -4,7 +4,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from warpfree.errors import ParameterError, require_positive
 from warpfree.geometry import polygon_boundary_layers
+
+
+def require_scene_values(positive: dict | None = None, layers: dict | None = None) -> None:
+    """Check a scene's parameters at build time: ``positive`` name -> value (> 0), ``layers`` name -> value
+    (an integer >= 1). The error names the scene's parameter, not a quantity derived from it."""
+    for name, value in (positive or {}).items():
+        require_positive(name, value)
+    for name, value in (layers or {}).items():
+        if isinstance(value, bool) or int(value) != value or value < 1:
+            raise ParameterError(name, f"must be an integer >= 1, got {value!r}")
 
 
 def hydrostatic_density(y: np.ndarray, surface: float, rho0: float, c0: float, g: float,
@@ -32,7 +43,6 @@ def walls_from_section(mesh, plane_origin, plane_normal, dx: float, layers: int,
     The section's polygons (see :func:`warpfree.geometry.mesh_section` for the in-plane axes) get
     ``layers`` lattice layers outside, aligned with a fluid lattice anchored at ``origin``.
     """
-    from warpfree.errors import ParameterError
     from warpfree.geometry import load_mesh, mesh_section
 
     polygons = mesh_section(load_mesh(mesh), plane_origin, plane_normal)

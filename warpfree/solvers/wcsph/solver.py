@@ -16,7 +16,7 @@ import numpy as np
 import warp as wp
 
 from warpfree.device import Launcher, current_launcher
-from warpfree.errors import ParameterError
+from warpfree.errors import ParameterError, require_memory
 from warpfree.kernels import wcsph as K
 from warpfree.neighbours import MovingNeighbours, NeighbourGrid, NeighbourList
 from warpfree.particles import ParticleSet, to_vec3
@@ -133,6 +133,8 @@ class WCSPHSolver(TimeDependentSolver):
             static_sets={"walls": self.boundary.position} if nb else None, position_at_build=S.position_at_build)
         a.position_at_build = S.position_at_build
         cap = int(self.max_neighbours * (1.0 + params.skin) ** params.dim * 1.2) + 8  # grows if ever too small
+        # the tables (3 of int32 rows of ``cap``) and about 25 float32 per particle of state and scratch
+        require_memory("dx", n, 100.0 + 12.0 * cap, "particles (fluid + wall) with their neighbour tables")
         self.fluid_fluid = self.moving_neighbours.add_table("fluid_fluid", "moving", "moving", cap, exclude_self=True)
         if nb:
             self.fluid_wall = self.moving_neighbours.add_table("fluid_wall", "moving", "walls", cap)
