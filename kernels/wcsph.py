@@ -109,7 +109,8 @@ class FluidTerms:
     delta_sph: bool = False          # δ-SPH density diffusion (δ > 0)
     walls: str = "dynamic"           # "dynamic" (Adami), "lennard_jones" (seed 5-6) or "none"
     wall_safety: bool = False        # Lennard-Jones safety net of dynamic walls (r0 > 0)
-    no_slip: bool = True             # walls enter the viscous terms with the ghost velocity
+    no_slip: bool = True             # walls enter the laminar viscous term with the ghost velocity
+    wall_artificial: bool = False    # artificial viscosity on fluid-wall pairs too (with the ghost velocity)
     periodic: tuple = (False, False, False)
 
 
@@ -222,7 +223,7 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
     dynamic = terms.walls == "dynamic"
     lj_walls = terms.walls == "lennard_jones" or (dynamic and terms.wall_safety)
 
-    def make_pair(viscous: bool):
+    def make_pair(artificial: bool, laminar: bool):
         @wp.func
         def pair_terms(c: FluidConstants, vi: wp.vec3, rhoi: float, inv_rhoi: float, pi_term: float, rij: wp.vec3,
                        r2: float, vj: wp.vec3, rhoj: float, pj: float, mj: float):
@@ -235,21 +236,21 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
             inv_rhoj = 1.0 / rhoj
             coef = pi_term + pj * inv_rhoj * inv_rhoj
             a = wp.vec3(0.0, 0.0, 0.0)
-            if wp.static(viscous and (terms.artificial or terms.laminar)):
+            if wp.static(artificial or laminar):
                 vij = vi - vj
-                if wp.static(terms.artificial):
+                if wp.static(artificial):
                     vr = wp.dot(vij, rij)
                     if vr < 0.0:
                         coef -= c.avisc * vr * inv_r2e / (0.5 * (rhoi + rhoj))
-                if wp.static(terms.laminar):
+                if wp.static(laminar):
                     a = (mj * 2.0 * c.mu * inv_rhoi * inv_rhoj * wp.dot(rij, gw) * inv_r2e) * vij
             a -= (mj * coef) * gw
             return a, gw, inv_r2e
 
         return pair_terms
 
-    fluid_pair = make_pair(True)
-    wall_pair = make_pair(terms.no_slip)
+    fluid_pair = make_pair(terms.artificial, terms.laminar)
+    wall_pair = make_pair(terms.artificial and terms.no_slip and terms.wall_artificial, terms.laminar and terms.no_slip)
 
     @wp.kernel(module="unique")
     def drift(first: int, c: FluidConstants, f: FluidArrays, dt: float):

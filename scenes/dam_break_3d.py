@@ -1,12 +1,15 @@
 """3D dam break with an obstacle (the geometry of SPHERIC benchmark test 2, Kleefsman et al. 2005):
 a water column 1.228 m long, 1 m wide and 0.55 m high at the far end of a 3.22 x 1 x 1 m tank hits a
 0.161 x 0.403 x 0.161 m box. Tank and obstacle are read from the STL files in ``scenes/meshes/``
-(any watertight STL/OBJ/PLY can be passed instead); wall particles are sampled from the meshes on
-the fluid lattice, three layers outside the tank and three layers inside the obstacle.
+(any watertight STL/OBJ/PLY can be passed instead). Wall particles are placed from the meshes' true
+surfaces (``warpfree.surface_layers``): three layers outside the tank and three inside the obstacle, the
+first dx/2 from the surface; the fluid keeps dx/2 from both surfaces. At every output the solver checks
+the fluid against the true tank and obstacle surfaces (``warpfree.solids``): a fluid particle inside a
+solid stops the run with the count and the depth. The probe ``inside_obstacle`` records how many fluid
+particles are inside the obstacle (0 throughout).
 
 Writes frames (an oblique view and a side view), VTU files, and free-surface meshes with
-``--set surface=true``. z is up. The probe ``inside_obstacle`` counts fluid particles inside the
-obstacle's bounding box (it must stay 0).
+``--set surface=true``. z is up.
 
 Time step: seed eq. 5-12 with Courant number 0.2 (the seed prints 0.1; 0.2 is DualSPHysics' choice for
 its dam-break validation case). At dx = a/25 the front error is the same for 0.1, 0.2 and 0.3
@@ -17,9 +20,10 @@ import os
 
 import numpy as np
 
-from warpfree.geometry import fill_mesh, load_mesh, shell_lattice
+from warpfree.geometry import fill_mesh, load_mesh
+from warpfree.surface_layers import surface_layers
 from warpfree.errors import ParameterError
-from warpfree.solvers.wcsph.scene_tools import hydrostatic_density, require_scene_values
+from warpfree.solvers.wcsph.scene_tools import clear_of, hydrostatic_density, require_scene_values
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
 from warpfree.time_loop import TimeLoop
@@ -46,30 +50,29 @@ def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
             raise ParameterError(name, f"must be below the tank's {room:.4g} m, got {value}")
     origin = lo
     obstacle = load_mesh(obstacle_mesh) if obstacle_mesh else None
-    # fluid: the tank's lattice inside the column box, minus the obstacle
+    # fluid: the tank's lattice inside the column box, dx/2 clear of the tank and of the obstacle
     fluid = fill_mesh(tank, dx, origin=origin, clearance=0.5 * dx)  # dx need not divide the tank
     keep = (fluid[:, 0] >= hi[0] - column_length) & (fluid[:, 2] <= lo[2] + column_height)
     fluid = fluid[keep]
-    walls = [shell_lattice(tank, dx, wall_layers, "outside", origin=origin)]
+    walls = surface_layers(tank, dx, wall_layers, "outside")
+    obstacle_walls = None
     if obstacle is not None:
-        olo, ohi = obstacle.bounds
-        inside = np.all((fluid >= olo) & (fluid <= ohi), axis=1)
-        fluid = fluid[~inside]
-        walls.append(shell_lattice(obstacle, dx, wall_layers, "inside", origin=origin))
+        fluid = clear_of(fluid, obstacle, 0.5 * dx)
+        obstacle_walls = surface_layers(obstacle, dx, wall_layers, "inside")
     c0 = 10.0 * np.sqrt(2.0 * g * column_height)
     fp = FluidParams(dim=3, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
                      delta=delta, gravity=(0.0, 0.0, -g), cfl=cfl, lj_d=2.0 * g * column_height,
                      lj_r0=wall_safety * dx, container_lo=tuple(lo), container_hi=tuple(hi))
     density = hydrostatic_density(fluid[:, 2], lo[2] + column_height, rho0, c0, g)
-    solver = WCSPHSolver(fluid, np.vstack(walls), fp, density=density)
+    solver = WCSPHSolver(fluid, walls, fp, density=density, containers=[tank], obstacle_boundary=obstacle_walls,
+                         obstacles=[obstacle] if obstacle is not None else [])
 
     probes = {"front": lambda s, t: float(s.fluid_positions()[:, 0].min())}
     if obstacle is not None:
-        olo, ohi = obstacle.bounds
-
         def inside_obstacle(s, t):
+            """Fluid particles inside the obstacle's true surface."""
             x = s.fluid_positions()
-            return float(np.count_nonzero(np.all((x > olo) & (x < ohi), axis=1)))
+            return float(len(x) - len(clear_of(x, obstacle, 0.0)))
 
         probes["inside_obstacle"] = inside_obstacle
 

@@ -367,7 +367,8 @@ def test_2d_walls_from_a_mesh_section_match_the_polygon_walls():
     from warpfree.solvers.wcsph.scene_tools import box_walls_2d, walls_from_section
 
     mesh = box_mesh((0.0, 0.0, -0.5), (4.0, 4.0, 0.5))
-    from_mesh = walls_from_section(mesh, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.1, 3)
+    from_mesh, polygons = walls_from_section(mesh, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.1, 3)
+    assert len(polygons) == 1
     from_box = box_walls_2d(4.0, 4.0, 0.1, 3)
     key = lambda p: np.round(p, 6)[np.lexsort(np.round(p, 6).T)]
     assert from_mesh.shape == from_box.shape

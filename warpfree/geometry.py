@@ -469,18 +469,21 @@ def _polygon_lattice(polygon, dx, origin, pad):
     return _lattice(origin, dx, kmin, shape)
 
 
-def fill_polygon(polygon, dx, origin=None) -> np.ndarray:
+def fill_polygon(polygon, dx, origin=None, clearance=0.0) -> np.ndarray:
     """Lattice points ``origin + (k + 0.5) dx`` strictly inside a closed 2D polygon (m). Returns (N, 2).
 
     ``polygon`` is (M, 2) vertices in either orientation, closed implicitly; ``origin`` defaults to
-    the polygon's lower-left bound.
+    the polygon's lower-left bound. ``clearance`` (m): keep only points at least that far from the
+    boundary (dx/2 matches boundary particles placed by ``warpfree.surface_layers``, whose first layer is
+    dx/2 on the other side, so the wall the fluid feels is the true boundary, at any orientation).
     """
     polygon = _polygon(polygon)
     dx = require_positive("dx", dx)
+    clearance = require_positive("clearance", clearance, allow_zero=True)
     origin = _origin(origin, polygon.min(axis=0))
     pts = _polygon_lattice(polygon, dx, origin, 0.0)
     inside, dist = _polygon_inside_dist(polygon, pts)
-    return pts[inside & (dist > _TOL * dx)]
+    return pts[inside & (dist > max(_TOL * dx, clearance * (1.0 - 1e-6)))]
 
 
 def polygon_boundary_layers(polygon, dx, layers, side, origin=None) -> np.ndarray:

@@ -170,14 +170,15 @@ class Run(ABC):
 
     def _frame_job(self, directory: RunDirectory, sets: list[OutputSet], index: int, title: str):
         shown = next(s for s in sets if s.name == self._frame_set)
-        others = [s.points for s in sets if s.name != self._frame_set and len(s.points)]
+        others = [s.points for s in sets if s.name != self._frame_set and not s.solid and len(s.points)]
+        solids = [s.points for s in sets if s.name != self._frame_set and s.solid and len(s.points)]
         dim = self.solver.dim
         if self._bounds is None:
             self._bounds = self.output.frame_bounds or _bounding_box(sets, dim)
         return ("frame", {"path": directory.frame(index), "points": shown.points,
                           "values": shown.fields[self._frame_field], "dim": dim, "field_name": self._frame_field,
                           "bounds": self._bounds, "boundary_points": np.vstack(others) if others else None,
-                          "title": title})
+                          "solid_points": np.vstack(solids) if solids else None, "title": title})
 
     # -- the run --------------------------------------------------------------------------------
     def run(self, out_dir: str | None = None, resume: bool = False, progress: bool = True) -> dict:

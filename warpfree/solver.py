@@ -70,14 +70,16 @@ class State:
 class OutputSet:
     """One particle (or node) set to write: (N, 3) ``points`` and per-point ``fields`` (NumPy copies).
 
-    ``frame_field`` names the field frames colour this set by; ``None`` draws it grey, as context
-    (walls). The first set with a ``frame_field`` is the one frames show by default.
+    ``frame_field`` names the field frames colour this set by; ``None`` draws it as context: faint grey
+    (container walls), or, with ``solid``, opaque in a colour of its own and hiding what is behind it
+    (an obstacle). The first set with a ``frame_field`` is the one frames show by default.
     """
 
     name: str
     points: np.ndarray
     fields: dict[str, np.ndarray] = field(default_factory=dict)
     frame_field: str | None = None
+    solid: bool = False
 
 
 class PhaseTimes:
@@ -182,6 +184,11 @@ class TimeDependentSolver(Solver):
 
     def problem(self) -> str | None:
         """Checked after every step: a message when the last step left the state bad, else None."""
+        return None
+
+    def audit(self) -> str | None:
+        """A costlier check run at every output time (e.g. particles inside a solid, measured against the true
+        surfaces): a message stops the run, which keeps its last good state; None when all is well."""
         return None
 
     def after_load(self) -> None:

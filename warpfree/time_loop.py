@@ -112,7 +112,11 @@ class TimeLoop(Run):
 
     # -- outputs and the last good state ------------------------------------------------------------
     def _record(self, directory: RunDirectory | None) -> None:
-        """Probes, diagnostics and outputs at the current time; keep the state as the last good one."""
+        """Audit, probes, diagnostics and outputs at the current time; keep the state as the last good one."""
+        with self.phases("audit"):
+            problem = self.solver.audit()
+        if problem:
+            raise RunError(problem, self.step_count)
         index = self.n_outputs
         self.n_outputs += 1
         with self.phases("output"):

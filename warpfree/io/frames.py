@@ -27,6 +27,7 @@ from ..errors import ParameterError
 __all__ = ["render_frame", "plot_series", "estimate_spacing"]
 
 _BOUNDARY_GREY = (0.55, 0.55, 0.55)
+_SOLID_COLOUR = (0.62, 0.45, 0.28)  # obstacles: opaque, a colour no colormap of the fields uses
 
 
 # ----------------------------------------------------------------------------------------------- helpers
@@ -229,6 +230,7 @@ def _px_per_m(ax, fig, extent) -> float:
 
 def render_frame(path, points, values, dim: int, field_name: str, bounds, boundary_points=None,
                  title: str = "", cmap="viridis", vmin: float | None = None, vmax: float | None = None, *,
+                 solid_points=None,
                  time: float | None = None, spacing: float | None = None, dpi: int = 100,
                  view: str = "side", azimuth: float = -60.0, elevation: float = 25.0) -> Path:
     """Write a PNG of particles coloured by a field (1D: the field against x); returns the path.
@@ -239,6 +241,8 @@ def render_frame(path, points, values, dim: int, field_name: str, bounds, bounda
     dim: 1, 2 or 3. field_name: colour-bar (1D: axis) label. bounds: ``((xmin, xmax)[, (ymin, ymax)[, (zmin,
         zmax)]])`` of the scene (the container), the extent of the plot (one pair per dimension).
     boundary_points: optional (M, 3) wall particles, grey (2D) or faint behind the fluid (3D).
+    solid_points: optional (K, 3) particles of obstacles, opaque in their own colour, depth-sorted with the
+        fluid in 3D so that an obstacle hides the fluid behind it and the fluid in front of it hides it.
     title: text of the title; ``time`` (s), if given, is appended as ``t = ... s``.
     vmin, vmax: colour range (default: the finite range of ``values``).
     spacing: particle spacing (m) for the marker size; default the median nearest-neighbour distance.
@@ -253,6 +257,7 @@ def render_frame(path, points, values, dim: int, field_name: str, bounds, bounda
     if v.shape[0] != p.shape[0]:
         raise ParameterError("values", f"must have one value per point ({p.shape[0]}), got {v.shape[0]}")
     bp = None if boundary_points is None else _check_points("boundary_points", boundary_points, dim)
+    sp = None if solid_points is None or not len(solid_points) else _check_points("solid_points", solid_points, dim)
     if view not in ("side", "top"):
         raise ParameterError("view", f"must be 'side' or 'top', got {view!r}")
     h = _spacing(p, spacing, b[:, 1] - b[:, 0])
@@ -260,9 +265,9 @@ def render_frame(path, points, values, dim: int, field_name: str, bounds, bounda
         return _save(_frame_1d(p, v, b, field_name, _title(title, time), dpi, vmin, vmax), path)
     norm, cm = _norm_cmap(v, cmap, vmin, vmax)
     if dim == 2:
-        fig = _frame_2d(p, v, b, bp, h, norm, cm, field_name, _title(title, time), dpi)
+        fig = _frame_2d(p, v, b, bp, sp, h, norm, cm, field_name, _title(title, time), dpi)
     else:
-        fig = _frame_3d(p, v, b, bp, h, norm, cm, field_name, _title(title, time), dpi, view,
+        fig = _frame_3d(p, v, b, bp, sp, h, norm, cm, field_name, _title(title, time), dpi, view,
                         float(azimuth), float(elevation))
     return _save(fig, path)
 
@@ -273,7 +278,7 @@ def _fit_box(extent_x: float, extent_y: float, max_w: float, max_h: float) -> tu
     return extent_x * scale, extent_y * scale
 
 
-def _frame_2d(p, v, b, bp, h, norm, cm, field_name, title, dpi):
+def _frame_2d(p, v, b, bp, sp, h, norm, cm, field_name, title, dpi):
     lx, ly = b[0, 1] - b[0, 0], b[1, 1] - b[1, 0]
     wa, ha = _fit_box(lx, ly, 8.0, 6.0)
     horizontal = ha < 2.5  # a long flat tank: colour bar below
@@ -288,6 +293,8 @@ def _frame_2d(p, v, b, bp, h, norm, cm, field_name, title, dpi):
     layers = []
     if bp is not None and len(bp):
         layers.append((bp[:, 0], bp[:, 1], r_px, (*_BOUNDARY_GREY, 1.0)))
+    if sp is not None:
+        layers.append((sp[:, 0], sp[:, 1], r_px, (*_SOLID_COLOUR, 1.0)))
     layers.append((p[order, 0], p[order, 1], r_px, rgba[order]))
     _draw_discs(ax, fig, extent, layers)
     ax.set_aspect("equal", adjustable="box")
@@ -370,7 +377,7 @@ def _box_edges(b, eye):
     return edges
 
 
-def _frame_3d(p, v, b, bp, h, norm, cm, field_name, title, dpi, view, azimuth, elevation):
+def _frame_3d(p, v, b, bp, sp, h, norm, cm, field_name, title, dpi, view, azimuth, elevation):
     cam = _camera(b, azimuth, elevation)
     eye = cam[3]
 
@@ -415,7 +422,19 @@ def _frame_3d(p, v, b, bp, h, norm, cm, field_name, title, dpi, view, azimuth, e
     if bp is not None and len(bp):
         bX, bY, _, bf = _project(bp, cam)
         layers.append((bX, bY, r1 * bf, faint))  # walls: faint, always behind the fluid
-    layers.append((X[order], Y[order], r1 * f[order], c1[order]))
+    if sp is not None:  # obstacles: opaque, sorted far to near together with the fluid
+        sX, sY, sdepth, sf = _project(sp, cam)
+        dn, dfar = min(depth[order].min(initial=np.inf), sdepth.min()), max(depth[order].max(initial=-np.inf),
+                                                                            sdepth.max())
+        scol = np.tile((*_SOLID_COLOUR, 1.0), (len(sp), 1))
+        scol[:, :3] *= (1.0 - 0.45 * (sdepth - dn) / max(dfar - dn, 1e-12))[:, None]
+        allX, allY = np.concatenate([X[order], sX]), np.concatenate([Y[order], sY])
+        allf, alld = np.concatenate([f[order], sf]), np.concatenate([depth[order], sdepth])
+        allc = np.vstack([c1[order], scol])
+        back_to_front = np.argsort(-alld, kind="stable")
+        layers.append((allX[back_to_front], allY[back_to_front], r1 * allf[back_to_front], allc[back_to_front]))
+    else:
+        layers.append((X[order], Y[order], r1 * f[order], c1[order]))
     _draw_discs(ax1, fig, extent1, layers)
     edges = _box_edges(b, eye)
     for e0, e1, front in edges:
@@ -446,7 +465,14 @@ def _frame_3d(p, v, b, bp, h, norm, cm, field_name, title, dpi, view, azimuth, e
     layers = []
     if bp is not None and len(bp):
         layers.append((bp[:, a2], bp[:, b2], r2, faint))
-    layers.append((p[order2, a2], p[order2, b2], r2, rgba[order2]))
+    if sp is not None:  # obstacles with the fluid, far to near
+        skey = -sp[:, 1] if view == "side" else sp[:, 2]
+        allp = np.vstack([p[order2], sp])
+        allc = np.vstack([rgba[order2], np.tile((*_SOLID_COLOUR, 1.0), (len(sp), 1))])
+        back_to_front = np.argsort(np.concatenate([key[order2], skey]), kind="stable")
+        layers.append((allp[back_to_front, a2], allp[back_to_front, b2], r2, allc[back_to_front]))
+    else:
+        layers.append((p[order2, a2], p[order2, b2], r2, rgba[order2]))
     _draw_discs(ax2, fig, extent2, layers)
     ax2.set_aspect("equal", adjustable="box")
     ax2.set_xlabel("xyz"[a2])

@@ -38,6 +38,7 @@ class FluidParams:
     gravity: tuple = (0.0, -9.81, 0.0)
     boundary_model: str = "dynamic"  # "dynamic" (Adami 2012) or "lennard_jones" (seed 5-6)
     no_slip: bool = True             # walls enter the viscous terms with a no-slip ghost velocity
+    wall_artificial_viscosity: bool = False  # artificial viscosity on fluid-wall pairs too (default: fluid pairs only)
     lj_d: float = 0.0                # Lennard-Jones strength D (m²/s²), ~ (largest speed)²
     lj_r0: float = 0.0               # Lennard-Jones range r0 (m): ~ dx for "lennard_jones" walls; with
                                      # "dynamic" walls a safety net when > 0 (e.g. 0.75 dx), 0 = off
@@ -135,7 +136,8 @@ class WCSPHModel:
             delta_sph=params.delta > 0.0,
             walls="none" if self.nb == 0 else params.boundary_model,
             wall_safety=params.boundary_model == "dynamic" and params.lj_r0 > 0.0,
-            no_slip=bool(params.no_slip), periodic=self.space.periodic)
+            no_slip=bool(params.no_slip), wall_artificial=bool(params.wall_artificial_viscosity),
+            periodic=self.space.periodic)
         self.constants = self._constants()
 
     def _constants(self) -> FluidConstants:
@@ -153,8 +155,12 @@ class WCSPHModel:
         c.inv_c2 = 1.0 / P.c0 ** 2
         c.gravity = wp.vec3(*[float(g) for g in P.gravity])
         c.lj_d, c.lj_r0 = float(P.lj_d), float(P.lj_r0)
-        c.container_lo = wp.vec3(*[float(v) for v in np.maximum(P.container_lo, -3e38)])
-        c.container_hi = wp.vec3(*[float(v) for v in np.minimum(P.container_hi, 3e38)])
+        lo = np.maximum(np.asarray(P.container_lo, float), -3e38)
+        hi = np.minimum(np.asarray(P.container_hi, float), 3e38)
+        if P.dim == 2:  # every 2D force has z = 0 exactly: a particle off the plane is a fault, stop at once
+            lo[2] = hi[2] = 0.0
+        c.container_lo = wp.vec3(*[float(v) for v in lo])
+        c.container_hi = wp.vec3(*[float(v) for v in hi])
         c.box = self.space.box
         return c
 

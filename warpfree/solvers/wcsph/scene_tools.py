@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 
 from warpfree.errors import ParameterError, require_positive
-from warpfree.geometry import polygon_boundary_layers
 
 
 def require_scene_values(positive: dict | None = None, layers: dict | None = None) -> None:
@@ -25,10 +24,17 @@ def hydrostatic_density(y: np.ndarray, surface: float, rho0: float, c0: float, g
     return rho0 * (1.0 + rho0 * g * (surface - np.asarray(y)) / b) ** (1.0 / gamma)
 
 
+def box_2d(width: float, height: float) -> np.ndarray:
+    """The rectangle [0, width] x [0, height] as a polygon (a container for ``WCSPHSolver(containers=...)``)."""
+    return np.array([[0.0, 0.0], [width, 0.0], [width, height], [0.0, height]])
+
+
 def box_walls_2d(width: float, height: float, dx: float, layers: int) -> np.ndarray:
-    """Boundary particles outside the rectangle [0, width] x [0, height], aligned with the fluid lattice."""
-    square = np.array([[0.0, 0.0], [width, 0.0], [width, height], [0.0, height]])
-    return polygon_boundary_layers(square, dx, layers, "outside", origin=(0.0, 0.0))
+    """Boundary particles in ``layers`` layers outside the rectangle [0, width] x [0, height], layer k at
+    (k + 1/2) dx from its sides (:func:`warpfree.surface_layers.surface_layers`)."""
+    from warpfree.surface_layers import surface_layers
+
+    return surface_layers(box_2d(width, height), dx, layers, "outside")
 
 
 def front_position(solver, t: float) -> float:
@@ -36,16 +42,30 @@ def front_position(solver, t: float) -> float:
     return float(solver.fluid_positions()[:, 0].max())
 
 
-def walls_from_section(mesh, plane_origin, plane_normal, dx: float, layers: int,
-                       origin=(0.0, 0.0)) -> np.ndarray:
+def walls_from_section(mesh, plane_origin, plane_normal, dx: float, layers: int) -> tuple[np.ndarray, list]:
     """2D boundary particles from the cross-section of a 3D container mesh (a path or trimesh mesh).
 
-    The section's polygons (see :func:`warpfree.geometry.mesh_section` for the in-plane axes) get
-    ``layers`` lattice layers outside, aligned with a fluid lattice anchored at ``origin``.
+    The section's polygons (see :func:`warpfree.geometry.mesh_section` for the in-plane axes) get ``layers``
+    layers outside them along their true edges (:func:`warpfree.surface_layers.surface_layers`, any
+    orientation). Returns (walls (N, 2), the polygons) — the polygons are the containers to check the fluid
+    against and to fill (``fill_polygon(..., clearance=dx/2)``).
     """
     from warpfree.geometry import load_mesh, mesh_section
+    from warpfree.surface_layers import surface_layers
 
     polygons = mesh_section(load_mesh(mesh), plane_origin, plane_normal)
     if not polygons:
         raise ParameterError("plane_origin", "the plane does not cut the mesh")
-    return np.vstack([polygon_boundary_layers(p, dx, layers, "outside", origin=origin) for p in polygons])
+    return np.vstack([surface_layers(p, dx, layers, "outside") for p in polygons]), polygons
+
+
+def clear_of(points: np.ndarray, solid, clearance: float) -> np.ndarray:
+    """The points at least ``clearance`` (m) outside ``solid`` (a watertight trimesh mesh or a 2D polygon):
+    fluid filled around an obstacle, measured against its true surface on the device."""
+    from warpfree.device import current_launcher
+    from warpfree.solids import Solids
+
+    dim = 3 if not isinstance(solid, np.ndarray) else 2
+    p3 = points if points.shape[1] == 3 else np.column_stack([points, np.zeros(len(points))])
+    signed = Solids(current_launcher(), dim, containers=[solid]).signed_distance(p3)
+    return points[signed >= clearance * (1.0 - 1e-6)]

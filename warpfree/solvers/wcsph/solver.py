@@ -21,6 +21,8 @@ from warpfree.kernels import wcsph as K
 from warpfree.neighbours import MovingNeighbours, NeighbourGrid, NeighbourList
 from warpfree.particles import ParticleSet, to_vec3
 from warpfree.reduce import Reduction
+from warpfree.kernels.solids import add_surface_penalty
+from warpfree.solids import Solids
 from warpfree.solver import OutputSet, State, TimeDependentSolver
 
 from .model import FluidParams, WCSPHModel
@@ -55,18 +57,27 @@ class WCSPHSolver(TimeDependentSolver):
     Parameters
     ----------
     fluid: (N, dim) initial fluid positions (m).
-    boundary: (M, dim) boundary particle positions (m); static.
+    boundary: (M, dim) boundary particle positions (m) of the containers; static.
+    obstacle_boundary: optional (K, dim) boundary particles of obstacles (appended to the walls: the same
+        physics), written as their own output set ``obstacle`` and drawn as solids in frames.
     params: :class:`FluidParams`.
     density: optional (N,) initial fluid densities (e.g. hydrostatic); default ρ0.
     velocity: optional (N, dim) initial velocities (m/s); default 0.
     boundary_volume: volume (area in 2D) per boundary particle; default dx^dim.
+    containers, obstacles: the true solid surfaces (3D: watertight trimesh meshes; 2D: closed polygons) that
+        the fluid must stay inside / outside. The fluid feels them through a stiff penalty within dx/2 of a
+        surface (``warpfree.kernels.solids.add_surface_penalty``: it stores the kinetic energy of a particle at
+        c0, so none crosses, and a fluid at rest dx/2 clear of the walls never feels it), beside the wall
+        particles; and it is checked at every output against the surfaces themselves
+        (:class:`~warpfree.solids.Solids`): fluid inside a solid stops the run with the count and the depth.
     """
 
     name = "wcsph"
     work_unit = "particle-steps"
 
     def __init__(self, fluid, boundary, params: FluidParams, density=None, velocity=None,
-                 boundary_volume: float | None = None, launcher: Launcher | None = None):
+                 boundary_volume: float | None = None, launcher: Launcher | None = None, containers=(), obstacles=(),
+                 obstacle_boundary=None):
         params.validate()
         launcher = launcher or current_launcher()
         dev = launcher.device
@@ -74,6 +85,10 @@ class WCSPHSolver(TimeDependentSolver):
         if xf.shape[0] == 0:
             raise ParameterError("fluid", "is empty: the scene made no fluid particles")
         xb = to_vec3(boundary, "boundary") if np.size(boundary) else np.zeros((0, 3), np.float32)
+        xo = (to_vec3(obstacle_boundary, "obstacle_boundary") if obstacle_boundary is not None
+              and np.size(obstacle_boundary) else np.zeros((0, 3), np.float32))
+        n_container_walls = len(xb)
+        xb = np.vstack([xb, xo])
         lo, hi = np.asarray(params.container_lo, float), np.asarray(params.container_hi, float)
         outside = np.any((xf < lo) | (xf > hi), axis=1)
         if outside.any():
@@ -117,20 +132,22 @@ class WCSPHSolver(TimeDependentSolver):
         def part(array, start, stop):  # a view of rows [start, stop); Warp refuses empty slices
             return array[start:stop] if stop > start else wp.zeros(0, dtype=array.dtype, device=dev)
 
-        f, b = (0, nf), (nf, n)
-        #: the fluid and boundary particle sets: named views into the combined arrays
+        f, b, o = (0, nf), (nf, nf + n_container_walls), (nf + n_container_walls, n)
+        #: the fluid, the container walls and the obstacles' walls: named views into the combined arrays
         self.fluid = ParticleSet.view("fluid", params.dim, {
             "position": part(S.position, *f), "velocity": part(S.velocity, *f), "density": part(S.density, *f),
             "pressure": part(S.pressure, *f), "mass": part(model.mass, *f)})
-        self.boundary = ParticleSet.view("boundary", params.dim, {
-            "position": part(S.position, *b), "density": part(S.density, *b), "pressure": part(S.pressure, *b),
-            "mass": part(model.mass, *b)})
+        self.boundary, self.obstacle = (ParticleSet.view(name, params.dim, {
+            "position": part(S.position, *r), "density": part(S.density, *r), "pressure": part(S.pressure, *r),
+            "mass": part(model.mass, *r)}) for name, r in (("boundary", b), ("obstacle", o)))
+        #: all wall particles (containers, then obstacles): the static set the fluid's tables query
+        self.walls = part(S.position, nf, n)
 
         self.max_neighbours = self._check_neighbours()
         # Neighbour candidates within support + skin, rebuilt once a fluid particle may have moved skin/2.
         self.moving_neighbours = MovingNeighbours(
             launcher, model.space, self.fluid.position, params.support, model.skin,
-            static_sets={"walls": self.boundary.position} if nb else None, position_at_build=S.position_at_build)
+            static_sets={"walls": self.walls} if nb else None, position_at_build=S.position_at_build)
         a.position_at_build = S.position_at_build
         cap = int(self.max_neighbours * (1.0 + params.skin) ** params.dim * 1.2) + 8  # grows if ever too small
         # the tables (3 of int32 rows of ``cap``) and about 25 float32 per particle of state and scratch
@@ -142,6 +159,14 @@ class WCSPHSolver(TimeDependentSolver):
         else:  # valid empty rows for the kernels
             self.fluid_wall = self.wall_fluid = _EmptyRows(nf, dev)
         self._report = Reduction(launcher, wp.vec4, "max")
+        self.solids = Solids(launcher, params.dim, containers, obstacles) if (containers or obstacles) else None
+        if self.solids is not None:
+            inside = self.solids.penetration(self.fluid.position)
+            if inside:
+                raise ParameterError("fluid", f"{inside.count} fluid particle(s) start inside a solid (deepest "
+                                              f"{inside.max_depth:.3g} m {inside.where}, particle {inside.first_index})")
+            # the fluid starts dx/2 clear of the surfaces (like its first wall layer on the other side)
+            self._penalty = self.solids.penalty(0.5 * params.dx, params.c0)
         self.initialise()
 
     # -- set-up --------------------------------------------------------------------------------
@@ -180,6 +205,10 @@ class WCSPHSolver(TimeDependentSolver):
                 L.launch(self.kernels.wall_pressure, self.model.nb, [c, a, self.wall_fluid.rows])
         with self.phases("rates"):
             L.launch(self.kernels.rates, self.model.nf, [c, a, self.fluid_fluid.rows, self.fluid_wall.rows])
+        if self.solids is not None:
+            with self.phases("surfaces"):
+                L.launch(add_surface_penalty, self.model.nf, [self._penalty, self.fluid_wall.rows.count,
+                                                              self.fluid.position, a.acceleration])
 
     def _launch_report(self) -> None:
         self.launcher.launch(K.step_report, self.model.nf, [self.model.constants, self.arrays], light=True)
@@ -225,6 +254,18 @@ class WCSPHSolver(TimeDependentSolver):
         kind = "non-finite values" if np.any(status[bad] == K.STATUS_NONFINITE) else "particles outside the container"
         return f"{kind} in {bad.size} fluid particle(s), first index {int(bad[0])}"
 
+    def audit(self) -> str | None:
+        """Fluid particles inside a solid (the true container and obstacle surfaces), measured on the device."""
+        if self.solids is None:
+            return None
+        inside = self.solids.penetration(self.fluid.position)
+        if not inside:
+            return None
+        dx = self.model.params.dx
+        return (f"{inside.count} fluid particle(s) inside a solid; the deepest, fluid particle {inside.first_index} at "
+                f"{tuple(round(c, 4) for c in inside.position)}, is {inside.max_depth:.3g} m ({inside.max_depth / dx:.2f} "
+                f"dx) {inside.where}")
+
     def after_load(self) -> None:
         """After a checkpoint: the tables from the loaded ``position_at_build``, the report from the loaded state."""
         self.moving_neighbours.build_tables()
@@ -244,12 +285,19 @@ class WCSPHSolver(TimeDependentSolver):
         """The fluid (coloured by speed by default) and the walls, as NumPy copies."""
         fluid = {k: self.fluid.numpy(k) for k in ("velocity", "density", "pressure")}
         fluid["speed"] = np.linalg.norm(fluid["velocity"], axis=1)
-        walls = {k: self.boundary.numpy(k) for k in ("density", "pressure")}
-        return [OutputSet("fluid", self.fluid.numpy("position"), fluid, frame_field="speed"),
-                OutputSet("boundary", self.boundary.numpy("position"), walls)]
+        sets = [OutputSet("fluid", self.fluid.numpy("position"), fluid, frame_field="speed"),
+                OutputSet("boundary", self.boundary.numpy("position"),
+                          {k: self.boundary.numpy(k) for k in ("density", "pressure")})]
+        if self.obstacle.n:
+            sets.append(OutputSet("obstacle", self.obstacle.numpy("position"),
+                                  {k: self.obstacle.numpy(k) for k in ("density", "pressure")}, solid=True))
+        return sets
 
     def output_fields(self) -> dict[str, list[str]]:
-        return {"fluid": ["velocity", "density", "pressure", "speed"], "boundary": ["density", "pressure"]}
+        fields = {"fluid": ["velocity", "density", "pressure", "speed"], "boundary": ["density", "pressure"]}
+        if self.obstacle.n:
+            fields["obstacle"] = ["density", "pressure"]
+        return fields
 
     def output_meshes(self) -> dict:
         """The free surface (3D): the χ = 1/2 iso-surface of the colour function (seed eq. 5-7)."""

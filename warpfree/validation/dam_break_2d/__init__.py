@@ -1,7 +1,8 @@
 """Dam-break surge-front reference data (Martin & Moyce 1952; Koshizuka & Oka 1996).
 
-Normalisation: Z = x_front / a, T = t sqrt(2 g / a), with a the initial column width and the column
-height 2a (Martin & Moyce's "n² = 2" case).
+Normalisation (Martin & Moyce's): Z = x_front / a, T = t sqrt(n² g / a), with a the initial column width
+and n² a the column height. Two aspect ratios have data: n² = 2 (height 2a, T = t sqrt(2g/a): three data
+sets, ``DATASETS``) and n² = 1 (a square column, T = t sqrt(g/a): ``DATASETS_SQUARE``).
 
 The data live in this folder as CSV files, one per data set; ``README.md`` next to them gives each
 experiment, where the digitisation comes from and how it was transcribed:
@@ -10,7 +11,9 @@ experiment, where the digitisation comes from and how it was transcribed:
   Martin & Moyce, a = 1.125 in;
 - ``surge_front_koshizuka_oka_1996_pysph.csv`` (``T,Z``): PySPH's ``ko_data``, Koshizuka & Oka's experiment;
 - ``surge_front_koshizuka_oka_1996_dualsphysics.csv`` (``t_s,x_front_m``): DualSPHysics' digitisation of
-  Koshizuka & Oka in physical units for a = 1 m.
+  Koshizuka & Oka in physical units for a = 1 m;
+- ``surge_front_martin_moyce_1952_square.csv`` (``T,Z`` with T = t sqrt(g/a)): Martin & Moyce's square
+  column, a = 2¼ in, as plotted in Xie (2021), Fig. 7, digitised from that figure.
 
 The data sets disagree with each other by up to ~0.2 in Z at the same T <= 2.5; the issue's tolerance
 (±0.15 in Z for T <= 2.5) is of that order.
@@ -21,7 +24,7 @@ import numpy as np
 from warpfree.validation import read_csv
 
 __all__ = ["MARTIN_MOYCE", "KOSHIZUKA_OKA", "KOSHIZUKA_OKA_DSPH_SI", "KOSHIZUKA_OKA_DSPH", "DATASETS",
-           "front_errors"]
+           "MARTIN_MOYCE_SQUARE", "DATASETS_SQUARE", "datasets_for", "front_errors"]
 
 CASE = "dam_break_2d"
 
@@ -54,18 +57,32 @@ DATASETS = {
     "Koshizuka & Oka 1996 (DualSPHysics digitisation)": KOSHIZUKA_OKA_DSPH,
 }
 
+#: Martin & Moyce (1952), square column (n² = 1), a = 2¼ in, as plotted in Xie (2021) Fig. 7: (T, Z) with
+#: T = t sqrt(g/a)
+MARTIN_MOYCE_SQUARE = _load("surge_front_martin_moyce_1952_square.csv", ["T", "Z"])
 
-def front_errors(t: np.ndarray, x_front: np.ndarray, a: float, g: float, t_max: float = 2.5) -> dict:
-    """Z_sim - Z_exp at every experimental point with T <= t_max, per data set.
+DATASETS_SQUARE = {"Martin & Moyce 1952, square column": MARTIN_MOYCE_SQUARE}
+
+
+def datasets_for(height_ratio: float) -> dict:
+    """The data sets of a column of height ``height_ratio`` × a (n²): 2 or 1; none for other ratios."""
+    return {2.0: DATASETS, 1.0: DATASETS_SQUARE}.get(float(height_ratio), {})
+
+
+def front_errors(t: np.ndarray, x_front: np.ndarray, a: float, g: float, t_max: float | None = 2.5,
+                 height_ratio: float = 2.0) -> dict:
+    """Z_sim - Z_exp at every experimental point with T <= t_max (None: every point the run covers), per
+    data set of the column's aspect ratio n² = ``height_ratio``, with T = t sqrt(n² g / a), Z = x_front / a.
 
     The simulated front is interpolated linearly in T. Returns {dataset: {"T": [...], "dZ": [...],
-    "max_abs": float}} and "max_abs" over both.
+    "max_abs": float}} and "max_abs" over all of them.
     """
-    T = np.asarray(t) * np.sqrt(2.0 * g / a)
+    T = np.asarray(t) * np.sqrt(height_ratio * g / a)
     Z = np.asarray(x_front) / a
+    t_max = np.inf if t_max is None else t_max
     out: dict = {}
     worst = 0.0
-    for name, data in DATASETS.items():
+    for name, data in datasets_for(height_ratio).items():
         sel = (data[:, 0] <= t_max) & (data[:, 0] <= T.max()) & (data[:, 0] >= T.min())
         dz = np.interp(data[sel, 0], T, Z) - data[sel, 1]
         m = float(np.max(np.abs(dz))) if dz.size else float("nan")
