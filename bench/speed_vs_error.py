@@ -51,6 +51,17 @@ CASES = {
         scene="heat_conduction_2d", param="n", values=[20, 40, 80], quick=[10, 20], params={},
         error="decay.max_amplitude_error", label="max abs(A - A exp(-α k² t)) / A", tolerance=None,
         extra={"decay-rate error": "decay.rate_rel_error"}),
+    "taylor_green": dict(
+        scene="taylor_green_2d", param="n", values=[25, 50, 100], quick=[12, 25], params={},
+        error="taylor_green.energy_error", label="energy error at t_e: (E/E0) / exp(-4νk²t) - 1", tolerance=None,
+        extra={"velocity L2 error at t_e": "taylor_green.velocity_l2_error",
+               "energy error at t_e/10": "taylor_green.early.energy_error",
+               "velocity L2 error at t_e/10": "taylor_green.early.velocity_l2_error"}),
+    "poiseuille": dict(
+        scene="poiseuille_2d", param="n", values=[10, 20, 40, 80], quick=[10, 20], params={},
+        error="poiseuille.error_max", label="max abs(binned u - series) / u_c, t = 0.0225-0.225 s", tolerance=None,
+        extra={f"at t = {t} s": f"poiseuille.anchors.{key}.error_max"
+               for t, key in ((0.0225, "t0225"), (0.045, "t045"), (0.1125, "t1125"), (0.225, "t225"))}),
 }
 
 

@@ -206,3 +206,11 @@ def kernel_grad(kind: int, dim: int, rij: wp.vec3, r: float, h: float) -> wp.vec
     if r <= 1.0e-12 * h:
         return wp.vec3(0.0, 0.0, 0.0)
     return rij * (kernel_dwdr(kind, dim, r, h) / r)
+
+
+@wp.kernel
+def radial_derivative(first: int, kind: int, dim: int, h: float, r: wp.array(dtype=float),
+                      dwdr: wp.array(dtype=float)):
+    """dwdr[i] = dW/dr(r[i], h): for set-up sums over kernel values (e.g. a lattice's second moment)."""
+    i = first + wp.tid()
+    dwdr[i] = kernel_dwdr(kind, dim, r[i], h)

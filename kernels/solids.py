@@ -4,13 +4,18 @@ A solid is a closed triangle mesh with a side the particles must stay on: inside
 obstacle. For particle i the depth is the distance to the surface when it is on the wrong side, 0
 otherwise (m); kernels over several solids keep the largest depth. 2D solids are polygons extruded into
 prisms and queried in their z = 0 plane. The sign comes from Warp's angle-weighted pseudo-normal test
-(robust for watertight, non-self-intersecting meshes).
+(robust for watertight, non-self-intersecting meshes). Every query passes ``TIE`` = 1e-6 as the tolerance
+within which Warp treats two distances as equal (a fraction of the mesh's mean edge length; its default,
+1e-3, is wider than dx for a small scene with tall prisms, and gave a particle the sign of the wrong side).
 
 Gather form: thread i writes only depth[i]. Precision float32 (the queries are), so depths below about
 1e-6 of the mesh size are round-off.
 """
 
 import warp as wp
+
+#: distances within this fraction of the mean edge length count as equal in the closest-feature search
+TIE = wp.constant(1.0e-6)
 
 
 @wp.kernel
@@ -28,7 +33,7 @@ def penetration_depth(
     solid of the largest depth so far."""
     i = first + wp.tid()
     x = positions[i]
-    q = wp.mesh_query_point_sign_normal(mesh, x, max_dist)
+    q = wp.mesh_query_point_sign_normal(mesh, x, max_dist, TIE)
     if q.result:
         inside = q.sign < 0.0
         if inside != (inside_allowed != 0):
@@ -49,7 +54,7 @@ def signed_distance(
     """distance[i] = distance from point i to the mesh, negative inside (m); +max_dist if nothing is closer."""
     i = first + wp.tid()
     x = positions[i]
-    q = wp.mesh_query_point_sign_normal(mesh, x, max_dist)
+    q = wp.mesh_query_point_sign_normal(mesh, x, max_dist, TIE)
     d = max_dist
     if q.result:
         d = wp.length(x - wp.mesh_eval_position(mesh, q.face, q.u, q.v)) * q.sign
@@ -88,7 +93,7 @@ def add_surface_penalty(
     a = wp.vec3(0.0, 0.0, 0.0)
     for k in range(penalty.meshes.shape[0]):
         mesh = penalty.meshes[k]
-        q = wp.mesh_query_point_sign_normal(mesh, x, 2.0 * penalty.reach)
+        q = wp.mesh_query_point_sign_normal(mesh, x, 2.0 * penalty.reach, TIE)
         if q.result:
             closest = wp.mesh_eval_position(mesh, q.face, q.u, q.v)
             d = x - closest

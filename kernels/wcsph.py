@@ -22,7 +22,9 @@ Equations (r_ij = x_i - x_j, v_ij = v_i - v_j, ∇W_ij = ∇_i W(r_ij, h)):
       D_i = δ h c0 Σ_{j fluid} V_j ψ_ij·∇W_ij,
       ψ_ij = 2[(ρ_j - ρ_i) - ρ0 g·(x_j - x_i)/c0²] (x_j - x_i)/(r² + 0.01h²)
 - momentum (seed 4-38):         dv_i/dt = -Σ_j m_j (p_i/ρ_i² + p_j/ρ_j² + Π_ij) ∇W_ij + F^visc_i + g
-- laminar viscosity (Morris 1997): F^visc_i = Σ_j m_j 2μ/(ρ_i ρ_j) (r_ij·∇W_ij)/(r² + 0.01h²) v_ij
+- laminar viscosity (Morris 1997): F^visc_i = Σ_j m_j 2μ'/(ρ_i ρ_j) (r_ij·∇W_ij)/(r² + 0.01h²) v_ij, with
+  μ' = μ/S, S the term's lattice second moment (``warpfree/solvers/wcsph/model.py``), so that it is exact for
+  a linear shear on the lattice
 - artificial viscosity (Monaghan 1992): Π_ij = -α c0 μ_ij/ρ̄_ij, μ_ij = h v_ij·r_ij/(r² + 0.01h²)
   when v_ij·r_ij < 0, else 0
 - Lennard-Jones wall force (seed 5-6, with the printed condition corrected to r < r0):
@@ -67,7 +69,7 @@ class FluidConstants:
     c0: float                # numerical speed of sound (m/s)
     b: float                 # Tait stiffness B = ρ0 c0²/γ (Pa)
     gamma: float             # Tait exponent
-    mu: float                # dynamic viscosity (Pa·s)
+    mu: float                # dynamic viscosity divided by the lattice second moment, μ/S (Pa·s)
     avisc: float             # α c0 h (m²/s), artificial viscosity
     delta_coef: float        # δ h c0 (m²/s), δ-SPH
     inv_c2: float            # 1/c0²

@@ -71,7 +71,7 @@ class Solids:
         poly = np.asarray(shape, dtype=float)
         if poly.ndim != 2 or poly.shape[1] != 2 or len(poly) < 3 or not np.all(np.isfinite(poly)):
             raise ParameterError("solids", f"2D solids must be (M >= 3, 2) finite polygons, got shape {poly.shape}")
-        return _prism(poly, float(np.ptp(poly, axis=0).max()) + 1.0)
+        return _prism(poly, 2.0 * float(np.ptp(poly, axis=0).max()))  # taller than wide: caps never closest
 
     def penalty(self, reach: float, speed: float) -> sk.SurfacePenalty:
         """The ``@wp.struct`` of :func:`warpfree.kernels.solids.add_surface_penalty`: reach r0 (m) and the

@@ -226,7 +226,7 @@ class WCSPHSolver(TimeDependentSolver):
         if a2 > 0:
             dt = min(dt, 0.25 * math.sqrt(P.h / math.sqrt(a2)))
         if P.mu > 0:
-            dt = min(dt, 0.125 * P.h * P.h * P.rho0 / P.mu)
+            dt = min(dt, 0.125 * P.h * P.h * P.rho0 * self.model.viscosity_factor / P.mu)
         return dt
 
     def step(self, dt: float) -> None:

@@ -1,0 +1,312 @@
+"""WCSPH against analytic solutions: the Taylor–Green vortex (doubly periodic) and transient plane Poiseuille
+flow driven by a body force (Morris, Fox & Zhu 1997), with the observed order of convergence between the two
+test resolutions. Exact solutions: ``warpfree.validation.taylor_green_2d`` and ``.poiseuille_2d`` (READMEs there
+give the sources and the measurements behind every tolerance below). Fine resolutions live in
+``bench/speed_vs_error.py --case taylor_green`` and ``--case poiseuille``."""
+
+import json
+import math
+import os
+
+import numpy as np
+import pytest
+
+from warpfree import device
+from warpfree.cli import load_scene, main
+from warpfree.errors import ParameterError
+from warpfree.geometry import lattice_box
+from warpfree.solvers.wcsph.model import lattice_second_moment
+from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
+from warpfree.validation import poiseuille_2d as pf
+from warpfree.validation import taylor_green_2d as tg
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+# Taylor–Green: L = U = 1, Re = 100 (ν = 0.01), c0 = 10 U; t_e = 0.6333 s (exact kinetic energy down to e^-1)
+NU_TG = 0.01
+T_E = tg.time_for_energy_ratio(math.exp(-1.0), NU_TG, 1.0)
+
+
+def scene(name):
+    return load_scene(os.path.join(ROOT, "scenes", f"{name}.py"))
+
+
+@pytest.fixture(scope="module")
+def taylor_green():
+    return scene("taylor_green_2d")
+
+
+@pytest.fixture(scope="module")
+def poiseuille():
+    return scene("poiseuille_2d")
+
+
+def run(module, out, **params):
+    """Run a scene without frames or VTU into ``out``; returns the summary."""
+    device.use("cpu", 2)
+    sim = module.build(frames=False, vtk=False, **params)
+    summary = sim.run(str(out), progress=False)
+    assert summary["status"] == "ok"
+    return summary
+
+
+def order(coarse: float, fine: float) -> float:
+    """Observed order of convergence between a resolution and twice it: log2(e_coarse / e_fine)."""
+    return math.log2(coarse / fine)
+
+
+# -- Taylor–Green: the scheme itself against a NumPy re-implementation -------------------------------------------
+
+def numpy_wcsph_periodic(x, v, rho, dx, L, c0, mu, alpha, delta, dt, steps, rho0=1000.0, h_factor=1.3):
+    """The WCSPH scheme of ``kernels/wcsph.py`` (continuity, Tait γ = 7, symmetric pressure, Morris viscosity,
+    Monaghan α, δ-SPH without gravity, Wendland C2, kick–drift–kick with the rate predictor) in float64 NumPy
+    with brute-force minimum-image pairs in a periodic L × L box. Returns positions, velocities, densities."""
+    h = h_factor * dx
+    m = rho0 * dx * dx
+    b = rho0 * c0 ** 2 / 7.0
+    eps = 0.01 * h * h
+    sigma = 7.0 / (4.0 * np.pi * h * h)
+
+    def rates(x, v, r):
+        d = x[:, None, :] - x[None, :, :]
+        d -= L * np.round(d / L)
+        r2 = np.sum(d * d, -1)
+        q = np.sqrt(r2) / h
+        near = (q < 2.0) & (r2 > 0.0)
+        gw = np.where(near, -5.0 * sigma / h ** 2 * np.clip(1.0 - 0.5 * q, 0.0, None) ** 3, 0.0)[..., None] * d
+        p = b * ((r / rho0) ** 7 - 1.0)
+        vij = v[:, None, :] - v[None, :, :]
+        rgw = np.sum(d * gw, -1)
+        coef = (p / r ** 2)[:, None] + (p / r ** 2)[None, :]
+        vr = np.sum(vij * d, -1)
+        coef = coef - np.where(vr < 0.0, alpha * c0 * h * vr / (r2 + eps) / (0.5 * (r[:, None] + r[None, :])), 0.0)
+        acc = np.sum((m * 2.0 * mu / (r[:, None] * r[None, :]) * rgw / (r2 + eps))[..., None] * vij, 1)
+        acc -= np.sum((m * coef)[..., None] * gw, 1)
+        drho = np.sum(m * np.sum(vij * gw, -1), 1)
+        drho -= delta * h * c0 * np.sum(2.0 * (r[None, :] - r[:, None]) * (m / r[None, :]) * rgw / (r2 + eps), 1)
+        return acc, drho
+
+    a, dr = rates(x, v, rho)
+    for _ in range(steps):
+        vh, rh = v + 0.5 * dt * a, rho + 0.5 * dt * dr
+        x = np.mod(x + dt * vh, L)
+        a, dr = rates(x, vh + 0.5 * dt * a, rh + 0.5 * dt * dr)
+        v, rho = vh + 0.5 * dt * a, rh + 0.5 * dt * dr
+    return x, v, rho
+
+
+@pytest.mark.parametrize("alpha,delta", [(0.0, 0.0), (0.1, 0.1)])
+def test_periodic_wcsph_matches_a_numpy_reimplementation(alpha, delta):
+    """The Taylor–Green start (n = 16, c0 = 10, Re = 100) stepped 80 times by warpfree and by a float64 NumPy
+    re-implementation of the same equations with brute-force minimum-image pairs: the periodic pressure, viscous,
+    artificial-viscosity and δ-SPH terms and the leapfrog. Measured (n = 20, 300 steps, through the break-up of the
+    vortex): |Δx| ≤ 1.6e-5 dx, |Δv| ≤ 2.1e-5 U, |Δρ| ≤ 1.8e-3 kg/m³ (float32 has 6e-5 kg/m³ per ulp at 1000);
+    the bounds are 1e-4 dx, 1e-4 U and 1e-2 kg/m³, float32 rounding, far below any physical effect."""
+    device.use("cpu", 2)
+    n, L, c0, mu = 16, 1.0, 10.0, NU_TG * 1000.0
+    dx = L / n
+    x = lattice_box((0.0, 0.0), (L, L), dx)
+    rho = tg.inverse_tait_density(tg.pressure(x[:, 0], x[:, 1], 0.0, 1.0, NU_TG, L, 1000.0), 1000.0, c0)
+    v = tg.velocity(x[:, 0], x[:, 1], 0.0, 1.0, NU_TG, L)
+    params = FluidParams(dim=2, dx=dx, c0=c0, mu=mu, alpha=alpha, delta=delta, gravity=(0.0, 0.0, 0.0),
+                         container_lo=(0.0, 0.0, -1.0), container_hi=(L, L, 1.0), periodic=(True, True, False))
+    solver = WCSPHSolver(x, np.zeros((0, 2)), params, density=rho, velocity=v)
+    dt, steps = 0.5 * solver.stable_dt(), 80
+    for _ in range(steps):
+        solver.step(dt)
+        assert solver.problem() is None
+    # the solver divides the laminar term by its lattice second moment S (warpfree.solvers.wcsph.model)
+    mu_lattice = mu / lattice_second_moment("wendland_c2", 2, 1.3)
+    xr, vr, rr = numpy_wcsph_periodic(x, v, rho, dx, L, c0, mu_lattice, alpha, delta, dt, steps)
+    d = solver.fluid.numpy("position")[:, :2].astype(np.float64) - xr
+    d -= L * np.round(d / L)
+    assert np.abs(d).max() < 1e-4 * dx
+    assert np.abs(solver.fluid.numpy("velocity")[:, :2] - vr).max() < 1e-4
+    assert np.abs(solver.fluid.numpy("density") - rr).max() < 1e-2
+    assert np.abs(vr - v).max() > 1e-3  # the flow did evolve
+
+
+# -- Taylor–Green: against the exact decay --------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def tg_early(taylor_green, tmp_path_factory):
+    """Runs at n = 25 and 50 to t_e/10 (the exact energy falls by 10 %), outputs every t_e/40."""
+    out = tmp_path_factory.mktemp("tg")
+    return {n: run(taylor_green, out / f"n{n}", n=n, t_end=0.1 * T_E, output_interval=T_E / 40.0)
+            ["analysis"]["taylor_green"] for n in (25, 50)}
+
+
+def test_taylor_green_decay_is_exact_before_the_lattice_strains(tg_early):
+    """Up to t_e/10 = 0.063 s the kinetic energy follows exp(−4νk²t) and the particle velocities the exact field.
+
+    Measured (2026-11-23, the laminar term divided by its lattice moment S, i.e. the true viscosity): energy error
+    −0.31 % (n = 25), −0.43 % (n = 50), −0.45 % (n = 100); velocity L2 error 0.0091, 0.0089, 0.0088. (With the
+    uncorrected term, 3.7 % too weak, the energy error was +0.06 % / −0.06 %: the weak viscosity hid the scheme's
+    own loss.) The plateau of −0.45 % does not shrink with n: pressure waves of the weakly compressible start
+    (the particles carry the exact initial pressure with them while the exact pressure field stays put) and the
+    spurious pressure of the straining lattice. Bounds: |energy error| < 0.6 % (a 5 % error in the decay rate
+    over this window would be 0.5 %; artificial viscosity α = 0.1 costs 2–4 %) and L2 < 0.015.
+
+    Order of convergence between n = 25 and 50: measured 0.06 for the L2 error (0.0090 → 0.0086). The error here
+    does not come from dx but from the weak compressibility and the strained lattice (see the README: it grows
+    with c0 and does not move with n). The test asserts |order| < 0.5 and records the value; a scheme change that makes
+    it converge (particle shifting, a background pressure) should update this bound and the README.
+    """
+    for n, res in tg_early.items():
+        assert res["early"]["time"] == pytest.approx(0.1 * T_E, rel=1e-9) == pytest.approx(res["time"], rel=1e-9)
+        assert abs(res["energy_error"]) < 6e-3, (n, res["energy_error"])
+        assert res["velocity_l2_error"] < 0.015, (n, res["velocity_l2_error"])
+        assert res["breakdown_time"] is None
+    p = order(tg_early[25]["velocity_l2_error"], tg_early[50]["velocity_l2_error"])
+    assert abs(p) < 0.5, p
+
+
+@pytest.mark.xfail(strict=True, reason="plain WCSPH breaks the Taylor–Green vortex up at t ≈ 0.11 s, whatever n: the "
+                   "particle lattice strained at the stagnation points forms lines, its continuity density drifts and "
+                   "the spurious pressure destroys the vortices (measured energy error at t_e: −88 % at n = 25, −92 % "
+                   "at n = 50; README of warpfree/validation/taylor_green_2d). Needs particle regularisation.")
+def test_taylor_green_kinetic_energy_at_the_e_folding_time(taylor_green, tmp_path):
+    """The target: at t_e (exact energy down to e^-1) the energy within 5 % of exp(−4νk²t) at n = 25."""
+    res = run(taylor_green, tmp_path, n=25)["analysis"]["taylor_green"]
+    assert res["time"] == pytest.approx(T_E)
+    assert abs(res["energy_error"]) < 0.05, res["energy_error"]
+
+
+def test_artificial_viscosity_costs_energy_in_proportion_to_alpha_h_c0(taylor_green, tmp_path):
+    """Monaghan's α acts on the Taylor–Green vortex as an extra viscosity ≈ C α h c0 (first order in h).
+
+    Energy error at t_e/10, n = 25 (and n = 50), measured 2026-11-23: α = 0 +0.06 % (−0.06 %), α = 0.02 −0.74 %
+    (−0.46 %), α = 0.1 −3.9 % (−2.1 %). The extra decay matches an eddy viscosity ν_α = C α h c0/8 with
+    C = 0.62–0.63 in all four runs (C = 1 is Monaghan's continuum estimate for his artificial viscosity). The test asserts
+    0.5 < C < 0.75 for α = 0.02 and 0.1 at n = 25.
+    """
+    k = 2.0 * math.pi
+    h, c0, t = 1.3 / 25.0, 10.0, 0.1 * T_E
+    errors = {a: run(taylor_green, tmp_path / f"a{a}", n=25, alpha=a, t_end=t, output_interval=t)
+              ["analysis"]["taylor_green"]["energy_error"] for a in (0.0, 0.02, 0.1)}
+    assert errors[0.0] > errors[0.02] > errors[0.1]
+    for a in (0.02, 0.1):
+        estimate = math.exp(-4.0 * k * k * (a * h * c0 / 8.0) * t) - 1.0  # energy factor of ν_α alone
+        c = math.log((1.0 + errors[a]) / (1.0 + errors[0.0])) / math.log(1.0 + estimate)
+        assert 0.5 < c < 0.75, (a, c)
+
+
+# -- Poiseuille: against the series ------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def pf_runs(poiseuille, tmp_path_factory):
+    """Runs at n = 20 and 40 particles across the channel to t = 0.225 s (Morris' parameters, the scene's defaults)."""
+    out = tmp_path_factory.mktemp("pf")
+    return {n: run(poiseuille, out / f"n{n}", n=n)["analysis"]["poiseuille"] for n in (20, 40)}
+
+
+def test_poiseuille_profile_against_the_series_at_the_anchor_times(pf_runs):
+    """Binned velocity profile against the series at t = 0.0225, 0.045, 0.1125, 0.225 s, relative to u_c = 2.5e-5 m/s.
+
+    This case found that the Morris viscous sum on a lattice is S ν ∇²u, S = 0.9627 (Wendland C2, h = 1.3 dx) at
+    every dx: the error stalled at 2.4 % of u_c (n = 20: 2.69e-2, n = 40: 2.50e-2, n = 80: 2.44e-2 at 0.225 s). The
+    solver now divides the laminar term by S (``viscosity_factor``), and the error against the series converges.
+    Measured (2026-11-23), largest bin error / u_c at the four times: n = 20: 2.69e-3, 3.12e-3, 3.72e-3, 4.24e-3;
+    n = 40: 7.61e-4, 9.14e-4, 1.16e-3, 1.36e-3; orders 1.82, 1.77, 1.69, 1.64. Asserted: order > 1.4 at every
+    anchor time, below 6e-3 at n = 20 and 2e-3 at n = 40.
+    """
+    for n, res in pf_runs.items():
+        assert set(res["anchors"]) == {"t0225", "t045", "t1125", "t225"}
+        assert res["viscosity_factor"] == pytest.approx(0.96268, abs=1e-5)
+        for key, a in res["anchors"].items():
+            assert a["error_max"] < (6e-3 if n == 20 else 2e-3), (n, key, a)
+    for key in pf_runs[20]["anchors"]:
+        coarse, fine = pf_runs[20]["anchors"][key], pf_runs[40]["anchors"][key]
+        assert order(coarse["error_max"], fine["error_max"]) > 1.4, (key, coarse, fine)
+
+
+@pytest.mark.parametrize("kernel", ["wendland_c2", "cubic_spline"])
+def test_poiseuille_steady_state_is_the_parabola_of_the_true_viscosity(poiseuille, kernel, tmp_path):
+    """At t = 1 s (10 e-folding times of the slowest mode) the SPH profile is the steady parabola of the viscosity
+    ν itself: the laminar term divided by its lattice moment S (0.9627 for Wendland C2, 0.9998 for the cubic spline
+    at h = 1.3 dx) is exact for a shear on the lattice, and the walls act where they stand.
+
+    Fit of the n = 20 profile by u = a g + b, g = y (L − y)/2 (a = F/ν_fit; b = F L d/(2ν_fit) for walls moved out
+    by d), measured 2026-11-23: ν_fit/ν = 1.0004 (Wendland C2) and 1.0005 (cubic spline), d = 0.023 dx and
+    0.027 dx. (Before the division by S: ν_fit/ν = 0.9630 for Wendland C2.) Bounds: |ν_fit/ν − 1| < 0.2 %,
+    |d| < 0.1 dx."""
+    device.use("cpu", 2)
+    n, width, force, nu = 20, 1e-3, 2e-4, 1e-6
+    sim = poiseuille.build(n=n, kernel=kernel, t_end=1.0, output_interval=0.5, frames=False, vtk=False)
+    sim.run(None, progress=False)
+    y = sim.solver.fluid.numpy("position")[:, 1].astype(np.float64)
+    u = sim.solver.fluid.numpy("velocity")[:, 0].astype(np.float64)
+    g = y * (width - y) / 2.0
+    (a, b), *_ = np.linalg.lstsq(np.stack([g, np.ones_like(g)], 1), u, rcond=None)
+    nu_fit = force / a
+    offset = 2.0 * b * nu_fit / (force * width)
+    assert nu_fit / nu == pytest.approx(1.0, abs=2e-3), nu_fit / nu
+    assert abs(offset) < 0.1 * width / n, offset / (width / n)
+    # the transient is gone: the series at t = 1 s is the steady profile to 1e-4
+    assert pf.velocity(width / 2, 1.0, force, nu, width) == pytest.approx(pf.centre_velocity(force, nu, width), rel=1e-4)
+
+
+def test_poiseuille_series_gives_the_quoted_centre_velocities():
+    """The series at y = L/2 against shared/reference/anchors.md §6 (L = 1e-3 m, ν = 1e-6 m²/s, F = 2e-4 m/s²).
+    The anchors' first value, 4.466e-6, is the series' 4.46548e-6 rounded twice (to 4.4655e-6, then up): 1e-4 off."""
+    u = [pf.velocity(5e-4, t, 2e-4, 1e-6, 1e-3) for t in (0.0225, 0.045, 0.1125, 0.225)]
+    np.testing.assert_allclose(u, [4.466e-6, 8.469e-6, 1.650e-5, 2.220e-5], rtol=1.5e-4)
+    assert pf.centre_velocity(2e-4, 1e-6, 1e-3) == pytest.approx(2.5e-5)
+    assert abs(pf.velocity(np.array([0.0, 1e-3]), 0.05, 2e-4, 1e-6, 1e-3)).max() < 1e-12
+    assert abs(pf.velocity(np.linspace(0, 1e-3, 11), 0.0, 2e-4, 1e-6, 1e-3)).max() < 1e-12
+
+
+def test_taylor_green_exact_solution_is_consistent():
+    """Energy of the exact field (midpoint sum on a lattice) against E(t), and the e^-1 time (anchors.md §1.4e)."""
+    x = lattice_box((0.0, 0.0), (1.0, 1.0), 1.0 / 32)
+    v = tg.velocity(x[:, 0], x[:, 1], 0.3, 1.0, NU_TG, 1.0)
+    e = 0.5 * 1000.0 * np.sum(v * v) / len(x)
+    assert e == pytest.approx(tg.kinetic_energy(0.3, 1.0, NU_TG, 1.0, 1000.0), rel=1e-12)
+    assert 2.0 * tg.decay_rate(NU_TG, 1.0) == pytest.approx(1.5791367, rel=1e-7)
+    assert T_E == pytest.approx(0.6332574, rel=1e-6)
+    p = tg.pressure(x[:, 0], x[:, 1], 0.0, 1.0, NU_TG, 1.0, 1000.0)
+    assert tg.inverse_tait_density(p, 1000.0, 10.0) == pytest.approx(
+        1000.0 * (1.0 + p * 7.0 / (1000.0 * 100.0)) ** (1.0 / 7.0))
+
+
+# -- the scenes: CLI smoke runs and bad parameters ---------------------------------------------------------------
+
+@pytest.mark.parametrize("name,sets,plot,key", [
+    ("taylor_green_2d", ["n=12", "t_end=0.02", "output_interval=0.01"], "taylor_green.png", "taylor_green"),
+    ("poiseuille_2d", ["n=10", "t_end=0.045", "output_interval=0.0225"], "poiseuille.png", "poiseuille"),
+])
+def test_scene_runs_from_the_cli_and_writes_its_plot(name, sets, plot, key, tmp_path):
+    out = tmp_path / name
+    args = ["run", os.path.join(ROOT, "scenes", f"{name}.py"), "--out", str(out), "--threads", "2", "--no-progress"]
+    for s in sets:
+        args += ["--set", s]
+    assert main(args) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "ok" and key in summary["analysis"]
+    assert (out / plot).is_file() and len(list((out / "frames").glob("*.png"))) == 3
+    assert len(list((out / "vtk").glob("fluid_*.vtu"))) == 3
+
+
+@pytest.mark.parametrize("name,params,bad", [
+    ("taylor_green_2d", {"n": 5}, "n"),
+    ("taylor_green_2d", {"n": 20.5}, "n"),
+    ("taylor_green_2d", {"reynolds": 0.0}, "reynolds"),
+    ("taylor_green_2d", {"mach": 0.8}, "mach"),
+    ("taylor_green_2d", {"alpha": -0.1}, "alpha"),
+    ("taylor_green_2d", {"delta": -1.0}, "delta"),
+    ("taylor_green_2d", {"kernel": "gauss"}, "kernel"),
+    ("taylor_green_2d", {"t_end": -1.0}, "t_end"),
+    ("poiseuille_2d", {"n": 0}, "n"),
+    ("poiseuille_2d", {"channel_length": 1.01e-3}, "channel_length"),
+    ("poiseuille_2d", {"channel_length": 1e-4}, "channel_length"),
+    ("poiseuille_2d", {"bins": 50}, "bins"),
+    ("poiseuille_2d", {"wall_layers": 2}, "wall_layers"),
+    ("poiseuille_2d", {"kernel": "quintic_spline"}, "wall_layers"),  # support 3.9 dx needs 4 layers
+    ("poiseuille_2d", {"force": -2e-4}, "force"),
+    ("poiseuille_2d", {"nu": float("nan")}, "nu"),
+])
+def test_bad_scene_parameters_are_named(name, params, bad):
+    module = scene(name)
+    with pytest.raises(ParameterError) as info:
+        module.build(frames=False, vtk=False, **params)
+    assert info.value.name == bad
