@@ -163,7 +163,7 @@ def test_taylor_green_decay_is_exact_before_the_lattice_strains(tg_early):
 
 @pytest.mark.xfail(strict=True, reason="plain WCSPH breaks the Taylor–Green vortex up at t ≈ 0.11 s, whatever n: the "
                    "particle lattice strained at the stagnation points forms lines, its continuity density drifts and "
-                   "the spurious pressure destroys the vortices (measured energy error at t_e: −88 % at n = 25, −92 % "
+                   "the spurious pressure destroys the vortices (measured energy error at t_e: −89 % at n = 25, −92 % "
                    "at n = 50; README of warpfree/validation/taylor_green_2d). Needs particle regularisation.")
 def test_taylor_green_kinetic_energy_at_the_e_folding_time(taylor_green, tmp_path):
     """The target: at t_e (exact energy down to e^-1) the energy within 5 % of exp(−4νk²t) at n = 25."""
