@@ -1,63 +1,116 @@
-"""Penetration of particles into solids, from the true surfaces (``wp.Mesh``, closest point and sign).
+"""Solids on their true surfaces: which side of a solid a point is on, how deep, and the penalty that keeps fluid out.
 
-A solid is a closed triangle mesh with a side the particles must stay on: inside a container, outside an
-obstacle. For particle i the depth is the distance to the surface when it is on the wrong side, 0
-otherwise (m); kernels over several solids keep the largest depth. 2D solids are polygons extruded into
-prisms and queried in their z = 0 plane. The sign comes from Warp's angle-weighted pseudo-normal test
-(robust for watertight, non-self-intersecting meshes). Every query passes ``TIE`` = 1e-6 as the tolerance
-within which Warp treats two distances as equal (a fraction of the mesh's mean edge length; its default,
-1e-3, is wider than dx for a small scene with tall prisms, and gave a particle the sign of the wrong side).
+A solid is a closed surface with a side the particles must stay on: inside a container, outside an obstacle.
 
-Gather form: thread i writes only depth[i]. Precision float32 (the queries are), so depths below about
-1e-6 of the mesh size are round-off.
+- 3D: a watertight triangle mesh (``wp.Mesh``); the closest point and the sign from Warp's angle-weighted
+  pseudo-normal test (robust for watertight, non-self-intersecting meshes), with Warp's own tolerance for
+  telling a closest point on an edge or a vertex from one inside a face.
+- 2D: a closed polygon (points in the z = 0 plane); the closest point on its edges and the side from the
+  crossing-number parity, exact (a handful of edges per polygon, looped over).
+
+:class:`Solids` holds both kinds for a scene (``planar`` says which); :func:`closest_point` answers for one
+solid. Gather form: every kernel writes only its own particle's entries. Precision float32; lengths in the
+scene's unit.
 """
 
 import warp as wp
 
-#: distances within this fraction of the mean edge length count as equal in the closest-feature search
-TIE = wp.constant(1.0e-6)
+
+@wp.struct
+class Solids:
+    """The solids of a scene. 3D: ``meshes``; 2D: polygon k's vertices at ``vertices[start[k]:start[k+1]]``."""
+
+    meshes: wp.array(dtype=wp.uint64)
+    vertices: wp.array(dtype=wp.vec2)
+    start: wp.array(dtype=wp.int32)
+    inside_allowed: wp.array(dtype=wp.int32)  # 1: a container (stay inside), 0: an obstacle (stay outside)
+    count: int
+    planar: int                                # 1: 2D polygons, 0: 3D meshes
+    max_dist: float                            # query reach of the mesh searches (m)
+
+
+@wp.func
+def closest_point(s: Solids, k: int, x: wp.vec3, max_dist: float):
+    """(found, closest point on solid k's surface, x inside solid k) within ``max_dist`` (2D: any distance)."""
+    found = int(0)
+    closest = wp.vec3(0.0, 0.0, 0.0)
+    inside = int(0)
+    if s.planar != 0:
+        p = wp.vec2(x[0], x[1])
+        best = float(1.0e30)
+        crossings = int(0)
+        a0 = s.start[k]
+        n = s.start[k + 1] - a0
+        for e in range(n):
+            a = s.vertices[a0 + e]
+            b = s.vertices[a0 + (e + 1) % n]
+            ab = b - a
+            t = wp.clamp(wp.dot(p - a, ab) / wp.max(wp.dot(ab, ab), 1.0e-30), 0.0, 1.0)
+            on_edge = a + t * ab
+            d2 = wp.dot(p - on_edge, p - on_edge)
+            if d2 < best:
+                best = d2
+                closest = wp.vec3(on_edge[0], on_edge[1], 0.0)
+            if (a[1] > p[1]) != (b[1] > p[1]):
+                x_at = a[0] + (p[1] - a[1]) * ab[0] / ab[1]
+                if p[0] < x_at:
+                    crossings += 1
+        found = 1
+        inside = crossings % 2
+    else:
+        mesh = s.meshes[k]
+        query = wp.mesh_query_point_sign_normal(mesh, x, max_dist)
+        if query.result:
+            found = 1
+            closest = wp.mesh_eval_position(mesh, query.face, query.u, query.v)
+            if query.sign < 0.0:
+                inside = 1
+    return found, closest, inside
 
 
 @wp.kernel
 def penetration_depth(
     first: int,
-    mesh: wp.uint64,
-    solid: int,
-    inside_allowed: int,
-    max_dist: float,
+    s: Solids,
     positions: wp.array(dtype=wp.vec3),
     depth: wp.array(dtype=float),
     which: wp.array(dtype=wp.int32),
 ):
-    """depth[i] = max(depth[i], distance to the mesh if particle i is on the forbidden side); which[i] = the
-    solid of the largest depth so far."""
+    """depth[i] = the largest distance of particle i below the surface of a solid it is on the wrong side of (m;
+    0 if none); which[i] = that solid."""
     i = first + wp.tid()
     x = positions[i]
-    q = wp.mesh_query_point_sign_normal(mesh, x, max_dist, TIE)
-    if q.result:
-        inside = q.sign < 0.0
-        if inside != (inside_allowed != 0):
-            d = wp.length(x - wp.mesh_eval_position(mesh, q.face, q.u, q.v))
-            if d > depth[i]:
-                depth[i] = d
-                which[i] = solid
+    deepest = float(0.0)
+    solid = int(-1)
+    for k in range(s.count):
+        found, closest, inside = closest_point(s, k, x, s.max_dist)
+        if found != 0 and inside != s.inside_allowed[k]:
+            d = wp.length(x - closest)
+            if d > deepest:
+                deepest = d
+                solid = k
+    depth[i] = deepest
+    which[i] = solid
 
 
 @wp.kernel
 def signed_distance(
     first: int,
-    mesh: wp.uint64,
-    max_dist: float,
+    s: Solids,
+    k: int,
     positions: wp.array(dtype=wp.vec3),
     distance: wp.array(dtype=float),
 ):
-    """distance[i] = distance from point i to the mesh, negative inside (m); +max_dist if nothing is closer."""
+    """distance[i] = distance from point i to solid k's surface, negative inside it (m); +max_dist if nothing is
+    within reach (3D)."""
     i = first + wp.tid()
     x = positions[i]
-    q = wp.mesh_query_point_sign_normal(mesh, x, max_dist, TIE)
-    d = max_dist
-    if q.result:
-        d = wp.length(x - wp.mesh_eval_position(mesh, q.face, q.u, q.v)) * q.sign
+    found, closest, inside = closest_point(s, k, x, s.max_dist)
+    d = s.max_dist
+    if found != 0:
+        d = wp.length(x - closest)
+        if inside != 0:
+            d = -d
     distance[i] = d
 
 
@@ -65,11 +118,9 @@ def signed_distance(
 class SurfacePenalty:
     """A stiff penalty on the true surfaces of the solids: r0 (m), the reach; stiffness c0²/r0² (1/s²)."""
 
-    meshes: wp.array(dtype=wp.uint64)        # one per solid
-    inside_allowed: wp.array(dtype=wp.int32)  # 1: a container (stay inside), 0: an obstacle (stay outside)
-    reach: float                              # r0 (m)
-    stiffness: float                          # c0²/r0² (1/s²)
-    planar: int                               # 1 in 2D: the solids are prisms, the penalty acts in z = 0 only
+    solids: Solids
+    reach: float
+    stiffness: float
 
 
 @wp.kernel
@@ -85,31 +136,26 @@ def add_surface_penalty(
     potential, c0²/2 at s = 0, exceeds the kinetic energy of any particle slower than c0: no particle crosses.
 
     ``near_wall[i]`` > 0 where particle i has wall particles among its neighbour candidates (a particle within r0
-    of a surface always has: the first wall layer lies r0 beyond it); the others skip the mesh queries."""
+    of a surface always has: the first wall layer lies r0 beyond it); the others skip the queries. In 2D the
+    closest points lie in the plane, so the penalty has no z component."""
     i = first + wp.tid()
     if near_wall[i] == 0:
         return
     x = positions[i]
     a = wp.vec3(0.0, 0.0, 0.0)
-    for k in range(penalty.meshes.shape[0]):
-        mesh = penalty.meshes[k]
-        q = wp.mesh_query_point_sign_normal(mesh, x, 2.0 * penalty.reach, TIE)
-        if q.result:
-            closest = wp.mesh_eval_position(mesh, q.face, q.u, q.v)
+    s = penalty.solids
+    for k in range(s.count):
+        found, closest, inside = closest_point(s, k, x, 2.0 * penalty.reach)
+        if found != 0:
             d = x - closest
-            if penalty.planar != 0:
-                # the closest point on a prism's tall faces carries a float32 error in z: keep the penalty in
-                # the plane, else that error becomes a z-acceleration that lifts 2D particles out of it
-                d = wp.vec3(d[0], d[1], 0.0)
             dist = wp.length(d)
-            outside_side = q.sign >= 0.0
-            allowed = outside_side != (penalty.inside_allowed[k] != 0)
-            s = dist
+            allowed = inside == s.inside_allowed[k]
+            signed = dist
             if not allowed:
-                s = -dist
-            if s < penalty.reach and dist > 0.0:
+                signed = -dist
+            if signed < penalty.reach and dist > 0.0:
                 n = d / dist
                 if not allowed:
                     n = -n
-                a += penalty.stiffness * (penalty.reach - s) * n
+                a += penalty.stiffness * (penalty.reach - signed) * n
     acceleration[i] = acceleration[i] + a
