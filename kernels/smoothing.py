@@ -208,9 +208,31 @@ def kernel_grad(kind: int, dim: int, rij: wp.vec3, r: float, h: float) -> wp.vec
     return rij * (kernel_dwdr(kind, dim, r, h) / r)
 
 
+PROFILE_QUANTITIES = ("shape", "grad_coef", "dwdr")
+
+
 @wp.kernel
-def radial_derivative(first: int, kind: int, dim: int, h: float, r: wp.array(dtype=float),
-                      dwdr: wp.array(dtype=float)):
-    """dwdr[i] = dW/dr(r[i], h): for set-up sums over kernel values (e.g. a lattice's second moment)."""
-    i = first + wp.tid()
-    dwdr[i] = kernel_dwdr(kind, dim, r[i], h)
+def _profile(kind: int, dim: int, h: float, quantity: int, x: wp.array(dtype=float), out: wp.array(dtype=float)):
+    """out[i] = f(q), (df/dq)/q (q = x[i]) or dW/dr(r = x[i], h), by ``quantity`` 0, 1, 2."""
+    i = wp.tid()
+    if quantity == 0:
+        out[i] = kernel_shape(kind, dim, x[i])
+    elif quantity == 1:
+        out[i] = kernel_grad_coef(kind, dim, x[i])
+    else:
+        out[i] = kernel_dwdr(kind, dim, x[i], h)
+
+
+def kernel_profile(name: str, dim: int, x, quantity: str = "shape", h: float = 1.0):
+    """The kernels' own values on the host, for set-up constants (float64 NumPy array like ``x``):
+    ``shape`` f(q) at q = x, ``grad_coef`` (df/dq)/q at q = x, ``dwdr`` dW/dr at r = x (1/m^(dim+1)) for ``h``."""
+    import numpy as np
+
+    if quantity not in PROFILE_QUANTITIES:
+        raise ValueError(f"quantity: must be one of {PROFILE_QUANTITIES}, got {quantity!r}")
+    values = np.atleast_1d(np.asarray(x, dtype=np.float32))
+    inp = wp.array(values, dtype=float, device="cpu")
+    out = wp.zeros(len(values), dtype=float, device="cpu")
+    wp.launch(_profile, dim=len(values), inputs=[kernel_id(name), int(dim), float(h), PROFILE_QUANTITIES.index(quantity),
+                                                 inp, out], device="cpu")
+    return out.numpy().astype(np.float64).reshape(np.shape(x))

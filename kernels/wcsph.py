@@ -37,6 +37,14 @@ Equations (r_ij = x_i - x_j, v_ij = v_i - v_j, ∇W_ij = ∇_i W(r_ij, h)):
       In the fluid–wall pressure term both pressures enter as max(p, 0): walls push and never pull
       (with suction, free-surface particles running down a wall are glued to it and leak through).
 - leapfrog (seed 5-3 to 5-5) in kick–drift–kick form with Monaghan's predictor for the rates.
+- particle shifting (Lind et al. 2012 with the anti-clumping term of Sun et al. 2017), as a shifting velocity
+  δu_i added to the particle's motion, with the fields carried along it (an ALE form, so that shifting moves
+  particles, not the fluid):
+      δu_i = -A h U Σ_{j fluid, wall} V_j [1 + R (W_ij/W(dx))⁴] ∇W_ij,   R = 0.2
+      dx_i/dt += δu_i,  dv_i/dt += (δu_i·∇)v_i,  dρ_i/dt += δu_i·∇ρ_i,  ∇φ_i = Σ_j V_j (φ_j - φ_i) ∇W_ij
+  Near a free surface (∇·r_i = -Σ_j V_j r_ij·∇W_ij below ``surface_div``, i.e. the support is truncated)
+  the component of δu_i along ∇C_i = Σ_j V_j ∇W_ij (the surface normal there) is removed: particles slide
+  along the surface and are never pushed out of it.
 
 Colour function (free surfaces): χ(x) = Σ_j V_j W(|x - x_j|, h), sampled on a grid (seed eq. 5-7).
 """
@@ -54,6 +62,9 @@ from .space import Box, displacement, displacement_function, image_displacement,
 STATUS_OK = wp.constant(0.0)
 STATUS_OUTSIDE = wp.constant(1.0)
 STATUS_NONFINITE = wp.constant(2.0)
+
+#: R of shifting's anti-clumping factor 1 + R (W_ij/W(dx))⁴ (Sun et al. 2017, their n = 4)
+SHIFT_ANTI_CLUMPING = wp.constant(0.2)
 
 
 @wp.struct
@@ -76,6 +87,10 @@ class FluidConstants:
     gravity: wp.vec3         # m/s²
     lj_d: float              # Lennard-Jones strength D (m²/s²)
     lj_r0: float             # Lennard-Jones range r0 (m)
+    damping: float           # γ (1/s): v ← v e^(-γΔt) every step while a fluid settles (0 = none)
+    shift_coef: float        # A h U (m²/s), particle shifting
+    inv_shape_dx: float      # 1/f(dx/h): W_ij/W(dx) = f(q_ij) · inv_shape_dx (shifting's anti-clumping term)
+    surface_div: float       # ∇·r below which a particle's support is truncated by a free surface
     container_lo: wp.vec3    # fluid must stay in this box (m)
     container_hi: wp.vec3
     box: Box                 # the space (periodic axes)
@@ -98,6 +113,9 @@ class FluidArrays:
     ghost_velocity: wp.array(dtype=wp.vec3)    # (nb) no-slip ghost velocity of the walls
     position_at_build: wp.array(dtype=wp.vec3)  # (nf) positions when the neighbour tables were built
     report: wp.array(dtype=wp.vec4)            # (nf) |Δx since build|², |v|², |a|², status
+    shift_velocity: wp.array(dtype=wp.vec3)    # (nf) δu, m/s (particle shifting; written by rates)
+    shift_acceleration: wp.array(dtype=wp.vec3)  # (nf) (δu·∇)v, m/s²
+    shift_density_rate: wp.array(dtype=float)  # (nf) δu·∇ρ, kg/(m³ s)
 
 
 @dataclass(frozen=True)
@@ -113,6 +131,7 @@ class FluidTerms:
     wall_safety: bool = False        # Lennard-Jones safety net of dynamic walls (r0 > 0)
     no_slip: bool = True             # walls enter the laminar viscous term with the ghost velocity
     wall_artificial: bool = False    # artificial viscosity on fluid-wall pairs too (with the ghost velocity)
+    shifting: bool = False           # particle shifting (A > 0)
     periodic: tuple = (False, False, False)
 
 
@@ -209,6 +228,28 @@ def colour_function_grid(
     chi[i] = s
 
 
+@wp.struct
+class ShiftingSums:
+    """Neighbour sums of particle shifting for one fluid particle (see the module docstring)."""
+
+    grad_concentration: wp.vec3    # Σ V_j [1 + R (W_ij/W(dx))⁴] ∇W_ij (1/m)
+    normal: wp.vec3                # Σ V_j ∇W_ij = ∇C (1/m): into the fluid near a free surface
+    div_position: float            # ∇·r = -Σ V_j r_ij·∇W_ij (dimensionless; the space dimension inside)
+    grad_velocity: wp.mat33        # Σ V_j (v_j - v_i) ⊗ ∇W_ij: (∇v)ᵀ, so (δu·∇)v = grad_velocity δu (1/s)
+    grad_density: wp.vec3          # Σ V_j (ρ_j - ρ_i) ∇W_ij (kg/m⁴)
+
+
+@wp.func
+def shifting_velocity(c: FluidConstants, s: ShiftingSums) -> wp.vec3:
+    """δu = -A h U ∇C̃, with the component along the surface normal removed where the support is truncated."""
+    g = s.grad_concentration
+    if s.div_position < c.surface_div:
+        n2 = wp.dot(s.normal, s.normal)
+        if n2 > 0.0:
+            g = g - (wp.dot(g, s.normal) / n2) * s.normal
+    return -c.shift_coef * g
+
+
 _made: dict = {}
 
 
@@ -253,6 +294,21 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
 
     fluid_pair = make_pair(terms.artificial, terms.laminar)
     wall_pair = make_pair(terms.artificial and terms.no_slip and terms.wall_artificial, terms.laminar and terms.no_slip)
+
+    @wp.func
+    def shifting_sums(c: FluidConstants, s: ShiftingSums, vol: float, rij: wp.vec3, r2: float, gw: wp.vec3,
+                      dv: wp.vec3, drho: float) -> ShiftingSums:
+        """Add neighbour j (volume V_j = m_j/ρ_j, ∇W_ij, v_j - v_i, ρ_j - ρ_i) to the shifting sums of i."""
+        w = kernel_shape(wp.static(kind), wp.static(dim), wp.sqrt(r2) * c.inv_h) * c.inv_shape_dx
+        w2 = w * w
+        vgw = vol * gw
+        out = ShiftingSums()
+        out.grad_concentration = s.grad_concentration + (1.0 + SHIFT_ANTI_CLUMPING * w2 * w2) * vgw
+        out.normal = s.normal + vgw
+        out.div_position = s.div_position - wp.dot(rij, vgw)
+        out.grad_velocity = s.grad_velocity + wp.outer(dv, vgw)
+        out.grad_density = s.grad_density + drho * vgw
+        return out
 
     @wp.kernel(module="unique")
     def drift(first: int, c: FluidConstants, f: FluidArrays, dt: float):
@@ -320,6 +376,7 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
         dr = float(0.0)
         diff = float(0.0)
         a = wp.vec3(0.0, 0.0, 0.0)
+        sh = ShiftingSums()
         for n in range(fluid_fluid.start[i], fluid_fluid.start[i] + fluid_fluid.count[i]):
             j = fluid_fluid.index[n]
             rij = disp(c.box, xi, f.position[j])
@@ -335,6 +392,8 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
             if wp.static(terms.delta_sph):
                 drho_dyn = (rhoj - rhoi) + c.rho0 * wp.dot(c.gravity, rij) * c.inv_c2
                 diff -= 2.0 * drho_dyn * (mj / rhoj) * wp.dot(rij, gw) * inv_r2e
+            if wp.static(terms.shifting):
+                sh = shifting_sums(c, sh, mj / rhoj, rij, r2, gw, vj - vi, rhoj - rhoi)
         if wp.static(terms.walls != "none"):
             pi_plus_term = wp.max(f.pressure[i], 0.0) * inv_rhoi * inv_rhoi  # walls push, never pull
             for n in range(fluid_wall.start[i], fluid_wall.start[i] + fluid_wall.count[i]):
@@ -351,6 +410,11 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
                                                 f.density[j], wp.max(f.pressure[j], 0.0), mj)
                     a += aj
                     dr += mj * wp.dot(vi - f.velocity[j], gw)
+                    if wp.static(terms.shifting):
+                        dvw = wp.vec3(0.0, 0.0, 0.0)  # free-slip walls add no shear to ∇v
+                        if wp.static(terms.no_slip):
+                            dvw = f.ghost_velocity[jw] - vi
+                        sh = shifting_sums(c, sh, mj / f.density[j], rij, r2, gw, dvw, f.density[j] - rhoi)
                 if wp.static(lj_walls):
                     # seed 5-6, only for r < r0: the whole wall model of Lennard-Jones walls, a short-range
                     # safety net of dynamic ones (r0 < dx there)
@@ -360,14 +424,30 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
             dr += c.delta_coef * diff
         f.density_rate[i] = dr
         f.acceleration[i] = a + c.gravity
+        if wp.static(terms.shifting):
+            du = shifting_velocity(c, sh)
+            f.shift_velocity[i] = du
+            f.shift_acceleration[i] = sh.grad_velocity * du
+            f.shift_density_rate[i] = wp.dot(sh.grad_density, du)
 
     @wp.kernel(module="unique")
     def kick(first: int, c: FluidConstants, f: FluidArrays, dt: float):
-        """Second half kick: v ← v + ½Δt a(t+Δt), ρ ← ρ + ½Δt dρ/dt(t+Δt) (seed 5-3/5-4); then the step
-        report of the particle (moved², |v|², |a|², status), reduced on the device."""
+        """Second half kick: v ← v + ½Δt a(t+Δt), ρ ← ρ + ½Δt dρ/dt(t+Δt) (seed 5-3/5-4); with shifting, the
+        particle then moves by Δt δu carrying v and ρ along; then the step report of the particle (moved²,
+        |v|², |a|², status), reduced on the device. While a fluid settles, v ← v e^(-γΔt) after the kick."""
         i = first + wp.tid()
         f.velocity[i] = f.velocity[i] + (0.5 * dt) * f.acceleration[i]
         f.density[i] = f.density[i] + (0.5 * dt) * f.density_rate[i]
+        if wp.static(terms.shifting):
+            # the shift of this step, with the fields carried along it (first order in Δt)
+            xn = f.position[i] + dt * f.shift_velocity[i]
+            if wp.static(periodic_any):
+                xn = wrap(c.box, xn)
+            f.position[i] = xn
+            f.velocity[i] = f.velocity[i] + dt * f.shift_acceleration[i]
+            f.density[i] = f.density[i] + dt * f.shift_density_rate[i]
+        if c.damping > 0.0:  # settling only (WCSPHSolver.settle)
+            f.velocity[i] = wp.exp(-c.damping * dt) * f.velocity[i]
         f.report[i] = fluid_report(c, f, i)
 
     kernels = SimpleNamespace(drift=drift, wall_pressure=wall_pressure, rates=rates, kick=kick)

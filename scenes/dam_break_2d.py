@@ -30,7 +30,7 @@ from warpfree.validation.dam_break_2d import datasets_for, front_errors
 
 
 def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval: float = 0.02,
-          column_height: float = 2.0, tank_length: float = 4.0, tank_height: float = 4.0, h_factor: float = 1.3,
+          column_height: float = 2.0, tank_length: float = 4.0, tank_height: float = 4.0, h_factor: float = 1.6,
           kernel: str = "wendland_c2", alpha: float = 0.1, wall_artificial: bool = False, delta: float = 0.1,
           mu: float = 1.0e-3,
           boundary_model: str = "dynamic", wall_safety: float = 0.75, cfl: float = 0.2, g: float = 9.81, rho0: float = 1000.0,

@@ -42,7 +42,7 @@ ANCHORS = (0.0225, 0.045, 0.1125, 0.225)
 
 
 def build(n: int = 40, width: float = 1.0e-3, channel_length: float = 1.0e-3, nu: float = 1.0e-6,
-          force: float = 2.0e-4, rho0: float = 1000.0, mach: float = 0.1, h_factor: float = 1.3,
+          force: float = 2.0e-4, rho0: float = 1000.0, mach: float = 0.1, h_factor: float = 1.6,
           kernel: str = "wendland_c2", wall_layers: int = 3, bins: int = 10, cfl: float = 0.1, t_end: float = 0.225,
           output_interval: float = 0.0225, checkpoint_every: int = 0, frames: bool = True,
           frame_field: str = "speed", vtk: bool = True) -> TimeLoop:
@@ -70,9 +70,10 @@ def build(n: int = 40, width: float = 1.0e-3, channel_length: float = 1.0e-3, nu
     if channel_length < 2.0 * support * 1.15:
         raise ParameterError("channel_length", f"must hold two neighbour radii, >= {2.3 * support:.6g} m at this "
                                                f"resolution, got {channel_length}")
-    if wall_layers * dx < support:
+    if wall_layers * dx < support - 0.5 * dx:  # the fluid row nearest a wall stands dx/2 from it
         raise ParameterError("wall_layers", f"{wall_layers} layers of {dx:.6g} m do not cover the kernel support "
-                                            f"{support:.6g} m: need >= {math.ceil(support / dx - 1e-9)}")
+                                            f"{support:.6g} m of the fluid row dx/2 from the wall: need >= "
+                                            f"{math.ceil((support - 0.5 * dx) / dx - 1e-9)}")
     u_c = exact.centre_velocity(force, nu, width)
     c0 = u_c / mach
     fluid = lattice_box((0.0, 0.0), (channel_length, width), dx)

@@ -94,22 +94,30 @@ def test_square_column_front(dam_break, tmp_path):
 
 
 @pytest.mark.slow
-def test_tank_at_rest_is_hydrostatic_and_energy_decays(tank, tmp_path):
-    """p(y) within 5% of ρ0 g (H - y) (normalised by ρ0 g H) after settling; kinetic energy decays;
-    no particle leaves the tank."""
+@pytest.mark.parametrize("tilt", [0.0, 15.0, 45.0])
+def test_tank_at_rest_stays_at_rest(tank, tilt, tmp_path):
+    """A relaxed, settled tank (the scene's default start) held 3 s, upright and tilted: p(y) within 3 % of
+    ρ0 g (H − y) (normalised by ρ0 g H); the kinetic energy never above 1e-5 m g H (an rms speed of 0.45 % of
+    sqrt(g H)) and at the end below half its largest value; the surface level within dx/2; no leak.
+
+    Measured 2026-11-23 (0.5 m wide, 0.4 m deep, dx = 0.025, h = 1.6 dx), 0° / 15° / 45°: hydrostatic error 1.6 %,
+    1.1 %, 0.6 %; largest kinetic energy 7.8e-7, 3.2e-6, 1.5e-6 m g H, at the end 15 %, 5 %, 15 % of it. The
+    plain lattice start (``relax=False, settle_periods=0``) on the same tanks: 6e-6 (rising 3.5-fold after
+    0.5 s), 1.0e-3, 2.7e-4 m g H, hydrostatic error 1.5 %, 4.1 %, 7.7 %."""
     device.use("cpu", 2)
-    sim = tank.build(width=0.5, depth=0.4, dx=0.025, t_end=1.0, output_interval=0.05, frames=False, vtk=False)
+    depth = 0.4
+    sim = tank.build(width=0.5, depth=depth, dx=0.025, tilt=tilt, t_end=3.0, output_interval=0.1, frames=False,
+                     vtk=False)
     summary = sim.run(str(tmp_path), progress=False)
-    hydro = summary["analysis"]["hydrostatic"]
-    assert hydro["max_rel_err"] < 0.05, hydro
-    assert summary["analysis"]["kinetic_energy_last_quarter_max"] < summary["analysis"]["kinetic_energy_first_half_max"]
-    # kinetic energy is tiny against the potential energy scale m g H
-    ke = np.asarray(summary["diagnostic_series"]["kinetic_energy"])
-    mgh = summary["diagnostics"]["mass"] * G * 0.4
-    assert ke[-1] < 1e-3 * mgh
     assert summary["status"] == "ok"
-    x = sim.solver.fluid_positions()
-    assert np.all((x[:, 0] > 0) & (x[:, 0] < 0.5) & (x[:, 1] > 0))
+    analysis = summary["analysis"]
+    assert analysis["hydrostatic"]["max_rel_err"] < 0.03, analysis["hydrostatic"]
+    ke = np.asarray(summary["diagnostic_series"]["kinetic_energy"])
+    mgh = summary["diagnostics"]["mass"] * G * depth
+    assert ke.max() < 1e-5 * mgh, ke.max() / mgh
+    assert ke[-1] < 0.5 * ke.max(), (ke[-1], ke.max())
+    assert analysis["surface_spread_max"] < 0.5, analysis["surface_spread_max"]
+
 
 
 # (determinism across thread counts and bitwise resume: tests/test_contract.py, for every solver)

@@ -43,6 +43,8 @@ __all__ = [
     "mesh_section",
     "box_mesh",
     "load_mesh",
+    "clip_polygon",
+    "ccw_polygon",
 ]
 
 _TOL = 1e-9  # relative tolerance, in lattice cells, for "on the lattice" and "within the shell"
@@ -130,6 +132,18 @@ def _polygon(polygon) -> np.ndarray:
     if abs(_signed_area(p)) <= 1e-14 * np.ptp(p, axis=0).max() ** 2:
         raise ParameterError("polygon", "has zero area")
     return p
+
+
+def polygon_area(polygon) -> float:
+    """Area (m²) of a closed 2D polygon (M, 2), either orientation, checked as :func:`ccw_polygon` checks it."""
+    return abs(float(_signed_area(_polygon(polygon))))
+
+
+def ccw_polygon(polygon) -> np.ndarray:
+    """The (M, 2) vertices of a closed 2D polygon, checked (finite, M >= 3, an area), counter-clockwise: then
+    (t_y, -t_x) of an edge's unit tangent t is its outward normal."""
+    p = _polygon(polygon)
+    return p if _signed_area(p) > 0 else p[::-1]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -602,6 +616,26 @@ def mesh_section(mesh: trimesh.Trimesh, plane_origin, plane_normal) -> list[np.n
             q = q[::-1]
         out.append(q)
     return out
+
+
+def clip_polygon(polygon, normal, offset: float) -> np.ndarray:
+    """The part of a closed 2D polygon where normal·x <= offset (m), as a polygon (Sutherland–Hodgman against one
+    half-plane; exact for convex polygons, and for any polygon the half-plane cuts into one piece)."""
+    poly = _polygon(polygon)
+    n = np.asarray(normal, dtype=float)
+    if n.shape != (2,) or not np.all(np.isfinite(n)) or not np.any(n):
+        raise ParameterError("normal", f"must be a non-zero 2D vector, got {normal!r}")
+    side = poly @ n - float(offset)
+    out = []
+    for k in range(len(poly)):
+        a, b, sa, sb = poly[k], poly[(k + 1) % len(poly)], side[k], side[(k + 1) % len(poly)]
+        if sa <= 0.0:
+            out.append(a)
+        if (sa < 0.0 < sb) or (sb < 0.0 < sa):
+            out.append(a + (b - a) * (sa / (sa - sb)))
+    if len(out) < 3:
+        raise ParameterError("offset", "the half-plane leaves nothing of the polygon")
+    return np.asarray(out)
 
 
 def box_mesh(lo, hi) -> trimesh.Trimesh:

@@ -28,7 +28,8 @@ from .reduce import Reduction
 from .space import Space
 from warpfree.kernels import neighbours as nk
 
-__all__ = ["NeighbourGrid", "NeighbourList", "NeighbourTable", "MovingNeighbours", "neighbour_counts_brute"]
+__all__ = ["NeighbourGrid", "NeighbourList", "NeighbourTable", "MovingNeighbours", "empty_rows",
+           "neighbour_counts_brute"]
 
 _INT32_MAX = 2**31 - 1
 
@@ -295,6 +296,15 @@ class MovingNeighbours:
         r = reduction or Reduction(self.launcher, wp.float32, "max")
         r.launch(moved2, n)
         return math.sqrt(float(r.value()))
+
+
+def empty_rows(n: int, device: str) -> nk.NeighbourRows:
+    """Rows of a table with no sources (a fluid without walls, a region without free boundary): all empty."""
+    rows = nk.NeighbourRows()
+    rows.start = wp.zeros(max(n, 1), dtype=wp.int32, device=device)
+    rows.count = wp.zeros(max(n, 1), dtype=wp.int32, device=device)
+    rows.index = wp.zeros(1, dtype=wp.int32, device=device)
+    return rows
 
 
 def neighbour_counts_brute(launcher: Launcher, space: Space, query_points: wp.array, source_points: wp.array,

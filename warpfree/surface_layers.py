@@ -27,6 +27,7 @@ import numpy as np
 
 from .device import current_launcher
 from .errors import ParameterError, require_memory, require_positive
+from .geometry import ccw_polygon
 from .solids import Solids
 
 __all__ = ["surface_layers"]
@@ -56,7 +57,7 @@ def surface_layers(shape, dx: float, layers: int, side: str) -> np.ndarray:
         candidates = [_mesh_layer(shape, dx, (k + 0.5) * dx, sign) for k in range(int(layers))]
         solids = Solids(current_launcher(), 3, containers=[shape])
     else:
-        poly = _ccw(np.asarray(shape, dtype=float))
+        poly = ccw_polygon(shape)
         perimeter = float(np.sum(np.linalg.norm(np.roll(poly, -1, axis=0) - poly, axis=1)))
         require_memory("dx", perimeter * layers / dx, 100.0, "boundary particles")
         candidates = [_polygon_layer(poly, dx, (k + 0.5) * dx, sign) for k in range(int(layers))]
@@ -72,17 +73,6 @@ def surface_layers(shape, dx: float, layers: int, side: str) -> np.ndarray:
 
 
 # -- 2D ------------------------------------------------------------------------------------------------
-
-def _ccw(poly: np.ndarray) -> np.ndarray:
-    if poly.ndim != 2 or poly.shape[1] != 2 or len(poly) < 3 or not np.all(np.isfinite(poly)):
-        raise ParameterError("polygon", f"must be (M >= 3, 2) finite vertices, got shape {poly.shape}")
-    if np.allclose(poly[0], poly[-1]):
-        poly = poly[:-1]
-    area2 = np.sum(poly[:, 0] * np.roll(poly[:, 1], -1) - np.roll(poly[:, 0], -1) * poly[:, 1])
-    if area2 == 0.0:
-        raise ParameterError("polygon", "must enclose an area")
-    return poly if area2 > 0 else poly[::-1]
-
 
 def _fit(length: float, dx: float) -> tuple[int, float]:
     """Points that fit ``length`` at a spacing closest to dx, and that spacing."""

@@ -1,4 +1,5 @@
-"""Helpers shared by the fluid scenes: hydrostatic initial density, box walls, walls from a mesh section, front probe."""
+"""Helpers shared by the fluid scenes: hydrostatic initial density, box walls, walls from a mesh section, front
+probe, and the quiet start of water at rest (relaxed arrangement, then settled in its own discretisation)."""
 
 from __future__ import annotations
 
@@ -22,6 +23,67 @@ def hydrostatic_density(y: np.ndarray, surface: float, rho0: float, c0: float, g
     """ρ(y) = ρ0 [1 + ρ0 g (surface - y)/B]^(1/γ), B = ρ0 c0²/γ: the Tait EOS inverted for p = ρ0 g depth."""
     b = rho0 * c0 ** 2 / gamma
     return rho0 * (1.0 + rho0 * g * (surface - np.asarray(y)) / b) ** (1.0 / gamma)
+
+
+def sloshing_frequency(length: float, depth: float, g: float) -> float:
+    """ω1 = sqrt(g k tanh(k d)), k = π/length (rad/s): the first sloshing mode of water of ``depth`` d with a free
+    surface ``length`` long between walls (linear theory), the slowest motion of water at rest."""
+    k = np.pi / require_positive("length", length)
+    return float(np.sqrt(require_positive("g", g) * k * np.tanh(k * require_positive("depth", depth))))
+
+
+def settle_water(solver, surface_length: float, depth: float, g: float, periods: float) -> dict:
+    """Settle water at rest before t = 0 (:meth:`WCSPHSolver.settle`) for ``periods`` periods of its first sloshing
+    mode, with the damping rate 2ω1 that damps that mode critically (its amplitude falls as e^(-ω1 t): e^(-2π)
+    per period). Returns the settling report with the duration and damping used."""
+    omega = sloshing_frequency(surface_length, depth, g)
+    duration = require_positive("settle_periods", periods) * 2.0 * np.pi / omega
+    report = solver.settle(duration, 2.0 * omega)
+    report.update({"duration": duration, "damping": 2.0 * omega})
+    return report
+
+
+def still_water_2d(tank: np.ndarray, level: float, dx: float, fluid: dict, wall_layers: int = 3, relax: bool = True,
+                   settle_periods: float = 3.0):
+    """Water at rest filling the 2D container polygon ``tank`` up to the height y = ``level`` (m).
+
+    Wall particles along the tank's true sides (``wall_layers`` layers); the water's region is the tank below the
+    level (:func:`warpfree.geometry.clip_polygon`), filled with a clearance of dx/2. With ``relax``, the
+    particles are relaxed to a uniform concentration against the walls and the empty space above
+    (:func:`warpfree.relaxation.relax_particles`), each then standing for the region's area over their count (a
+    tilted tank's lattice fill holds up to 10 % fewer than area/dx²: with the mass of dx² the water would stand on
+    a pressure 7 % too high); the densities are hydrostatic; with ``settle_periods`` > 0 the
+    water then settles in its own discretisation (:func:`settle_water`). ``fluid``: the other
+    :class:`FluidParams` fields (c0, gravity (0, -g, 0), viscosities, ...); the container box is the tank's.
+    Returns (solver, the water's polygon, the settling report or None).
+    """
+    from warpfree.geometry import clip_polygon, fill_polygon, polygon_area
+    from warpfree.relaxation import relax_particles
+    from warpfree.surface_layers import surface_layers
+
+    from .model import FluidParams
+    from .solver import WCSPHSolver
+
+    require_positive("settle_periods", settle_periods, allow_zero=True)
+    water = clip_polygon(tank, (0.0, 1.0), level)
+    particles = fill_polygon(water, dx, origin=(0.0, 0.0), clearance=0.5 * dx)
+    walls = surface_layers(tank, dx, wall_layers, "outside")
+    params = FluidParams(dim=2, dx=dx, container_lo=(*tank.min(axis=0), -1.0), container_hi=(*tank.max(axis=0), 1.0),
+                         **fluid)
+    params.validate()
+    if relax:
+        particles = relax_particles(particles, dx, water, walls=walls, containers=[tank], kernel=params.kernel,
+                                    h_factor=params.h_factor).positions
+    g = -float(params.gravity[1])
+    solver = WCSPHSolver(particles, walls, params,
+                         density=hydrostatic_density(particles[:, 1], level, params.rho0, params.c0, g, params.gamma),
+                         containers=[tank], fluid_volume=polygon_area(water) / len(particles) if relax else None)
+    settled = None
+    if settle_periods > 0:
+        surface = water[np.abs(water[:, 1] - level) < 1e-6 * max(abs(level), 1.0), 0]
+        settled = settle_water(solver, float(surface.max() - surface.min()), level - float(water[:, 1].min()), g,
+                               settle_periods)
+    return solver, water, settled
 
 
 def box_2d(width: float, height: float) -> np.ndarray:

@@ -11,14 +11,15 @@ the combined arrays, walls ``[nf, n)``; :attr:`fluid` and :attr:`boundary` expos
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import warp as wp
 
 from warpfree.device import Launcher, current_launcher
-from warpfree.errors import ParameterError, require_memory
+from warpfree.errors import ParameterError, RunError, require_memory, require_positive
 from warpfree.kernels import wcsph as K
-from warpfree.neighbours import MovingNeighbours, NeighbourGrid, NeighbourList
+from warpfree.neighbours import MovingNeighbours, NeighbourGrid, NeighbourList, empty_rows
 from warpfree.particles import ParticleSet, to_vec3
 from warpfree.reduce import Reduction
 from warpfree.kernels.solids import add_surface_penalty
@@ -64,6 +65,9 @@ class WCSPHSolver(TimeDependentSolver):
     density: optional (N,) initial fluid densities (e.g. hydrostatic); default ρ0.
     velocity: optional (N, dim) initial velocities (m/s); default 0.
     boundary_volume: volume (area in 2D) per boundary particle; default dx^dim.
+    fluid_volume: volume (area in 2D) per fluid particle; default dx^dim. A relaxed fill of a region that is not a
+        union of lattice cells holds fewer particles than region/dx^dim: each then stands for region/N (the mass
+        ρ0 × that volume), or the pressure gradient, which counts a volume per neighbour, falls short by as much.
     containers, obstacles: the true solid surfaces (3D: watertight trimesh meshes; 2D: closed polygons) that
         the fluid must stay inside / outside. The fluid feels them through a stiff penalty within dx/2 of a
         surface (``warpfree.kernels.solids.add_surface_penalty``: it stores the kinetic energy of a particle at
@@ -77,7 +81,7 @@ class WCSPHSolver(TimeDependentSolver):
 
     def __init__(self, fluid, boundary, params: FluidParams, density=None, velocity=None,
                  boundary_volume: float | None = None, launcher: Launcher | None = None, containers=(), obstacles=(),
-                 obstacle_boundary=None):
+                 obstacle_boundary=None, fluid_volume: float | None = None):
         params.validate()
         launcher = launcher or current_launcher()
         dev = launcher.device
@@ -94,7 +98,7 @@ class WCSPHSolver(TimeDependentSolver):
         if outside.any():
             raise ParameterError("fluid", f"{int(outside.sum())} of {len(xf)} fluid particles lie outside the "
                                           f"container box {lo.tolist()} .. {hi.tolist()}")
-        model = WCSPHModel(params, len(xf), len(xb), boundary_volume, dev)
+        model = WCSPHModel(params, len(xf), len(xb), boundary_volume, dev, fluid_volume)
         super().__init__(model, launcher)
         nf, nb, n = model.nf, model.nb, model.n
         rho_f = np.full(nf, params.rho0) if density is None else np.asarray(density, float)
@@ -127,6 +131,10 @@ class WCSPHSolver(TimeDependentSolver):
         a.density_eval = wp.zeros(nf, dtype=float, device=dev)
         a.ghost_velocity = wp.zeros(max(nb, 1), dtype=wp.vec3, device=dev)
         a.report = wp.zeros(nf, dtype=wp.vec4, device=dev)
+        n_shift = nf if model.terms.shifting else 1  # scratch of this step's shift (written by rates, used by kick)
+        a.shift_velocity = wp.zeros(n_shift, dtype=wp.vec3, device=dev)
+        a.shift_acceleration = wp.zeros(n_shift, dtype=wp.vec3, device=dev)
+        a.shift_density_rate = wp.zeros(n_shift, dtype=float, device=dev)
         self.kernels = K.make_kernels(model.terms)
 
         def part(array, start, stop):  # a view of rows [start, stop); Warp refuses empty slices
@@ -157,7 +165,7 @@ class WCSPHSolver(TimeDependentSolver):
             self.fluid_wall = self.moving_neighbours.add_table("fluid_wall", "moving", "walls", cap)
             self.wall_fluid = self.moving_neighbours.add_table("wall_fluid", "walls", "moving", cap)
         else:  # valid empty rows for the kernels
-            self.fluid_wall = self.wall_fluid = _EmptyRows(nf, dev)
+            self.fluid_wall = self.wall_fluid = SimpleNamespace(rows=empty_rows(nf, dev))
         self._report = Reduction(launcher, wp.vec4, "max")
         self.solids = Solids(launcher, params.dim, containers, obstacles) if (containers or obstacles) else None
         if self.solids is not None:
@@ -196,6 +204,33 @@ class WCSPHSolver(TimeDependentSolver):
         self.compute_rates()
         self._launch_report()
 
+    def settle(self, duration: float, damping: float) -> dict:
+        """Let the fluid come to rest in its own discretisation before t = 0: ``duration`` seconds of steps with
+        every velocity damped as v ← v e^(-γΔt) (γ = ``damping``, 1/s), then velocities set to zero and the rates
+        recomputed. Positions, densities and pressures keep what the discrete equations balance (a lattice or a
+        relaxed arrangement given hydrostatic densities is only near that: its first steps would start a
+        transient). Returns the step count and the kinetic energy and largest speed at the end of the settling."""
+        require_positive("settle", duration)
+        require_positive("damping", damping)
+        c = self.model.constants
+        c.damping = float(damping)
+        t, steps = 0.0, 0
+        try:
+            while t < duration:
+                dt = min(self.stable_dt() if self.model.params.dt is None else self.model.params.dt, duration - t)
+                self.step(dt)
+                t += dt
+                steps += 1
+                problem = self.problem()
+                if problem:
+                    raise RunError(f"settling failed at t = {t:.4g} s: {problem}")
+        finally:
+            c.damping = 0.0
+        d = self.diagnostics()
+        self.fluid["velocity"].zero_()
+        self.initialise()
+        return {"steps": steps, "kinetic_energy": d["kinetic_energy"], "max_speed": d["max_speed"]}
+
     # -- stepping --------------------------------------------------------------------------------
     def compute_rates(self) -> None:
         """Wall pressure (dynamic walls), then dρ/dt and dv/dt at the predicted state."""
@@ -219,7 +254,8 @@ class WCSPHSolver(TimeDependentSolver):
         return np.asarray(self._report.value(), dtype=np.float64)
 
     def stable_dt(self) -> float:
-        """Δt = min(C h/(max|v| + c0) [seed 5-12], 0.25 sqrt(h/max|a|), 0.125 h² ρ0/μ)."""
+        """Δt = min(C h/(max|v| + c0) [seed 5-12], 0.25 sqrt(h/max|a|), 0.125 h² ρ0/μ, 0.125 h²/(A h U)): the last
+        two are the explicit-diffusion limits of the viscosity and of particle shifting (diffusivity A h U)."""
         P = self.model.params
         _, v2, a2, _ = self.report()
         dt = P.cfl * P.h / (math.sqrt(v2) + P.c0)
@@ -227,6 +263,8 @@ class WCSPHSolver(TimeDependentSolver):
             dt = min(dt, 0.25 * math.sqrt(P.h / math.sqrt(a2)))
         if P.mu > 0:
             dt = min(dt, 0.125 * P.h * P.h * P.rho0 * self.model.viscosity_factor / P.mu)
+        if P.shifting > 0:
+            dt = min(dt, 0.125 * P.h / (P.shifting * P.shift_speed))
         return dt
 
     def step(self, dt: float) -> None:
@@ -330,14 +368,3 @@ class WCSPHSolver(TimeDependentSolver):
         d.update({"max_neighbours": self.max_neighbours, "list_builds": self.moving_neighbours.builds})
         return d
 
-
-class _EmptyRows:
-    """Rows of a table with no sources (a fluid without walls): every row empty."""
-
-    def __init__(self, n: int, device: str):
-        from warpfree.kernels.neighbours import NeighbourRows
-
-        self.rows = NeighbourRows()
-        self.rows.start = wp.zeros(max(n, 1), dtype=wp.int32, device=device)
-        self.rows.count = wp.zeros(max(n, 1), dtype=wp.int32, device=device)
-        self.rows.index = wp.zeros(1, dtype=wp.int32, device=device)
