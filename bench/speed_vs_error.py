@@ -10,6 +10,8 @@ What it measures
       over the experimental points with T <= 2.5 (``warpfree.validation.dam_break_2d``), also per data set;
     * ``heat``: ``scenes/heat_conduction_2d.py`` at n = 20, 40, 80 particles per side (quick: 10, 20);
       error: the largest amplitude error of the decaying sine mode against exp(-α k² t), relative to A;
+    * ``taylor_green`` (n = 25, 50, 100), ``poiseuille`` (n = 10, 20, 40, 80) and ``standing_wave``
+      (dx = 0.08, 0.04, 0.02; the wall time is the run's, the relaxation and settling are part of the build);
     * any scene: ``--scene PATH --param NAME --values ... --error analysis.key.path [--set name=value]``.
 
 How
@@ -57,6 +59,11 @@ CASES = {
         extra={"velocity L2 error at t_e": "taylor_green.velocity_l2_error",
                "energy error at t_e/10": "taylor_green.early.energy_error",
                "velocity L2 error at t_e/10": "taylor_green.early.velocity_l2_error"}),
+    "standing_wave": dict(
+        scene="standing_wave_2d", param="dx", values=[0.08, 0.04, 0.02], quick=[0.08], params={},
+        error="standing_wave.frequency_error", label="frequency error ω'/ω - 1 against ω² = g k tanh(kd)",
+        tolerance=None, extra={"decay rate (1/s)": "standing_wave.decay_rate",
+                               "amplitude ratio": "standing_wave.amplitude_ratio"}),
     "poiseuille": dict(
         scene="poiseuille_2d", param="n", values=[10, 20, 40, 80], quick=[10, 20], params={},
         error="poiseuille.error_max", label="max abs(binned u - series) / u_c, t = 0.0225-0.225 s", tolerance=None,

@@ -11,13 +11,14 @@ over the same particles, relative to the steady centre velocity u_c = F L²/(8ν
 ``poiseuille.png`` (profiles at the outputs against the series, and the errors against time) and the errors at
 the anchor times 0.0225, 0.045, 0.1125, 0.225 × L²/ν into ``summary["analysis"]["poiseuille"]``.
 
-Model: WCSPH with Morris' laminar viscosity (μ = ρ0 ν), Wendland C2 with h = 1.3 dx, dynamic (Adami 2012) wall
+Model: WCSPH with Morris' laminar viscosity (μ = ρ0 ν), Wendland C2 with h = 1.6 dx, dynamic (Adami 2012) wall
 particles on the fluid lattice (``wall_layers`` rows below and above), no-slip, body force as ``gravity =
 (F, 0, 0)``. No artificial viscosity and no δ-SPH (its hydrostatic correction assumes gravity is hydrostatic).
 c0 = u_c/mach (mach = 0.1). The time step is the viscous limit 0.125 h²/ν.
 
 The lattice viscosity. On a lattice the Morris viscous sum of a shear profile is S ν ∇²u, not ν ∇²u, S the
-discrete second moment of the kernel (0.9627 for Wendland C2, h = 1.3 dx and the 0.01 h² regularisation), the
+discrete second moment of the kernel (0.9828 for Wendland C2 at h = 1.6 dx, 0.9627 at 1.3 dx, with the 0.01 h²
+regularisation), the
 same at every resolution: this case found it (the error against the series stalled at 2.4 % of u_c). The solver
 now divides the laminar term by S (``warpfree.solvers.wcsph.model.lattice_second_moment``, reported as the
 model's ``viscosity_factor``), and the error against the series converges.
