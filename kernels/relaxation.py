@@ -23,12 +23,14 @@ import warp as wp
 
 from .neighbours import NeighbourRows
 from .smoothing import kernel_grad_coef, kernel_shape
+from .space import Box, displacement
 
 
 @wp.struct
 class RelaxationConstants:
     """Constants of one relaxation (SI)."""
 
+    box: Box             # the space (periodic axes get the minimum image)
     kind: int            # smoothing kernel id
     dim: int
     inv_h: float
@@ -51,18 +53,18 @@ def relaxation_step(first: int, c: RelaxationConstants, x: wp.array(dtype=wp.vec
     xi = x[i]
     g = wp.vec3(0.0, 0.0, 0.0)
     for n in range(moving.start[i], moving.start[i] + moving.count[i]):
-        rij = xi - x[moving.index[n]]
+        rij = displacement(c.box, xi, x[moving.index[n]])
         r2 = wp.dot(rij, rij)
         if r2 < c.support2:
             g += (c.volume * c.grad_factor * kernel_grad_coef(c.kind, c.dim, wp.sqrt(r2) * c.inv_h)) * rij
     for n in range(wall_rows.start[i], wall_rows.start[i] + wall_rows.count[i]):
-        rij = xi - walls[wall_rows.index[n]]
+        rij = displacement(c.box, xi, walls[wall_rows.index[n]])
         r2 = wp.dot(rij, rij)
         if r2 < c.support2:
             g += (c.wall_volume * c.grad_factor * kernel_grad_coef(c.kind, c.dim, wp.sqrt(r2) * c.inv_h)) * rij
     for n in range(surface_rows.start[i], surface_rows.start[i] + surface_rows.count[i]):
         q = surface_rows.index[n]
-        rij = xi - surface[q]
+        rij = displacement(c.box, xi, surface[q])
         r2 = wp.dot(rij, rij)
         if r2 < c.support2:
             g += (surface_weight[q] * c.w_factor * kernel_shape(c.kind, c.dim, wp.sqrt(r2) * c.inv_h)) * surface_normal[q]

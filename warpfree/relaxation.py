@@ -162,6 +162,8 @@ def relax_particles(positions, dx: float, region, walls=None, containers=(), obs
     h = h_factor * dx
     support = support_factor(kernel) * h
     c = rk.RelaxationConstants()
+    space = Space.free(dim)
+    c.box = space.box
     c.kind, c.dim = kernel_id(kernel), dim
     c.inv_h, c.support2 = 1.0 / h, support * support
     c.w_factor = SIGMA[kernel][dim - 1] / h ** dim
@@ -176,7 +178,7 @@ def relax_particles(positions, dx: float, region, walls=None, containers=(), obs
     if len(qp):
         static["surface"] = wp.array(to_vec3(qp, "surface").astype(np.float32), dtype=wp.vec3, device=dev)
     n = len(x)
-    neighbours = MovingNeighbours(launcher, Space.free(dim), pos, support, 0.2 * support, static_sets=static)
+    neighbours = MovingNeighbours(launcher, space, pos, support, 0.2 * support, static_sets=static)
     cap = 64 if dim == 2 else 256
     moving = neighbours.add_table("moving", "moving", "moving", cap, exclude_self=True)
     wall_table = neighbours.add_table("walls", "moving", "walls", cap) if "walls" in static else None
