@@ -5,15 +5,19 @@ Oka (1996), at T <= 2.5; for n² = 1 (the square column, ``--set column_height=1
 --set tank_height=2 --set t_end=3.1``) Martin & Moyce's square-column series up to T = 9.5. The run
 writes ``front.png`` and the errors into ``summary.json``.
 
-Model: WCSPH (seed 004) with Wendland C2, h = 1.6 dx (the 2D default; at 1.3 dx the default run takes 8 443
-steps instead of 6 852 for the same wall time, and its front max |ΔZ| is 0.427 instead of 0.409), c0 = 10 sqrt(2 g 2a), Tait γ = 7, laminar
+Model: WCSPH (seed 004) with Wendland C2, h = 1.6 dx (the 2D default; at 1.3 dx and C = 0.2 the default run took 8 443
+steps instead of 6 852 for the same wall time, and its front max |ΔZ| was 0.427 instead of 0.409), c0 = 10 sqrt(2 g 2a), Tait γ = 7, laminar
 μ = 1e-3 Pa·s, Monaghan artificial viscosity α = 0.1 (as PySPH's dam_break_2d), δ-SPH δ = 0.1 and
 dynamic (Adami 2012) wall particles, three layers, no-slip, with the seed's Lennard-Jones force
 (D = 2gH) as a safety net below r0 = 0.75 dx (``wall_safety``; 0 switches it off).
 
-Time step: seed eq. 5-12 with Courant number 0.2 (the seed prints 0.1; 0.2 is DualSPHysics' choice for
-its dam-break validation case). At dx = a/25 the front error was the same for 0.1, 0.2 and 0.3
-(max |ΔZ| 0.169, 0.170, 0.172, measured with artificial viscosity on the walls too) and 0.2 halves the steps.
+Time step: seed eq. 5-12, dt = C h/(c0 + max|v|), with C = 0.4, the largest step that keeps the error with a
+margin (measured 2026-11-23, dx = a/40, h = 1.6 dx, to t = 0.8 s; ``bench/README.md``): C = 0.2, 0.3, 0.4 and 0.5
+all ran, with the front error against Martin & Moyce 0.2806, 0.2806, 0.2803, 0.2808 in 6 852, 4 580, 3 439 and
+2 755 steps; C = 0.6 threw a particle out of the tank at t = 0.70 s. The tank at rest has the same limit (0.5
+quiet, 0.6 unstable). With max|v| up to 10.6 m/s against c0 = 62.6 m/s, C = 0.4 is 0.34-0.40 on h/c0 alone; the
+force limit 0.25 sqrt(h/max|a|) and the viscous one never bind here. (The seed prints 0.1; DualSPHysics' dam
+break uses 0.2.)
 """
 
 import os
@@ -34,7 +38,7 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
           column_height: float = 2.0, tank_length: float = 4.0, tank_height: float = 4.0, h_factor: float = 1.6,
           kernel: str = "wendland_c2", alpha: float = 0.1, wall_artificial: bool = False, delta: float = 0.1,
           mu: float = 1.0e-3,
-          boundary_model: str = "dynamic", wall_safety: float = 0.75, cfl: float = 0.2, g: float = 9.81, rho0: float = 1000.0,
+          boundary_model: str = "dynamic", wall_safety: float = 0.75, cfl: float = 0.4, g: float = 9.81, rho0: float = 1000.0,
           wall_layers: int = 3, checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "speed",
           vtk: bool = True) -> TimeLoop:
     """Build the dam break; lengths in units of a (tank_length, tank_height), SI otherwise."""
@@ -79,14 +83,14 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
 def plot_front(path: str, t, x_front, a: float, g: float, max_err: float, height_ratio: float = 2.0,
                t_max: float | None = 2.5) -> None:
     """Z against T = t sqrt(n² g/a): simulation line, experiments as markers, the ±0.15 band around the simulation."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
     T = np.asarray(t) * np.sqrt(height_ratio * g / a)
     Z = np.asarray(x_front) / a
-    fig, ax = plt.subplots(figsize=(6, 4.2), dpi=110)
+    fig = Figure(figsize=(6, 4.2), dpi=110)
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
     ax.fill_between(T, Z - 0.15, Z + 0.15, color="C0", alpha=0.15, label="warpfree ± 0.15")
     ax.plot(T, Z, "C0-", lw=2, label="warpfree WCSPH")
     for (name, data), m in zip(datasets_for(height_ratio).items(), ("o", "s", "^")):
@@ -103,4 +107,3 @@ def plot_front(path: str, t, x_front, a: float, g: float, max_err: float, height
     ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)

@@ -164,3 +164,10 @@ def interpolation_matrix(
         j = rows.index[c]
         r = wp.length(displacement(box, x[i], x[j]))
         write_triplet(t, c, i, j, wp.float64(kernel_w(kind, dim, r, h) * volume[j]))
+
+
+@wp.kernel
+def copy_row_counts(first: int, rows: NeighbourRows, out: wp.array(dtype=wp.int32)):
+    """out[i] = rows.count[i]: reads an array through a struct argument."""
+    i = first + wp.tid()
+    out[i] = rows.count[i]

@@ -141,6 +141,21 @@ def test_render_frame_2d(tmp_path):
         render_frame(tmp_path / "x.png", pts, pts[:10, 1], 2, "y", ((0, 1), (0, 1)))
 
 
+def test_frames_of_a_run_reuse_their_figure_without_carrying_state(tmp_path):
+    """2D frames keep their figure between frames (per layout): a frame drawn after another one of a different
+    field range and title is byte for byte the frame drawn first."""
+    dx = 0.02
+    g = np.mgrid[0:0.6:dx, 0:0.4:dx].reshape(2, -1).T + dx / 2
+    pts = np.c_[g, np.zeros(len(g))]
+    bounds = ((-0.05, 1.6), (-0.05, 0.8))
+    first = render_frame(tmp_path / "a.png", pts, pts[:, 1], 2, "y", bounds, title="A", time=0.1).read_bytes()
+    other = render_frame(tmp_path / "b.png", pts + 0.3, 5.0 * pts[:, 0] - 2.0, 2, "y", bounds, title="B",
+                         time=0.2).read_bytes()
+    again = render_frame(tmp_path / "c.png", pts, pts[:, 1], 2, "y", bounds, title="A", time=0.1).read_bytes()
+    assert other != first
+    assert again == first
+
+
 @pytest.mark.parametrize("view", ["side", "top"])
 def test_render_frame_3d(tmp_path, view):
     dx = 0.05

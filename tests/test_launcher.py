@@ -10,7 +10,7 @@ import kernels_for_tests as kt
 from warpfree.device import Launcher, default_threads, resolve_device
 from warpfree.errors import ParameterError
 from warpfree.kernels import smoothing as sm
-from warpfree.neighbours import NeighbourGrid, NeighbourList
+from warpfree.neighbours import NeighbourGrid, NeighbourList, empty_rows
 from warpfree.space import Space
 
 # --- chunks --------------------------------------------------------------------------------------------
@@ -196,19 +196,19 @@ def test_exception_in_one_worker_propagates(make_launcher, monkeypatch):
     n = 30
     last_first = launcher.chunks(n)[-1][0]
     assert last_first > 0
-    real_launch = wp.launch
+    real_run = launcher._run
     seen = []
 
-    def flaky_launch(kernel, *args, inputs=(), **kwargs):
-        seen.append(inputs[0])
-        if inputs[0] == last_first:
+    def flaky_run(kernel, first, count, inputs, outputs):
+        seen.append(first)
+        if first == last_first:
             raise ValueError("boom in worker")
-        return real_launch(kernel, *args, inputs=inputs, **kwargs)
+        return real_run(kernel, first, count, inputs, outputs)
 
     r = wp.array(np.linspace(0.0, 1.0, n).astype(np.float32), dtype=float, device="cpu")
     w = wp.zeros(n, dtype=float, device="cpu")
     launcher.launch(kt.eval_w_dwdr, n, [0, 3, r, 1.0, w, w])  # compile/load before patching
-    monkeypatch.setattr(wp, "launch", flaky_launch)
+    monkeypatch.setattr(launcher, "_run", flaky_run)
     with pytest.raises(ValueError, match="boom in worker"):
         launcher.launch(kt.eval_w_dwdr, n, [0, 3, r, 1.0, w, w])
     assert sorted(seen) == [c[0] for c in launcher.chunks(n)]
@@ -221,13 +221,70 @@ def test_close_is_idempotent():
     assert "threads=2" in repr(launcher)
 
 
-def test_small_launches_use_fewer_threads():
-    """Below min_items_per_thread items per thread a launch is not split (the pool costs ~0.1 ms)."""
+def test_split_from_measured_cost():
+    """Cost-based splitting: a first launch runs whole; afterwards a launch splits only when the time it saves
+    exceeds the measured hand-over cost, and the result is bitwise the same either way."""
     launcher = Launcher(device="cpu", threads=2)
+    try:
+        assert launcher.min_items_per_thread is None and launcher.handover_s > 0
+        n = 200_000
+        r = wp.array(np.linspace(0.0, 3.0, n).astype(np.float32), dtype=float, device="cpu")
+        w, dw = wp.zeros(n, dtype=float, device="cpu"), wp.zeros(n, dtype=float, device="cpu")
+        args = [sm.kernel_id("cubic_spline"), 3, r, 1.0, w, dw]
+        assert launcher.split_count(kt.eval_w_dwdr, n) == 1  # never measured yet
+        launcher.launch(kt.eval_w_dwdr, n, args)
+        whole = w.numpy().copy()
+        # the measured cost decides: pretend the kernel costs 1 ms (splits) or 1 µs (does not)
+        launcher._seconds_per_item[(kt.eval_w_dwdr, n)] = 1e-3 / n
+        assert launcher.split_count(kt.eval_w_dwdr, n) == 2
+        launcher.launch(kt.eval_w_dwdr, n, args)
+        assert np.array_equal(w.numpy(), whole)
+        launcher._seconds_per_item[(kt.eval_w_dwdr, n)] = 1e-6 / n
+        assert launcher.split_count(kt.eval_w_dwdr, n) == 1
+        # a kernel is timed per item count: another n starts unmeasured
+        assert launcher.split_count(kt.eval_w_dwdr, n // 2) == 1
+    finally:
+        launcher.close()
+
+
+def test_recorded_launches_see_new_arguments(make_launcher):
+    """Replayed commands: a changed scalar, a new array and a struct field assigned after recording all reach the
+    kernel (the results equal fresh ``wp.launch`` calls)."""
+    launcher = make_launcher(threads=2)
+    n = 40
+
+    def fresh(args):
+        w = wp.zeros(n, dtype=float, device="cpu")
+        dw = wp.zeros(n, dtype=float, device="cpu")
+        wp.launch(kt.eval_w_dwdr, dim=n, inputs=[0, *args[:4], w, dw], device="cpu")
+        return w.numpy(), dw.numpy()
+
+    r = wp.array(np.linspace(0.0, 2.0, n).astype(np.float32), dtype=float, device="cpu")
+    w, dw = wp.zeros(n, dtype=float, device="cpu"), wp.zeros(n, dtype=float, device="cpu")
+    kid = sm.kernel_id("cubic_spline")
+    for args in ([kid, 3, r, 1.0, w, dw], [kid, 3, r, 0.7, w, dw], [kid, 2, r, 0.7, w, dw],
+                 [kid, 2, wp.array(np.linspace(0.0, 1.0, n).astype(np.float32), dtype=float, device="cpu"), 0.7, w, dw],
+                 [sm.kernel_id("wendland_c2"), 2, r, 1.3, w, dw]):
+        launcher.launch(kt.eval_w_dwdr, n, args)
+        ref_w, ref_dw = fresh(args)
+        assert np.array_equal(w.numpy(), ref_w) and np.array_equal(dw.numpy(), ref_dw)
+    # a struct argument: a field assigned after the command was recorded is seen by the replay
+    counts = wp.zeros(n, dtype=wp.int32, device="cpu")
+    rows = empty_rows(n, "cpu")
+    launcher.launch(kt.copy_row_counts, n, [rows, counts])
+    assert np.all(counts.numpy() == 0)
+    rows.count = wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32, device="cpu")
+    launcher.launch(kt.copy_row_counts, n, [rows, counts])
+    assert np.array_equal(counts.numpy(), np.arange(n))
+
+
+def test_fixed_split_rule():
+    """``min_items_per_thread`` = m: at least m items per chunk, at most one chunk per thread."""
+    launcher = Launcher(device="cpu", threads=2, min_items_per_thread=2048)
     try:
         assert launcher.chunks(4000) == [(0, 4000)]
         assert launcher.chunks(4096) == [(0, 2048), (2048, 2048)]
-        assert launcher.chunks(4096, light=True) == [(0, 4096)]
-        assert len(launcher.chunks(8 * 4096, light=True)) == 2
+        assert launcher.split_count(kt.eval_w_dwdr, 4000) == 1
+        assert launcher.split_count(kt.eval_w_dwdr, 4096) == 2
     finally:
         launcher.close()

@@ -154,11 +154,12 @@ def test_kills_during_checkpoint_writes_never_break_resume(tmp_path):
     common = ["--set", "dx=0.1", "--set", "t_end=0.3", "--no-frames", "--set", "vtk=false", "--no-progress"]
     ref = tmp_path / "ref"
     assert run_cli(scene, *common, "--out", str(ref)) == 0
+    steps = json.loads((ref / "summary.json").read_text())["steps"]
     out = tmp_path / "killed"
     cmd = [sys.executable, "-m", "warpfree.cli", "run", scene, *common, "--checkpoint-every", "1", "--out", str(out)]
     rng = random.Random(5)
     killed = 0
-    for target in (150, 350, 550, None):  # kill once the run has passed these steps (~740 in all)
+    for target in (steps // 5, steps // 2, 3 * steps // 4, None):  # kill once the run has passed these steps
         proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         if target is not None:
             while proc.poll() is None:

@@ -93,13 +93,13 @@ class NeighbourGrid:
         L, n, dev = self.launcher, positions.shape[0], self.launcher.device
         box = self.space.box
         counts = wp.zeros(n, dtype=wp.int32, device=dev)
-        L.launch(nk.count_images, n, [positions, box, self.radius, counts], light=True)
+        L.launch(nk.count_images, n, [positions, box, self.radius, counts])
         offsets = wp.zeros(n, dtype=wp.int32, device=dev)
         wp.utils.array_scan(counts, offsets, inclusive=False)
         total = int(offsets.numpy()[-1] + counts.numpy()[-1]) if n else 0  # one read per build
         extended = wp.zeros(n + total, dtype=wp.vec3, device=dev)
         source_id = wp.zeros(n + total, dtype=wp.int32, device=dev)
-        L.launch(nk.place_images, n, [positions, box, self.radius, offsets, n, extended, source_id], light=True)
+        L.launch(nk.place_images, n, [positions, box, self.radius, offsets, n, extended, source_id])
         return extended, source_id
 
     @property
@@ -181,7 +181,7 @@ class NeighbourTable:
             self.n = n
             self._starts_for = None
         if self._starts_for != self.capacity:
-            self.launcher.launch(nk.table_starts, n, [self.capacity, self.rows.start], light=True)
+            self.launcher.launch(nk.table_starts, n, [self.capacity, self.rows.start])
             self.rows.index = wp.zeros(max(n * self.capacity, 1), dtype=wp.int32, device=dev)
             self._starts_for = self.capacity
 
@@ -292,7 +292,7 @@ class MovingNeighbours:
         n = self.positions.shape[0]
         moved2 = wp.zeros(max(n, 1), dtype=float, device=self.launcher.device)
         self.launcher.launch(nk.squared_displacement, n, [self.space.box, self.positions, self.position_at_build,
-                                                          moved2], light=True)
+                                                          moved2])
         r = reduction or Reduction(self.launcher, wp.float32, "max")
         r.launch(moved2, n)
         return math.sqrt(float(r.value()))

@@ -56,7 +56,7 @@ class Reduction:
         if self._partial is None or self._partial.shape[0] < blocks:
             self._partial = wp.zeros(blocks, dtype=self.acc_dtype, device=self.launcher.device)
         L = self.launcher
-        L.launch(self._first, blocks, [values, n, self.block, self._zero, self._partial], light=True)
+        L.launch(self._first, blocks, [values, n, self.block, self._zero, self._partial])
         L.launch(self._second, 1, [self._partial, blocks, blocks, self._zero, self.result])
         self._value = None
         return self.result

@@ -21,7 +21,7 @@ import warp as wp
 
 from .device import Launcher, current_launcher
 from .errors import ParameterError, require_positive
-from .geometry import ccw_polygon
+from .geometry import ccw_polygon, is_mesh
 from .neighbours import MovingNeighbours, empty_rows
 from .particles import to_vec3
 from .reduce import Reduction
@@ -50,10 +50,8 @@ class Relaxation:
 
 
 def _region(region, dim: int):
-    import trimesh
-
     if dim == 3:
-        if not isinstance(region, trimesh.Trimesh) or not region.is_watertight:
+        if not is_mesh(region) or not region.is_watertight:
             raise ParameterError("region", "a 3D region must be a watertight trimesh mesh")
         return region
     return ccw_polygon(region)
@@ -62,10 +60,10 @@ def _region(region, dim: int):
 def _boundary_pieces(shape, step: float):
     """(centres, outward unit normals, lengths or areas) of a polygon's edges or a mesh's triangles cut into
     pieces no longer than ``step`` (m)."""
-    import trimesh
-
-    if isinstance(shape, trimesh.Trimesh):
+    if is_mesh(shape):
         mesh = _region(shape, 3)
+        import trimesh
+
         v, f = trimesh.remesh.subdivide_to_size(mesh.vertices, mesh.faces, max_edge=step)
         tri = np.asarray(v, float)[np.asarray(f)]
         cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
@@ -99,9 +97,7 @@ def free_boundary_points(region, dx: float, containers=(), obstacles=(), launche
     dx = require_positive("dx", dx)
     launcher = launcher or current_launcher()
     step = BOUNDARY_SPACING * dx
-    import trimesh
-
-    dim = 3 if isinstance(region, trimesh.Trimesh) else 2
+    dim = 3 if is_mesh(region) else 2
     walls = [(shape, -1.0) for shape in containers] + [(shape, 1.0) for shape in obstacles]
 
     def as3(points):
@@ -200,7 +196,7 @@ def relax_particles(positions, dx: float, region, walls=None, containers=(), obs
         launcher.launch(rk.relaxation_step, n, [
             c, pos, moving.rows, wall_pos, wall_table.rows if wall_table else empty,
             surf_pos, surf_normal, surf_weight, surface_table.rows if surface_table else empty, shift, shift2])
-        launcher.launch(rk.apply_shift, n, [pos, shift, neighbours.position_at_build, moved2], light=True)
+        launcher.launch(rk.apply_shift, n, [pos, shift, neighbours.position_at_build, moved2])
         largest.launch(shift2)
         moved_max.launch(moved2)
         history.append(math.sqrt(float(largest.value())) / (beta * dx))

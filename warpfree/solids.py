@@ -17,6 +17,7 @@ import warp as wp
 
 from .device import Launcher
 from .errors import ParameterError
+from .geometry import is_mesh
 from warpfree.kernels import solids as sk
 
 __all__ = ["Solids", "Penetration"]
@@ -116,9 +117,7 @@ class Solids:
 
 
 def _mesh(shape) -> tuple[np.ndarray, np.ndarray]:
-    import trimesh
-
-    if not isinstance(shape, trimesh.Trimesh) or not shape.is_watertight:
+    if not is_mesh(shape) or not shape.is_watertight:
         raise ParameterError("solids", "3D solids must be watertight trimesh meshes")
     return np.asarray(shape.vertices, float), np.asarray(shape.faces)
 

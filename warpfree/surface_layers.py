@@ -24,11 +24,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import warp as wp
 
 from .device import current_launcher
 from .errors import ParameterError, require_memory, require_positive
-from .geometry import ccw_polygon
+from .geometry import ccw_polygon, is_mesh
+from .neighbours import NeighbourGrid, NeighbourList
+from .particles import to_vec3
 from .solids import Solids
+from .space import Space
 
 __all__ = ["surface_layers"]
 
@@ -48,9 +52,7 @@ def surface_layers(shape, dx: float, layers: int, side: str) -> np.ndarray:
     if side not in ("outside", "inside"):
         raise ParameterError("side", f"must be 'outside' or 'inside', got {side!r}")
     sign = 1.0 if side == "outside" else -1.0
-    import trimesh
-
-    if isinstance(shape, trimesh.Trimesh):
+    if is_mesh(shape):
         if not shape.is_watertight:
             raise ParameterError("mesh", "must be watertight (closed) to have an inside and an outside")
         require_memory("dx", shape.area * layers / dx ** 2, 200.0, "boundary particles")
@@ -69,7 +71,7 @@ def surface_layers(shape, dx: float, layers: int, side: str) -> np.ndarray:
         signed = solids.signed_distance(p3)  # > 0 outside the solid's surface
         on_band = np.abs(sign * signed - d) <= BAND * dx
         kept.append(_merge(pts[on_band], MERGE * dx))
-    return np.vstack(kept) if kept else np.zeros((0, 2 if not isinstance(shape, trimesh.Trimesh) else 3))
+    return np.vstack(kept) if kept else np.zeros((0, 3 if is_mesh(shape) else 2))
 
 
 # -- 2D ------------------------------------------------------------------------------------------------
@@ -231,20 +233,19 @@ def _corner_patches(mesh, dx: float, d: float, sign: float) -> np.ndarray:
 
 
 def _merge(points: np.ndarray, radius: float) -> np.ndarray:
-    """Drop every point closer than ``radius`` to one kept before it (in order)."""
+    """Drop every point closer than ``radius`` to one kept before it (in order). The close pairs come from the
+    engine's own hash-grid neighbour rows (Warp is loaded anyway; a KD-tree would cost a 0.3 s SciPy import)."""
     if len(points) < 2:
         return points
-    from scipy.spatial import cKDTree
-
-    pairs = cKDTree(points).query_pairs(radius, output_type="ndarray")
-    if len(pairs) == 0:
+    launcher = current_launcher()
+    x = wp.array(to_vec3(points, "points"), dtype=wp.vec3, device=launcher.device)
+    rows = NeighbourList(NeighbourGrid(launcher, radius, Space(3), x), x, exclude_self=True)
+    offsets, index = rows.offsets(), rows.indices()
+    if len(index) == 0:
         return points
     keep = np.ones(len(points), dtype=bool)
-    neighbours: dict[int, list[int]] = {}
-    for i, j in pairs:
-        neighbours.setdefault(int(min(i, j)), []).append(int(max(i, j)))
     for i in range(len(points)):
         if keep[i]:
-            for j in neighbours.get(i, ()):
-                keep[j] = False
+            later = index[offsets[i]:offsets[i + 1]]
+            keep[later[later > i]] = False
     return points[keep]

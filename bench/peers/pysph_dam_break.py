@@ -4,7 +4,7 @@ How PySPH is invoked
 --------------------
 PySPH lives in a separate virtualenv (default ``/work/peers-venv``, made with
 ``python3 -m venv`` + ``pip install --no-build-isolation pysph==1.0b2`` after
-``numpy Cython mako cyarray compyle``), never in warpfree's venv.  We run, in a
+``numpy Cython mako cyarray compyle wheel setuptools``), never in warpfree's venv.  We run, in a
 subprocess with ``OMP_NUM_THREADS=<threads>`` (and ``OMP_WAIT_POLICY=passive``
 when threads > 1, see ``omp_environment``), a tiny driver (``_DRIVER``
 below) that does exactly what ``python -m pysph.examples.dam_break_2d ARGS``

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -163,14 +164,19 @@ def _splat(width_px: int, height_px: int, extent, layers, supersample: int | Non
         ys.append((y1 - np.asarray(Y, dtype=np.float64)) * sy)
         rs.append(np.broadcast_to(np.asarray(r, dtype=np.float64) * ss, (n,)))
         cols.append(np.broadcast_to(np.asarray(c, dtype=np.float64), (n, 4)))
-    img = np.zeros((Hs * Ws, 4))
+    # colours premultiplied by alpha, float32, row 0 transparent: a pixel's colour is table[top + 1]
+    table = np.zeros((1, 4), dtype=np.float32)
+    top = np.full((Hs, Ws), -1, dtype=np.int32)
     if xs:
         cx, cy, r = np.concatenate(xs), np.concatenate(ys), np.concatenate(rs)
         rgba = np.concatenate(cols)
+        table = np.zeros((len(rgba) + 1, 4), dtype=np.float32)
+        table[1:, :3] = rgba[:, :3] * rgba[:, 3:4]
+        table[1:, 3] = rgba[:, 3]
         r = np.clip(r, 0.0, float(max(Ws, Hs)))
         keep = np.isfinite(cx) & np.isfinite(cy) & (cx > -r - 1) & (cx < Ws + r + 1) & (cy > -r - 1) & \
             (cy < Hs + r + 1)
-        rank = np.nonzero(keep)[0]
+        rank = np.nonzero(keep)[0].astype(np.int32)
         cx, cy, r = cx[keep], cy[keep], r[keep]
         rint = np.ceil(r).astype(np.int64)
         # Draw into a buffer padded by the largest radius, so no disc needs a bounds test; crop after.
@@ -182,8 +188,9 @@ def _splat(width_px: int, height_px: int, extent, layers, supersample: int | Non
         ox = (ix + 0.5 - cx).astype(np.float32)  # pixel-centre offset from the disc centre, in [-0.5, 0.5]
         oy = (iy + 0.5 - cy).astype(np.float32)
         r2 = (r * r).astype(np.float32)
-        top = np.full(Hp * Wp, -1, dtype=np.int64)
-        np.maximum.at(top, base, rank)  # the centre pixel is always drawn, however small the disc
+        # every (pixel, disc) pair whose pixel centre the disc covers, gathered per stamp offset; then one
+        # max per pixel: the disc drawn last wins (the centre pixel is always drawn, however small the disc)
+        pixels, ranks = [base], [rank]
         for R in np.nonzero(np.bincount(rint))[0]:
             if R == 0:
                 continue
@@ -195,18 +202,21 @@ def _splat(width_px: int, height_px: int, extent, layers, supersample: int | Non
                     if dx == 0 and dy == 0:
                         continue
                     m = (sox + dx) ** 2 + ddy <= sr2
-                    np.maximum.at(top, sb[m] + (dy * Wp + dx), srank[m])
-        top = top.reshape(Hp, Wp)[pad:pad + Hs, pad:pad + Ws].reshape(-1)
-        hit = top >= 0
-        img[hit] = rgba[top[hit]]
-    img = img.reshape(Hs, Ws, 4)
-    if ss > 1:
-        pm = img.copy()
-        pm[..., :3] *= pm[..., 3:4]
-        pm = pm.reshape(Hs // ss, ss, Ws // ss, ss, 4).mean(axis=(1, 3))
-        a = pm[..., 3:4]
-        pm[..., :3] = np.where(a > 0, pm[..., :3] / np.maximum(a, 1e-12), 0.0)
-        img = pm
+                    pixels.append(sb[m] + (dy * Wp + dx))
+                    ranks.append(srank[m])
+        padded = np.full(Hp * Wp, -1, dtype=np.int32)
+        np.maximum.at(padded, np.concatenate(pixels), np.concatenate(ranks))
+        top = padded.reshape(Hp, Wp)[pad:pad + Hs, pad:pad + Ws]
+    # average each ss x ss block of premultiplied colours, then divide by the mean alpha
+    pm = np.zeros((Hs // ss, Ws // ss, 4), dtype=np.float32)
+    for sy in range(ss):
+        for sx in range(ss):
+            pm += table[top[sy::ss, sx::ss] + 1]
+    pm /= ss * ss
+    alpha = pm[..., 3:4]
+    img = np.zeros_like(pm)
+    np.divide(pm[..., :3], alpha, out=img[..., :3], where=alpha > 0)
+    img[..., 3:] = alpha
     return np.clip(img, 0.0, 1.0)
 
 
@@ -278,15 +288,37 @@ def _fit_box(extent_x: float, extent_y: float, max_w: float, max_h: float) -> tu
     return extent_x * scale, extent_y * scale
 
 
+#: the 2D frame's figure per layout, kept between frames of a run (per thread): building the axes, their ticks
+#: and the colour bar cost as much as drawing them; a new frame only swaps the image, title and colour range
+_layouts = threading.local()
+
+
 def _frame_2d(p, v, b, bp, sp, h, norm, cm, field_name, title, dpi):
     lx, ly = b[0, 1] - b[0, 0], b[1, 1] - b[1, 0]
     wa, ha = _fit_box(lx, ly, 8.0, 6.0)
     horizontal = ha < 2.5  # a long flat tank: colour bar below
     left, right, bottom, top = 0.8, (0.3 if horizontal else 1.4), (1.3 if horizontal else 0.6), 0.5
     W, H = wa + left + right, ha + bottom + top
-    fig = _figure(W, H, dpi)
-    ax = fig.add_axes([left / W, bottom / H, wa / W, ha / H])
     extent = (b[0, 0], b[0, 1], b[1, 0], b[1, 1])
+    key = (W, H, dpi, extent, field_name, cm.name)
+    cache = _layouts.__dict__.setdefault("figures", {})
+    if key not in cache:
+        fig = _figure(W, H, dpi)
+        ax = fig.add_axes([left / W, bottom / H, wa / W, ha / H])
+        image = ax.imshow(np.zeros((1, 1, 4)), extent=extent, origin="upper", interpolation="nearest", zorder=1,
+                          aspect="auto")
+        ax.set_xlim(extent[0], extent[1])
+        ax.set_ylim(extent[2], extent[3])
+        ax.set_aspect("equal", adjustable="box")
+        ax.set_xlabel("x")
+        ax.set_ylabel("y")
+        rect = ([left / W, 0.35 / H, wa / W, 0.18 / H] if horizontal
+                else [(left + wa + 0.2) / W, bottom / H, 0.2 / W, ha / H])
+        bar = _add_colorbar(fig, norm, cm, rect, field_name, "horizontal" if horizontal else "vertical")
+        if len(cache) >= 4:  # a run has one layout; keep a few for callers that draw several
+            cache.pop(next(iter(cache)))
+        cache[key] = (fig, ax, image, bar.mappable)
+    fig, ax, image, bar_mappable = cache[key]
     r_px = 0.5 * DISC * h * _px_per_m(ax, fig, extent)
     rgba = _colours(v, norm, cm)
     order = np.argsort(np.isfinite(v), kind="stable")  # non-finite first so real values cover them
@@ -296,15 +328,11 @@ def _frame_2d(p, v, b, bp, sp, h, norm, cm, field_name, title, dpi):
     if sp is not None:
         layers.append((sp[:, 0], sp[:, 1], r_px, (*_SOLID_COLOUR, 1.0)))
     layers.append((p[order, 0], p[order, 1], r_px, rgba[order]))
-    _draw_discs(ax, fig, extent, layers)
-    ax.set_aspect("equal", adjustable="box")
-    ax.set_xlabel("x")
-    ax.set_ylabel("y")
+    bbox = ax.get_position()
+    image.set_data(_splat(max(1, int(round(bbox.width * W * dpi))), max(1, int(round(bbox.height * H * dpi))),
+                          extent, layers))
+    bar_mappable.set_clim(norm.vmin, norm.vmax)
     ax.set_title(title)
-    if horizontal:
-        _add_colorbar(fig, norm, cm, [left / W, 0.35 / H, wa / W, 0.18 / H], field_name, "horizontal")
-    else:
-        _add_colorbar(fig, norm, cm, [(left + wa + 0.2) / W, bottom / H, 0.2 / W, ha / H], field_name)
     return fig
 
 

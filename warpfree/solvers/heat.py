@@ -96,8 +96,7 @@ class HeatSolver(TimeDependentSolver):
                                                                      self.normalisation, self.state.temperature,
                                                                      self.rate])
         with self.phases("integrate"):
-            self.launcher.launch(K.euler_update, self.model.particles.n, [float(dt), self.rate, self.state.temperature],
-                                 light=True)
+            self.launcher.launch(K.euler_update, self.model.particles.n, [float(dt), self.rate, self.state.temperature])
 
     def stable_dt(self) -> float:
         return self.dt_max

@@ -198,7 +198,7 @@ class WCSPHSolver(TimeDependentSolver):
         a, c = self.arrays, self.model.constants
         wp.copy(a.velocity_eval, self.fluid["velocity"])
         wp.copy(a.density_eval, self.fluid["density"])
-        self.launcher.launch(K.equation_of_state, self.model.nf, [c, a.density_eval, self.state.pressure], light=True)
+        self.launcher.launch(K.equation_of_state, self.model.nf, [c, a.density_eval, self.state.pressure])
         with self.phases("neighbours"):
             self.moving_neighbours.rebuild()
         self.compute_rates()
@@ -246,7 +246,7 @@ class WCSPHSolver(TimeDependentSolver):
                                                               self.fluid.position, a.acceleration])
 
     def _launch_report(self) -> None:
-        self.launcher.launch(K.step_report, self.model.nf, [self.model.constants, self.arrays], light=True)
+        self.launcher.launch(K.step_report, self.model.nf, [self.model.constants, self.arrays])
         self._report.launch(self.arrays.report)
 
     def report(self) -> np.ndarray:
@@ -274,13 +274,13 @@ class WCSPHSolver(TimeDependentSolver):
         # bound on the displacement since the build after this drift: |Δx| <= Δt (|v| + ½Δt |a|)
         moved_bound = math.sqrt(moved2) + dt * (math.sqrt(v2) + 0.5 * dt * math.sqrt(a2))
         with self.phases("integrate"):
-            L.launch(self.kernels.drift, nf, [c, a, float(dt)], light=True)
+            L.launch(self.kernels.drift, nf, [c, a, float(dt)])
         if self.moving_neighbours.needs_rebuild(moved_bound):
             with self.phases("neighbours"):
                 self.moving_neighbours.rebuild()
         self.compute_rates()
         with self.phases("integrate"):
-            L.launch(self.kernels.kick, nf, [c, a, float(dt)], light=True)
+            L.launch(self.kernels.kick, nf, [c, a, float(dt)])
             self._report.launch(a.report)
 
     def problem(self) -> str | None:
