@@ -9,9 +9,10 @@ What it measures
     surge-front error max |dZ| of each code against the experiments (``front_errors`` of
     ``warpfree.validation.dam_break_2d``, every data set, points with T <= 2.5).
 
-    ours: ``python -m warpfree.cli run scenes/dam_break_2d.py --no-frames --set vtk=false --set dx=D
-    --set t_end=TF --threads N --no-progress --out TMP``: start-up (imports, scene build, Warp's kernel cache
-    load), every step, the probe records every 0.02 s, the front analysis and its plot, summary.json.
+    ours: ``python -m warpfree.cli run scenes/dam_break_2d.py --no-frames --set dx=D --set t_end=TF
+    --threads N --no-progress --out TMP``, the default command without frames: start-up (imports, scene
+    build, Warp's kernel cache load), every step, the VTU snapshots every 0.02 s (written by the writer
+    process beside the stepping), the front analysis and its plot, summary.json.
 
     PySPH: its ``dam_break_2d`` example in its own venv through ``bench/peers/pysph_dam_break.py`` (the
     process from start to exit: imports, setup with its compiled-code cache warm, the solve with its ~25
@@ -27,7 +28,8 @@ What differs between the two (documented, not matched)
       Hughes-Graham wall correction, Ferrari ``update_h``, PEC integrator, dt = 0.3 h/c0 ramped over 50
       steps); ours Wendland C2, h = 1.6 dx, laminar + artificial viscosity 0.1, delta-SPH, Adami dynamic
       walls, kick-drift-kick leapfrog, dt = CFL h/(c0 + max|v|) with the scene's CFL.
-    * Outputs: PySPH writes ~25 npz dumps; ours 31 probe records and the front plot, no VTU, no frames.
+    * Outputs: PySPH writes ~25 npz dumps; ours 31 VTU snapshots of fluid and walls and the front plot, no
+      frames.
 
 Usage
     python bench/end_to_end.py                      # dx 0.025 (the default scene) and 0.02; 1, 2 threads; 5 rounds
@@ -59,8 +61,7 @@ def run_ours(dx: float, threads: int, tf: float) -> dict:
     """One warpfree process from start to exit; its summary's steps, particles and front errors."""
     with tempfile.TemporaryDirectory() as out:
         cmd = [sys.executable, "-m", "warpfree.cli", "run", str(SCENE), "--no-frames", "--no-progress",
-               "--set", "vtk=false", "--set", f"dx={dx}", "--set", f"t_end={tf}", "--threads", str(threads),
-               "--out", out]
+               "--set", f"dx={dx}", "--set", f"t_end={tf}", "--threads", str(threads), "--out", out]
         t0 = time.perf_counter()
         proc = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO)
         wall = time.perf_counter() - t0

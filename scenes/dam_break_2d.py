@@ -31,7 +31,7 @@ from warpfree.solvers.wcsph.scene_tools import (box_2d, box_walls_2d, front_posi
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
 from warpfree.time_loop import TimeLoop
-from warpfree.validation.dam_break_2d import datasets_for, front_errors
+from warpfree.validation.dam_break_2d import front_errors
 
 
 def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval: float = 0.02,
@@ -69,41 +69,13 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
         t = np.asarray(sim.series["time"])
         xf = np.asarray(sim.series["front"])
         err = front_errors(t, xf, a, g, t_max=t_max, height_ratio=column_height)
-        plot_front(os.path.join(out_dir, "front.png"), t, xf, a, g, err["max_abs"], column_height, t_max)
+        sim.plot("warpfree.validation.dam_break_2d:plot_front", path=os.path.join(out_dir, "front.png"), t=t,
+                 x_front=xf, a=a, g=g, max_err=err["max_abs"], height_ratio=column_height, t_max=t_max)
         return {"front": {"T": (t * np.sqrt(column_height * g / a)).tolist(), "Z": (xf / a).tolist(), "errors": err,
                           "max_abs_dZ": err["max_abs"], "T_max": t_max}}
 
     return TimeLoop(solver, t_end=t_end, output_interval=output_interval, name="dam_break_2d",
                       params=params, probes={"front": front_position}, analyses=[front_analysis],
                       dt=dt or None, checkpoint_every=checkpoint_every,
-                      output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field,
+                      output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field, plots=True,
                                            frame_bounds=((-0.1 * a, length + 0.1 * a), (-0.1 * a, top + 0.1 * a))))
-
-
-def plot_front(path: str, t, x_front, a: float, g: float, max_err: float, height_ratio: float = 2.0,
-               t_max: float | None = 2.5) -> None:
-    """Z against T = t sqrt(n² g/a): simulation line, experiments as markers, the ±0.15 band around the simulation."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    T = np.asarray(t) * np.sqrt(height_ratio * g / a)
-    Z = np.asarray(x_front) / a
-    fig = Figure(figsize=(6, 4.2), dpi=110)
-    FigureCanvasAgg(fig)
-    ax = fig.subplots()
-    ax.fill_between(T, Z - 0.15, Z + 0.15, color="C0", alpha=0.15, label="warpfree ± 0.15")
-    ax.plot(T, Z, "C0-", lw=2, label="warpfree WCSPH")
-    for (name, data), m in zip(datasets_for(height_ratio).items(), ("o", "s", "^")):
-        ax.plot(data[:, 0], data[:, 1], m, mfc="none", label=name)
-    if t_max is not None:
-        ax.axvline(t_max, color="0.6", ls=":", lw=1)
-    ax.set_xlim(0, max(3.0, T.max()))
-    ax.set_ylim(1, max(4.0, Z.max() + 0.2))
-    ax.set_xlabel(f"T = t √({height_ratio:g} g/a)")
-    ax.set_ylabel("Z = x_front / a")
-    span = f"T ≤ {t_max:g}" if t_max is not None else "the run"
-    ax.set_title(f"Dam break, column {height_ratio:g}a high: max |ΔZ| = {max_err:.3f} over {span}")
-    ax.legend(loc="upper left", fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path)

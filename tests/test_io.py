@@ -180,3 +180,25 @@ def test_plot_series(tmp_path):
     assert _image_stats(out)[1] > 1e-3
     with pytest.raises(ParameterError):
         plot_series(tmp_path / "s2.png", None, {"sim": np.sqrt(x)})
+
+
+@pytest.mark.parametrize("background", [True, False])
+def test_writer_calls_plot_functions_of_warpfree_only(tmp_path, background):
+    """A scene's plot handed to the writer (``Run.plot``) is drawn there; a function outside warpfree is refused
+    with the writer's error, not run."""
+    from warpfree.io.writer import OutputError, OutputWriter
+
+    writer = OutputWriter(background=background, plots=True)
+    try:
+        writer.start()
+        t = np.linspace(0.0, 0.5, 26)
+        writer.submit([("call", {"function": "warpfree.validation.dam_break_2d:plot_front",
+                                 "kwargs": dict(path=str(tmp_path / "front.png"), t=t, x_front=1.0 + t, a=1.0, g=9.81,
+                                                max_err=0.1)})])
+        writer.finish()
+        assert (tmp_path / "front.png").stat().st_size > 1000
+        with pytest.raises(OutputError, match="warpfree.<module>:<function>"):
+            writer.submit([("call", {"function": "os:system", "kwargs": {"command": "true"}})])
+            writer.finish()
+    finally:
+        writer.close()

@@ -44,7 +44,9 @@ class OutputOptions:
     frame_set / frame_field: the set and field frames colour (default: the first output set with a
     ``frame_field``, and that field); frame_bounds: the plotted extent, ``((xmin, xmax), (ymin, ymax)[, (zmin,
     zmax)])`` (default: the bounding box of the first output, 5% margin); meshes: write the solver's
-    ``output_meshes()`` (e.g. free surfaces) as PLY; background: write in a worker process beside the run.
+    ``output_meshes()`` (e.g. free surfaces) as PLY; background: write in a worker process beside the run;
+    plots: the scene's analyses draw plots through :meth:`Run.plot` (the writer loads Matplotlib while the run
+    steps, as it does for frames).
     """
 
     vtk: bool = True
@@ -54,6 +56,7 @@ class OutputOptions:
     frame_bounds: tuple | None = None
     meshes: bool = False
     background: bool = True
+    plots: bool = False
 
 
 class RunDirectory:
@@ -186,37 +189,51 @@ class Run(ABC):
         if resume and out_dir is None:
             raise ParameterError("resume", "needs the run directory")
         directory = RunDirectory(out_dir) if out_dir is not None else None
-        self._writer = OutputWriter(background=self.output.background and directory is not None)
+        self._writer = OutputWriter(background=self.output.background and directory is not None,
+                                    plots=self.output.frames or self.output.plots)
+        if self._writer.plots:
+            self._writer.start()
         self._series, self._bounds = {}, None
         wall0 = time.perf_counter()
         try:
             try:
-                self._execute(directory, resume, progress)
-                with self.phases("output"):
-                    self._writer.finish()
-            except OutputError as exc:
-                raise RunError(str(exc).splitlines()[0], self._current_step()) from None
-        except RunError as err:
-            try:
-                self._writer.finish()  # what was handed over before the failure is still written
-            except OutputError:
-                pass
-            err = self._keep_last_good(directory, err)
-            summary = self.summary(time.perf_counter() - wall0, error=str(err))
-            self._write_summary(directory, summary)
-            raise err from None
+                try:
+                    self._execute(directory, resume, progress)
+                    with self.phases("output"):
+                        self._writer.finish()
+                except OutputError as exc:
+                    raise RunError(str(exc).splitlines()[0], self._current_step()) from None
+            except RunError as err:
+                try:
+                    self._writer.finish()  # what was handed over before the failure is still written
+                except OutputError:
+                    pass
+                err = self._keep_last_good(directory, err)
+                summary = self.summary(time.perf_counter() - wall0, error=str(err))
+                self._write_summary(directory, summary)
+                raise err from None
+            summary = self.summary(time.perf_counter() - wall0)
+            if directory is not None:
+                analysis = {}
+                with self.phases("analysis"):
+                    for fn in self.analyses:
+                        analysis.update(fn(self, directory.root) or {})
+                    try:
+                        self._writer.finish()  # the plots the analyses handed over (:meth:`plot`)
+                    except OutputError as exc:
+                        raise RunError(str(exc).splitlines()[0], self._current_step()) from None
+                summary["analysis"] = analysis
+                summary["phases_s"] = self._phases()
         finally:
             self._writer.close()
-        summary = self.summary(time.perf_counter() - wall0)
-        if directory is not None:
-            analysis = {}
-            with self.phases("analysis"):
-                for fn in self.analyses:
-                    analysis.update(fn(self, directory.root) or {})
-            summary["analysis"] = analysis
-            summary["phases_s"] = self._phases()
         self._write_summary(directory, summary)
         return summary
+
+    def plot(self, function: str, **kwargs) -> None:
+        """Have the output writer call ``function`` ("warpfree.<module>:<name>", e.g. a validation plot) with
+        ``kwargs`` (NumPy arrays, numbers, strings), beside the run: its process has loaded Matplotlib while the
+        run stepped (``OutputOptions.plots``). For a scene's analysis; the run waits for it before it ends."""
+        self._writer.submit([("call", {"function": function, "kwargs": kwargs})])
 
     @abstractmethod
     def _execute(self, directory: RunDirectory | None, resume: bool, progress: bool) -> None:

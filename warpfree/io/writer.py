@@ -57,7 +57,20 @@ def _job_mesh(path, vertices, faces):
     write_mesh(path, vertices, faces)
 
 
-JOBS = {"vtu": _job_vtu, "pvd": _job_pvd, "frame": _job_frame, "mesh": _job_mesh}
+def _job_call(function, kwargs):
+    """``function`` ("warpfree.module:name", a plot of a scene's analysis) called with ``kwargs``."""
+    import importlib
+
+    module, _, name = function.partition(":")
+    if not module.startswith("warpfree.") or not name:
+        raise ValueError(f"a call job takes 'warpfree.<module>:<function>', got {function!r}")
+    getattr(importlib.import_module(module), name)(**kwargs)
+
+
+JOBS = {"vtu": _job_vtu, "pvd": _job_pvd, "frame": _job_frame, "mesh": _job_mesh, "call": _job_call}
+
+#: what the worker imports while it waits, when told that plots or frames will come (Matplotlib: 0.4-0.6 s)
+PLOT_MODULES = ("matplotlib.figure", "matplotlib.backends.backend_agg")
 
 
 def run_batch(batch: list[tuple[str, dict]]) -> str | None:
@@ -77,9 +90,10 @@ def run_batch(batch: list[tuple[str, dict]]) -> str | None:
 class OutputWriter:
     """Hands batches of jobs to a worker process (``background=True``) or runs them inline."""
 
-    def __init__(self, background: bool = True, max_pending: int = 2):
+    def __init__(self, background: bool = True, max_pending: int = 2, plots: bool = False):
         self.background = bool(background)
         self.max_pending = max(1, int(max_pending))
+        self.plots = bool(plots)  # frames or plots will come: the worker loads Matplotlib while it waits
         self._proc: subprocess.Popen | None = None
         self._pending: list[int] = []
         self._next_id = 0
@@ -107,6 +121,12 @@ class OutputWriter:
         while len(self._pending) > self.max_pending:
             self._receive()
 
+    def start(self) -> None:
+        """Start the worker now (it is otherwise started by the first batch), so that it loads what it
+        will need (``plots``) while the run sets up and steps."""
+        if self.background:
+            self._worker()
+
     def finish(self) -> None:
         """Wait until every submitted batch is written; raises OutputError if one failed."""
         while self._pending:
@@ -133,7 +153,8 @@ class OutputWriter:
             env = dict(os.environ)
             root = os.path.dirname(os.path.dirname(os.path.abspath(warpfree.__file__)))
             env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
-            self._proc = subprocess.Popen([sys.executable, "-m", "warpfree.io.writer"], stdin=subprocess.PIPE,
+            args = ["--preload-plots"] if self.plots else []
+            self._proc = subprocess.Popen([sys.executable, "-m", "warpfree.io.writer", *args], stdin=subprocess.PIPE,
                                           stdout=subprocess.PIPE, env=env)
         return self._proc
 
@@ -156,7 +177,18 @@ class OutputWriter:
 
 # -- the worker's side -------------------------------------------------------------------------------
 
-def _serve() -> None:
+def _preload(modules) -> None:
+    """Import ``modules`` (in a thread of the worker, while it waits for its first batches)."""
+    import importlib
+
+    for name in modules:
+        try:
+            importlib.import_module(name)
+        except ImportError:  # the job that needs it reports the error
+            return
+
+
+def _serve(preload_plots: bool = False) -> None:
     """Worker loop: read batches from stdin, write their files, answer on stdout."""
     requests = sys.stdin.buffer
     answers = os.fdopen(os.dup(sys.stdout.fileno()), "wb")
@@ -165,6 +197,10 @@ def _serve() -> None:
         os.nice(10)  # the stepping comes first
     except (AttributeError, OSError):
         pass
+    if preload_plots:
+        import threading
+
+        threading.Thread(target=_preload, args=(PLOT_MODULES,), daemon=True).start()
     while True:
         try:
             message = pickle.load(requests)
@@ -178,4 +214,4 @@ def _serve() -> None:
 
 
 if __name__ == "__main__":
-    _serve()
+    _serve(preload_plots="--preload-plots" in sys.argv[1:])

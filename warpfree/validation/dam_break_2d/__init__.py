@@ -24,7 +24,7 @@ import numpy as np
 from warpfree.validation import read_csv
 
 __all__ = ["MARTIN_MOYCE", "KOSHIZUKA_OKA", "KOSHIZUKA_OKA_DSPH_SI", "KOSHIZUKA_OKA_DSPH", "DATASETS",
-           "MARTIN_MOYCE_SQUARE", "DATASETS_SQUARE", "datasets_for", "front_errors"]
+           "MARTIN_MOYCE_SQUARE", "DATASETS_SQUARE", "datasets_for", "front_errors", "plot_front"]
 
 CASE = "dam_break_2d"
 
@@ -91,3 +91,32 @@ def front_errors(t: np.ndarray, x_front: np.ndarray, a: float, g: float, t_max: 
             worst = max(worst, m)
     out["max_abs"] = worst
     return out
+
+
+def plot_front(path: str, t, x_front, a: float, g: float, max_err: float, height_ratio: float = 2.0,
+               t_max: float | None = 2.5) -> None:
+    """Z against T = t sqrt(n² g/a): simulation line, experiments as markers, the ±0.15 band around the simulation."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    T = np.asarray(t) * np.sqrt(height_ratio * g / a)
+    Z = np.asarray(x_front) / a
+    fig = Figure(figsize=(6, 4.2), dpi=110)
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    ax.fill_between(T, Z - 0.15, Z + 0.15, color="C0", alpha=0.15, label="warpfree ± 0.15")
+    ax.plot(T, Z, "C0-", lw=2, label="warpfree WCSPH")
+    for (name, data), m in zip(datasets_for(height_ratio).items(), ("o", "s", "^")):
+        ax.plot(data[:, 0], data[:, 1], m, mfc="none", label=name)
+    if t_max is not None:
+        ax.axvline(t_max, color="0.6", ls=":", lw=1)
+    ax.set_xlim(0, max(3.0, T.max()))
+    ax.set_ylim(1, max(4.0, Z.max() + 0.2))
+    ax.set_xlabel(f"T = t √({height_ratio:g} g/a)")
+    ax.set_ylabel("Z = x_front / a")
+    span = f"T ≤ {t_max:g}" if t_max is not None else "the run"
+    ax.set_title(f"Dam break, column {height_ratio:g}a high: max |ΔZ| = {max_err:.3f} over {span}")
+    ax.legend(loc="upper left", fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
