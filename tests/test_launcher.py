@@ -221,9 +221,12 @@ def test_close_is_idempotent():
     assert "threads=2" in repr(launcher)
 
 
-def test_split_from_measured_cost():
-    """Cost-based splitting: a first launch runs whole; afterwards a launch splits only when the time it saves
-    exceeds the measured hand-over cost, and the result is bitwise the same either way."""
+def test_split_from_measured_time():
+    """Measured splitting: a first launch runs whole; a split is tried when the whole launch is long against the
+    pool's hand-over; then the faster way is taken, the other re-timed every RETRY launches; the result is
+    bitwise the same either way."""
+    from warpfree.device import _Timing
+
     launcher = Launcher(device="cpu", threads=2)
     try:
         assert launcher.min_items_per_thread is None and launcher.handover_s > 0
@@ -231,17 +234,28 @@ def test_split_from_measured_cost():
         r = wp.array(np.linspace(0.0, 3.0, n).astype(np.float32), dtype=float, device="cpu")
         w, dw = wp.zeros(n, dtype=float, device="cpu"), wp.zeros(n, dtype=float, device="cpu")
         args = [sm.kernel_id("cubic_spline"), 3, r, 1.0, w, dw]
-        assert launcher.split_count(kt.eval_w_dwdr, n) == 1  # never measured yet
+        assert launcher.split_count(kt.eval_w_dwdr, n) == 1  # never timed yet
         launcher.launch(kt.eval_w_dwdr, n, args)
         whole = w.numpy().copy()
-        # the measured cost decides: pretend the kernel costs 1 ms (splits) or 1 µs (does not)
-        launcher._seconds_per_item[(kt.eval_w_dwdr, n)] = 1e-3 / n
+        key = (kt.eval_w_dwdr, n)
+        assert launcher._timings[key].whole > 0 and launcher._timings[key].split is None
+        timing = _Timing()
+        launcher._timings[key] = timing
+        timing.add(1e-3, split=False)            # long against the hand-over: try a split
         assert launcher.split_count(kt.eval_w_dwdr, n) == 2
         launcher.launch(kt.eval_w_dwdr, n, args)
-        assert np.array_equal(w.numpy(), whole)
-        launcher._seconds_per_item[(kt.eval_w_dwdr, n)] = 1e-6 / n
+        assert np.array_equal(w.numpy(), whole) and timing.split is not None
+        timing.split, timing.launches = 2e-3, 5   # splitting measured slower: run whole
         assert launcher.split_count(kt.eval_w_dwdr, n) == 1
-        # a kernel is timed per item count: another n starts unmeasured
+        timing.launches = Launcher.RETRY          # ... but time the split again now and then
+        assert launcher.split_count(kt.eval_w_dwdr, n) == 2
+        timing.split, timing.launches = 0.4e-3, 7
+        assert launcher.split_count(kt.eval_w_dwdr, n) == 2
+        short = _Timing()
+        short.add(0.5 * launcher.handover_s, split=False)  # too short to be worth a try
+        launcher._timings[key] = short
+        assert launcher.split_count(kt.eval_w_dwdr, n) == 1
+        # a kernel is timed per item count: another n starts untimed
         assert launcher.split_count(kt.eval_w_dwdr, n // 2) == 1
     finally:
         launcher.close()

@@ -66,21 +66,23 @@ class Launcher:
     ``i = first + wp.tid()``. The calling thread runs the first chunk itself while pool threads run the
     others (one wake-up fewer than handing every chunk to the pool).
 
-    How many chunks a launch gets is chosen from measured cost (``min_items_per_thread=None``, the default):
-    the launcher keeps, per kernel and item count, the seconds per item of its past launches, and the cost
-    of handing a chunk to a pool thread and waiting for it (measured when the pool starts, typically
-    20–60 µs on a VM). A launch is split into k chunks only when the time it saves, T (1 - 1/k), exceeds that
-    hand-over cost (while the pool thread wakes, the calling thread already runs its own chunk): on the
-    default 2D dam break the rates kernel (3 ms a step) splits, a drift over the same particles (50 µs) does
-    not. A first launch runs whole and is timed. Since every chunked kernel
-    is a gather, the chunking never changes a result: they are bitwise the same for any thread count and any
-    split (tested). ``min_items_per_thread`` = m instead splits every launch with at least m items per chunk
-    (tests use 1 to exercise the chunking on small sets).
+    Whether a launch is split is decided from measured time (``min_items_per_thread=None``, the default):
+    per kernel and item count the launcher keeps the wall time of its launches run whole and run split
+    (from handing the chunks over to the last one done: the pool thread's wake-up included), and runs the
+    next launch the faster way. A first launch runs whole; a split is tried once the whole launch takes more
+    than twice the pool's hand-over (measured when the pool starts, 20–60 µs on a VM), and both ways are timed
+    again every ``RETRY`` launches, as the work of a kernel changes during a run (neighbour counts grow as a
+    dam break develops). On the default 2D dam break the rates kernel (3 ms a step) runs split, a drift over
+    the same particles (50 µs) whole. Since every chunked kernel is a gather, the split never changes a
+    result: they are bitwise the same for any thread count and any split (tested). ``min_items_per_thread``
+    = m instead splits every launch with at least m items per chunk (tests use 1 to exercise the chunking on
+    small sets).
     """
 
-    #: a split must save this many times the measured hand-over cost (measured on the default 2D dam break
-    #: at 2 threads, alternating: 0.5, 1 and 2 within the VM's noise of each other, never splitting 20 % slower)
-    SPLIT_MARGIN = 1.0
+    #: launches of a kernel between two re-measurements of the way not taken
+    RETRY = 64
+    #: a split is tried once a whole launch takes this many times the pool's hand-over
+    TRY_SPLIT = 2.0
 
     def __init__(self, device: str | None = None, threads: int | None = None, min_items_per_thread: int | None = None):
         self.device = resolve_device(device)
@@ -93,7 +95,7 @@ class Launcher:
         self.min_items_per_thread = None if min_items_per_thread is None else max(1, int(min_items_per_thread))
         self._pool = ThreadPoolExecutor(self.threads - 1) if self.threads > 1 else None
         self._loaded: set = set()
-        self._seconds_per_item: dict = {}  # (kernel, n) -> measured seconds per item (running average)
+        self._timings: dict = {}  # (kernel, n) -> _Timing: measured wall of whole and split launches
         self._recorded: dict = {}  # (kernel, first, count) -> (recorded command, the arguments it holds)
         self.handover_s = self._measure_handover() if self._pool is not None else 0.0
 
@@ -122,28 +124,19 @@ class Launcher:
         return [((n * c) // k, (n * (c + 1)) // k - (n * c) // k) for c in range(k)]
 
     def split_count(self, kernel, n: int) -> int:
-        """How many chunks a launch of ``kernel`` over ``n`` items gets (see the class docstring)."""
+        """How many chunks the next launch of ``kernel`` over ``n`` items gets (see the class docstring)."""
         if self._pool is None or n < 2:
             return 1
         if self.min_items_per_thread is not None:
             return max(1, min(self.threads, n // self.min_items_per_thread))
-        per_item = self._seconds_per_item.get((kernel, n))
-        if per_item is None:
+        t = self._timings.get((kernel, n))
+        if t is None or t.whole is None:
             return 1
-        whole = per_item * n
-        best, best_k = whole, 1
-        for k in range(2, self.threads + 1):
-            # hand-over: one wake-up, plus a share of it for every further thread woken
-            estimate = whole / k + self.SPLIT_MARGIN * self.handover_s * (1.0 + 0.25 * (k - 2))
-            if estimate < best:
-                best, best_k = estimate, k
-        return best_k
-
-    def _observe(self, kernel, n: int, seconds: float, items: int) -> None:
-        key = (kernel, n)
-        per_item = seconds / items
-        old = self._seconds_per_item.get(key)
-        self._seconds_per_item[key] = per_item if old is None else 0.7 * old + 0.3 * per_item
+        if t.split is None:
+            return self.threads if t.whole > self.TRY_SPLIT * self.handover_s else 1
+        if t.launches % self.RETRY == 0:  # time the way not taken again
+            return 1 if t.split <= t.whole else self.threads
+        return self.threads if t.split < t.whole else 1
 
     def launch(self, kernel, n: int, inputs: list, outputs: list | None = None) -> None:
         """Run ``kernel(first, *inputs, *outputs)`` over ``n`` items."""
@@ -159,15 +152,16 @@ class Launcher:
             self._run(kernel, 0, n, inputs, outputs)
             return
         chunks = self.chunks(n, self.split_count(kernel, n))
+        t0 = time.perf_counter()
         futures = [self._pool.submit(self._run, kernel, first, cnt, inputs, outputs) for first, cnt in chunks[1:]]
         first, cnt = chunks[0]
-        t0 = time.perf_counter()
         try:
             self._run(kernel, first, cnt, inputs, outputs)
         finally:
             for f in futures:
                 f.result()  # wait for every chunk; re-raise any error from a worker
-        self._observe(kernel, n, time.perf_counter() - t0, n if not futures else cnt)
+        if self.min_items_per_thread is None:
+            self._timings.setdefault((kernel, n), _Timing()).add(time.perf_counter() - t0, len(chunks) > 1)
 
     def _run(self, kernel, first: int, count: int, inputs: list, outputs: list) -> None:
         """One launch of ``count`` items from ``first``, replayed from a recorded command when it can be.
@@ -213,6 +207,25 @@ class Launcher:
 
 
 _SCALARS = (int, float, bool)
+
+
+class _Timing:
+    """Running averages of a kernel's launch wall time (s), run whole and run split, and its launch count."""
+
+    __slots__ = ("whole", "split", "launches")
+
+    def __init__(self):
+        self.whole = self.split = None
+        self.launches = 0
+
+    def add(self, seconds: float, split: bool) -> None:
+        self.launches += 1
+        old = self.split if split else self.whole
+        new = seconds if old is None else 0.8 * old + 0.2 * seconds
+        if split:
+            self.split = new
+        else:
+            self.whole = new
 
 
 def _no_op() -> None:
