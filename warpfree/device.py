@@ -6,9 +6,9 @@ the GIL on the CPU), each kernel computing ``i = first + wp.tid()``. On CUDA the
 single launch with ``first = 0``.
 
 Every chunked kernel must be race-free (gather form: each thread writes only its own outputs), which
-makes results bitwise identical for any thread count and any split. The number of chunks is chosen
-from measured cost (a kernel's time per item against the pool's hand-over time); the boundaries of k
-chunks depend only on ``n`` and k.
+makes results bitwise identical for any thread count and any split. Whether a launch splits is chosen
+by measured launch time (whole against split, see :class:`Launcher`); the boundaries of k chunks depend
+only on ``n`` and k.
 """
 
 from __future__ import annotations
@@ -96,7 +96,8 @@ class Launcher:
         self._pool = ThreadPoolExecutor(self.threads - 1) if self.threads > 1 else None
         self._loaded: set = set()
         self._timings: dict = {}  # (kernel, n) -> _Timing: measured wall of whole and split launches
-        self._recorded: dict = {}  # (kernel, first, count) -> (recorded command, the arguments it holds)
+        # (kernel, first, count) -> (recorded command, the arguments it holds: one set per key stays alive)
+        self._recorded: dict = {}
         self.handover_s = self._measure_handover() if self._pool is not None else 0.0
 
     def _measure_handover(self) -> float:
