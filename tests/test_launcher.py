@@ -234,29 +234,32 @@ def test_split_from_measured_time():
         r = wp.array(np.linspace(0.0, 3.0, n).astype(np.float32), dtype=float, device="cpu")
         w, dw = wp.zeros(n, dtype=float, device="cpu"), wp.zeros(n, dtype=float, device="cpu")
         args = [sm.kernel_id("cubic_spline"), 3, r, 1.0, w, dw]
-        assert launcher.split_count(kt.eval_w_dwdr, n) == 1  # never timed yet
+        assert launcher.split_count(kt.eval_w_dwdr, n, args) == 1  # never timed yet
         launcher.launch(kt.eval_w_dwdr, n, args)
         whole = w.numpy().copy()
-        key = (kt.eval_w_dwdr, n)
+        key = Launcher.site(kt.eval_w_dwdr, n, args)
         assert launcher._timings[key].whole > 0 and launcher._timings[key].split is None
         timing = _Timing()
         launcher._timings[key] = timing
         timing.add(1e-3, split=False)            # long against the hand-over: try a split
-        assert launcher.split_count(kt.eval_w_dwdr, n) == 2
+        assert launcher.split_count(kt.eval_w_dwdr, n, args) == 2
         launcher.launch(kt.eval_w_dwdr, n, args)
         assert np.array_equal(w.numpy(), whole) and timing.split is not None
         timing.split, timing.launches = 2e-3, 5   # splitting measured slower: run whole
-        assert launcher.split_count(kt.eval_w_dwdr, n) == 1
+        assert launcher.split_count(kt.eval_w_dwdr, n, args) == 1
         timing.launches = Launcher.RETRY          # ... but time the split again now and then
-        assert launcher.split_count(kt.eval_w_dwdr, n) == 2
+        assert launcher.split_count(kt.eval_w_dwdr, n, args) == 2
         timing.split, timing.launches = 0.4e-3, 7
-        assert launcher.split_count(kt.eval_w_dwdr, n) == 2
+        assert launcher.split_count(kt.eval_w_dwdr, n, args) == 2
         short = _Timing()
         short.add(0.5 * launcher.handover_s, split=False)  # too short to be worth a try
         launcher._timings[key] = short
-        assert launcher.split_count(kt.eval_w_dwdr, n) == 1
-        # a kernel is timed per item count: another n starts untimed
-        assert launcher.split_count(kt.eval_w_dwdr, n // 2) == 1
+        assert launcher.split_count(kt.eval_w_dwdr, n, args) == 1
+        # a kernel is timed per item count and per arrays: another n or another output array starts untimed
+        assert launcher.split_count(kt.eval_w_dwdr, n // 2, args) == 1
+        launcher._timings[key] = timing
+        assert launcher.split_count(kt.eval_w_dwdr, n, args) == 2
+        assert launcher.split_count(kt.eval_w_dwdr, n, [*args[:4], wp.zeros_like(w), dw]) == 1
     finally:
         launcher.close()
 

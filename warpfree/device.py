@@ -67,7 +67,7 @@ class Launcher:
     others (one wake-up fewer than handing every chunk to the pool).
 
     Whether a launch is split is decided from measured time (``min_items_per_thread=None``, the default):
-    per kernel and item count the launcher keeps the wall time of its launches run whole and run split
+    per launch site (kernel, item count and argument arrays, :meth:`site`) the launcher keeps the wall time of its launches run whole and run split
     (from handing the chunks over to the last one done: the pool thread's wake-up included), and runs the
     next launch the faster way. A first launch runs whole; a split is tried once the whole launch takes more
     than twice the pool's hand-over (measured when the pool starts, 20–60 µs on a VM), and both ways are timed
@@ -81,6 +81,8 @@ class Launcher:
 
     #: launches of a kernel between two re-measurements of the way not taken
     RETRY = 64
+    #: launch sites timed at most (a kernel given new arrays at every launch makes a new site each time)
+    MAX_SITES = 4096
     #: a split is tried once a whole launch takes this many times the pool's hand-over
     TRY_SPLIT = 2.0
 
@@ -95,7 +97,7 @@ class Launcher:
         self.min_items_per_thread = None if min_items_per_thread is None else max(1, int(min_items_per_thread))
         self._pool = ThreadPoolExecutor(self.threads - 1) if self.threads > 1 else None
         self._loaded: set = set()
-        self._timings: dict = {}  # (kernel, n) -> _Timing: measured wall of whole and split launches
+        self._timings: dict = {}  # launch site -> _Timing: measured wall of whole and split launches
         # (kernel, first, count) -> (recorded command, the arguments it holds: one set per key stays alive)
         self._recorded: dict = {}
         self.handover_s = self._measure_handover() if self._pool is not None else 0.0
@@ -124,13 +126,20 @@ class Launcher:
         k = max(1, min(int(count), n))
         return [((n * c) // k, (n * (c + 1)) // k - (n * c) // k) for c in range(k)]
 
-    def split_count(self, kernel, n: int) -> int:
-        """How many chunks the next launch of ``kernel`` over ``n`` items gets (see the class docstring)."""
+    @staticmethod
+    def site(kernel, n: int, args=()) -> tuple:
+        """The key a launch is timed under: kernel, item count and the arrays it is given (one launch site;
+        the same kernel filling a long and a short table over the same points is timed twice)."""
+        return (kernel, n, *(id(a) for a in args if type(a) not in _SCALARS))
+
+    def split_count(self, kernel, n: int, args=()) -> int:
+        """How many chunks the next launch of ``kernel`` over ``n`` items with the arrays of ``args`` gets (see
+        the class docstring)."""
         if self._pool is None or n < 2:
             return 1
         if self.min_items_per_thread is not None:
             return max(1, min(self.threads, n // self.min_items_per_thread))
-        t = self._timings.get((kernel, n))
+        t = self._timings.get(self.site(kernel, n, args))
         if t is None or t.whole is None:
             return 1
         if t.split is None:
@@ -152,7 +161,8 @@ class Launcher:
         if self._pool is None:
             self._run(kernel, 0, n, inputs, outputs)
             return
-        chunks = self.chunks(n, self.split_count(kernel, n))
+        args = [*inputs, *outputs]
+        chunks = self.chunks(n, self.split_count(kernel, n, args))
         t0 = time.perf_counter()
         futures = [self._pool.submit(self._run, kernel, first, cnt, inputs, outputs) for first, cnt in chunks[1:]]
         first, cnt = chunks[0]
@@ -162,7 +172,9 @@ class Launcher:
             for f in futures:
                 f.result()  # wait for every chunk; re-raise any error from a worker
         if self.min_items_per_thread is None:
-            self._timings.setdefault((kernel, n), _Timing()).add(time.perf_counter() - t0, len(chunks) > 1)
+            if len(self._timings) > self.MAX_SITES:  # sites with fresh arrays each launch: start over
+                self._timings.clear()
+            self._timings.setdefault(self.site(kernel, n, args), _Timing()).add(time.perf_counter() - t0, len(chunks) > 1)
 
     def _run(self, kernel, first: int, count: int, inputs: list, outputs: list) -> None:
         """One launch of ``count`` items from ``first``, replayed from a recorded command when it can be.
