@@ -176,3 +176,20 @@ def test_kills_during_checkpoint_writes_never_break_resume(tmp_path):
     final = json.loads((out / "summary.json").read_text())
     expect = json.loads((ref / "summary.json").read_text())
     assert final["status"] == "ok" and final["steps"] == expect["steps"] and final["probes"] == expect["probes"]
+
+
+@pytest.mark.parametrize("scene,settings,plot", [
+    ("em_line_1d.py", ["particles_per_wavelength=10", "t_end=0.95e-9"], "line.png"),
+    ("em_cavity_2d.py", ["cells_per_radius=8", "t_end=0.5e-9"], "cavity.png"),
+])
+def test_em_scenes_write_frames_vtu_plot_and_their_error(tmp_path, scene, settings, plot):
+    out = tmp_path / "em"
+    args = [a for s in settings for a in ("--set", s)]
+    assert run_cli(os.path.join(ROOT, "scenes", scene), *args, "--out", str(out)) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "ok" and summary["throughput"]["value"] > 0
+    assert "mean_error" in next(iter(summary["analysis"].values()))
+    frames = list((out / "frames").glob("*.png"))
+    assert frames and len(frames) == len(list((out / "vtk").glob("electric_*.vtu")))
+    assert (out / "electric.pvd").is_file() and (out / "magnetic.pvd").is_file()
+    assert (out / plot).is_file()

@@ -128,7 +128,7 @@ class TimeLoop(Run):
             if directory is not None:
                 self._good = (self._loop_scalars(), self.solver.state.numpy(), self._series_lengths())
         if directory is not None:
-            self.write_outputs(directory, index, self.step_count, self.time, f"{self.name}  t = {self.time:.4f} s")
+            self.write_outputs(directory, index, self.step_count, self.time, f"{self.name}  t = {self.time:.4g} s")
 
     def _loop_scalars(self) -> dict:
         return {"time": self.time, "step": self.step_count, "n_outputs": self.n_outputs}

@@ -1,0 +1,352 @@
+"""SPEM (seed 000): time-domain Maxwell on two static particle sets, as Warp kernels.
+
+Equations (seed 000, TMz, SI units: E in V/m, H in A/m, x in m, t in s):
+
+    ε ∂Ez/∂t = ∂Hy/∂x - ∂Hx/∂y          (3.3)        μ ∂Hx/∂t = -∂Ez/∂y     (3.4)
+                                                     μ ∂Hy/∂t =  ∂Ez/∂x     (3.5)
+
+The 1D system of §4.2 (Ex, Hy along z) is the same pair with one axis: Ez(x), Hy(x) here.
+
+Two particle sets, E (Ez) and H (Hx, Hy), interleaved in space and staggered in time: Ez at n+1/2, H at n
+(leapfrog, 3.13-3.15). A particle's neighbours are the particles of the *other* set. The derivatives are
+linear in the neighbours' values, ∂u/∂x_a (x_i) ≈ Σ_j g_ij,a u_j, with per-pair coefficients g_ij
+computed once (the particles do not move) by :func:`gradient_coefficients`, three ways:
+
+- ``FPM`` (default): the finite particle method (seed eqs 2.30-2.35; Liu & Liu 2006): the (d+1) moment
+  equations Σ_j u_j [W_ij, ∂_a W_ij] ω_j = u*_i Σ_j [W_ij, ∂_a W_ij] ω_j + ∂_b u Σ_j (x_j - x_i)_b [W_ij,
+  ∂_a W_ij] ω_j solved for (u*_i, ∇u). It needs only the other set's values (the thesis's undefined
+  "u_i of the other field", erratum 14, is one of the unknowns) and reproduces constant and linear
+  fields exactly on any layout, including the cross terms the diagonal CSPM drops.
+- ``CSPM``: the diagonal CSPM ratio of eq. 3.6, ∂u/∂x = Σ_j (u_j - u_i) W_i,x ω_j / Σ_j (x_j - x_i)
+  W_i,x ω_j (denominator with the matching coordinate difference, erratum 2), with u_i, which particle i
+  does not hold, interpolated from the other set by Shepard's formula (2.26).
+- ``SPH``: the uncorrected SPH derivative Σ_j u_j ∇_i W(x_i - x_j) ω_j (the thesis's cavity run, §4.3).
+
+Kernel: the cubic spline of eq. 2.9 in d̄ = r/d_W (d_W: the particle's support radius); it needs no
+normalisation, since every value is paired with the volume ω_j = 1/Σ_k W(x_j - x_k) of eq. 2.15 (summed
+over particle j's own set) and the corrected forms are ratios.
+
+Berenger's split-field PML (3.17-3.20) with the standard pairing (Hx damped by σy*, Hy by σx*: erratum 4)
+and damping loss terms (erratum 5), stepped exponentially so that it is stable for any σ:
+ε ∂u/∂t + σ u = f  →  u ← a u + b f, a = exp(-σΔt/ε), b = (1 - a)/σ (b = Δt/ε when σ = 0). Each particle
+holds its loss rates κ = (σx/ε, σy/ε) (1/s); on H particles the matched σ*/μ = σ/ε (3.21).
+
+Precision: float32 fields and coefficients (the coefficients are solved in float64, the fields are
+O(1) and the operator is well conditioned for the supports the model admits).
+"""
+
+import warp as wp
+
+from .neighbours import NeighbourRows
+from .space import Box, displacement
+
+FPM = wp.constant(0)
+CSPM = wp.constant(1)
+SPH = wp.constant(2)
+
+SCHEMES = {"fpm": 0, "cspm": 1, "sph": 2}
+
+
+@wp.func
+def spline_weight(q: float) -> float:
+    """Cubic spline of eq. 2.9, W(d̄) for d̄ = r/d_W (unnormalised, 2/3 at 0, 0 from 1 on)."""
+    w = float(0.0)
+    if q <= 0.5:
+        w = 2.0 / 3.0 - 4.0 * q * q + 4.0 * q * q * q
+    elif q < 1.0:
+        w = 4.0 / 3.0 - 4.0 * q + 4.0 * q * q - 4.0 / 3.0 * q * q * q
+    return w
+
+
+@wp.func
+def spline_slope(q: float) -> float:
+    """dW/dd̄ of eq. 2.9 (<= 0)."""
+    s = float(0.0)
+    if q <= 0.5:
+        s = -8.0 * q + 12.0 * q * q
+    elif q < 1.0:
+        s = -4.0 + 8.0 * q - 4.0 * q * q
+    return s
+
+
+@wp.kernel
+def own_set_volume(
+    first: int,
+    box: Box,
+    rows: NeighbourRows,
+    position: wp.array(dtype=wp.vec3),
+    support: wp.array(dtype=float),
+    volume: wp.array(dtype=float),
+):
+    """ω_i = 1/Σ_k W(|x_k - x_i|/d_W,i) over particle i's own set, i included (eq. 2.15; dimensionless here, as
+    W is unnormalised: only ratios of ω enter the derivatives)."""
+    i = first + wp.tid()
+    xi = position[i]
+    inv_r = 1.0 / support[i]
+    s = spline_weight(0.0)
+    for n in range(rows.start[i], rows.start[i] + rows.count[i]):
+        k = rows.index[n]
+        if k != i:
+            s += spline_weight(wp.length(displacement(box, position[k], xi)) * inv_r)
+    volume[i] = 1.0 / s
+
+
+@wp.kernel
+def gradient_coefficients(
+    first: int,
+    scheme: int,
+    dim: int,
+    box: Box,
+    rows: NeighbourRows,
+    position: wp.array(dtype=wp.vec3),
+    support: wp.array(dtype=float),
+    other_position: wp.array(dtype=wp.vec3),
+    other_volume: wp.array(dtype=float),
+    coefficient: wp.array(dtype=wp.vec3),
+    condition: wp.array(dtype=float),
+):
+    """Per pair (i, j) of row i: g_ij with ∂u/∂x_a (x_i) ≈ Σ_j g_ij,a u_j (1/m), by ``scheme`` (module
+    docstring); ``condition[i]``: the Frobenius condition number of the scaled moment matrix (FPM), or
+    the inverse of the smallest relative denominator (CSPM, SPH: 1/min_a |D_a|/Σ|terms|), inf when singular."""
+    i = first + wp.tid()
+    xi = position[i]
+    radius = support[i]
+    inv_r = 1.0 / radius
+    start = rows.start[i]
+    end = start + rows.count[i]
+    # moments in units of the support radius, float64
+    m = wp.mat33d()
+    shepard = wp.float64(0.0)
+    sx = wp.float64(0.0)
+    sy = wp.float64(0.0)
+    dxx = wp.float64(0.0)
+    dyy = wp.float64(0.0)
+    axx = wp.float64(0.0)
+    ayy = wp.float64(0.0)
+    for n in range(start, end):
+        j = rows.index[n]
+        d = displacement(box, other_position[j], xi) * inv_r  # (x_j - x_i)/d_W
+        q = wp.length(d)
+        if q < 1.0:
+            w = wp.float64(spline_weight(q) * other_volume[j])
+            slope = float(0.0)
+            if q > 0.0:
+                slope = spline_slope(q) / q
+            wx = wp.float64(slope * d[0] * other_volume[j])  # ∂W/∂x_j ω_j (per unit d_W)
+            wy = wp.float64(slope * d[1] * other_volume[j])
+            dx = wp.float64(d[0])
+            dy = wp.float64(d[1])
+            m[0, 0] += w
+            m[0, 1] += dx * w
+            m[0, 2] += dy * w
+            m[1, 0] += wx
+            m[1, 1] += dx * wx
+            m[1, 2] += dy * wx
+            m[2, 0] += wy
+            m[2, 1] += dx * wy
+            m[2, 2] += dy * wy
+            shepard += w
+            sx += wx
+            sy += wy
+            axx += wp.abs(dx * wx)
+            ayy += wp.abs(dy * wy)
+    if dim == 1:
+        m[0, 2] = wp.float64(0.0)
+        m[1, 2] = wp.float64(0.0)
+        m[2, 0] = wp.float64(0.0)
+        m[2, 1] = wp.float64(0.0)
+        m[2, 2] = wp.float64(1.0)
+        ayy = wp.float64(1.0)
+    dxx = m[1, 1]
+    dyy = m[2, 2]
+    inv = wp.mat33d()
+    cond = float(1.0e30)
+    det = wp.determinant(m)
+    if scheme == FPM:
+        if det != wp.float64(0.0):
+            inv = wp.inverse(m)
+            cond = float(wp.sqrt(wp.ddot(m, m) * wp.ddot(inv, inv)))
+    else:
+        if shepard > wp.float64(0.0) and dxx != wp.float64(0.0) and dyy != wp.float64(0.0):
+            cond = float(wp.max(axx / wp.abs(dxx), ayy / wp.abs(dyy)))
+    condition[i] = cond
+    for n in range(start, end):
+        j = rows.index[n]
+        d = displacement(box, other_position[j], xi) * inv_r
+        q = wp.length(d)
+        g = wp.vec3(0.0, 0.0, 0.0)
+        if q < 1.0 and cond < 1.0e29:
+            w = wp.float64(spline_weight(q) * other_volume[j])
+            slope = float(0.0)
+            if q > 0.0:
+                slope = spline_slope(q) / q
+            wx = wp.float64(slope * d[0] * other_volume[j])
+            wy = wp.float64(slope * d[1] * other_volume[j])
+            if dim == 1:
+                wy = wp.float64(0.0)
+            if scheme == FPM:
+                c = inv * wp.vec3d(w, wx, wy)
+                g = wp.vec3(float(c[1]), float(c[2]), 0.0)
+            elif scheme == CSPM:
+                phi = w / shepard  # Shepard weight of j in the interpolated u_i (2.26)
+                gx = (wx - sx * phi) / dxx
+                gy = wp.float64(0.0)
+                if dim > 1:
+                    gy = (wy - sy * phi) / dyy
+                g = wp.vec3(float(gx), float(gy), 0.0)
+            else:
+                # ∇_i W(x_i - x_j) ω_j = -∂W/∂x_j ω_j, normalised by Σ_j W ω_j (= 1 for a normalised kernel)
+                g = wp.vec3(float(-wx / shepard), float(-wy / shepard), 0.0)
+        coefficient[n] = g * inv_r
+
+
+@wp.func
+def exponential_step(kappa: float, dt: float, inv_material: float) -> wp.vec2:
+    """(a, b) of u ← a u + b f for m ∂u/∂t + σ u = f with κ = σ/m (1/s): a = exp(-κΔt), b = (1 - a)/(κ m)
+    (Δt/m when κ = 0); ``inv_material`` = 1/m (1/ε or 1/μ)."""
+    if kappa == 0.0:
+        return wp.vec2(1.0, dt * inv_material)
+    a = wp.exp(-kappa * dt)
+    return wp.vec2(a, (1.0 - a) * inv_material / kappa)
+
+
+@wp.kernel
+def update_electric(
+    first: int,
+    dt: float,
+    rows: NeighbourRows,
+    coefficient: wp.array(dtype=wp.vec3),
+    hx: wp.array(dtype=float),
+    hy: wp.array(dtype=float),
+    inv_permittivity: wp.array(dtype=float),
+    loss: wp.array(dtype=wp.vec2),
+    held: wp.array(dtype=wp.int32),
+    ez: wp.array(dtype=float),
+    ezx: wp.array(dtype=float),
+):
+    """Ez^{n+1/2} from Ez^{n-1/2} and H^n (3.13; split field 3.17/3.18 with exponential loss):
+    Ezx ← a_x Ezx + b_x ∂Hy/∂x, Ezy ← a_y Ezy - b_y ∂Hx/∂y, Ez = Ezx + Ezy. Held particles (PEC walls,
+    hard sources) keep their value."""
+    i = first + wp.tid()
+    if held[i] != 0:
+        return
+    dhy_dx = float(0.0)
+    dhx_dy = float(0.0)
+    for n in range(rows.start[i], rows.start[i] + rows.count[i]):
+        j = rows.index[n]
+        g = coefficient[n]
+        dhy_dx += g[0] * hy[j]
+        dhx_dy += g[1] * hx[j]
+    k = loss[i]
+    inv_eps = inv_permittivity[i]
+    px = exponential_step(k[0], dt, inv_eps)
+    py = exponential_step(k[1], dt, inv_eps)
+    e_x = ezx[i]
+    e_y = ez[i] - e_x
+    e_x = px[0] * e_x + px[1] * dhy_dx
+    e_y = py[0] * e_y - py[1] * dhx_dy
+    ezx[i] = e_x
+    ez[i] = e_x + e_y
+
+
+@wp.kernel
+def update_magnetic(
+    first: int,
+    dt: float,
+    rows: NeighbourRows,
+    coefficient: wp.array(dtype=wp.vec3),
+    ez: wp.array(dtype=float),
+    inv_permeability: wp.array(dtype=float),
+    loss: wp.array(dtype=wp.vec2),
+    hx: wp.array(dtype=float),
+    hy: wp.array(dtype=float),
+):
+    """H^{n+1} from H^n and Ez^{n+1/2} (3.14/3.15; PML 3.19/3.20 with Hx damped by σy*, Hy by σx*):
+    Hx ← a_y Hx - b_y ∂Ez/∂y, Hy ← a_x Hy + b_x ∂Ez/∂x."""
+    i = first + wp.tid()
+    dez_dx = float(0.0)
+    dez_dy = float(0.0)
+    for n in range(rows.start[i], rows.start[i] + rows.count[i]):
+        j = rows.index[n]
+        g = coefficient[n]
+        e = ez[j]
+        dez_dx += g[0] * e
+        dez_dy += g[1] * e
+    k = loss[i]
+    inv_mu = inv_permeability[i]
+    px = exponential_step(k[0], dt, inv_mu)
+    py = exponential_step(k[1], dt, inv_mu)
+    hx[i] = py[0] * hx[i] - py[1] * dez_dy
+    hy[i] = px[0] * hy[i] + px[1] * dez_dx
+
+
+@wp.kernel
+def set_source(
+    first: int,
+    particles: wp.array(dtype=wp.int32),
+    amplitude: wp.array(dtype=float),
+    value: float,
+    additive: int,
+    ez: wp.array(dtype=float),
+    ezx: wp.array(dtype=float),
+):
+    """Source on E particles: hard (Ez = A_p f(t), the split parts set to Ez and 0) or soft (Ez += A_p f(t),
+    added to the x part). Source particles are distinct, so the kernel is race-free."""
+    s = first + wp.tid()
+    i = particles[s]
+    v = amplitude[s] * value
+    if additive != 0:
+        ez[i] = ez[i] + v
+        ezx[i] = ezx[i] + v
+    else:
+        ez[i] = v
+        ezx[i] = v
+
+
+@wp.kernel
+def row_abs_sums(
+    first: int,
+    rows: NeighbourRows,
+    coefficient: wp.array(dtype=wp.vec3),
+    inv_material: wp.array(dtype=float),
+    electric: int,
+    out: wp.array(dtype=float),
+):
+    """A row's absolute sum of the update operator (1/(m · material)): E rows (Σ|g_x| + Σ|g_y|)/ε,
+    H rows max(Σ|g_x|, Σ|g_y|)/μ; their maxima bound the leapfrog's stable step (Gershgorin)."""
+    i = first + wp.tid()
+    sx = float(0.0)
+    sy = float(0.0)
+    for n in range(rows.start[i], rows.start[i] + rows.count[i]):
+        g = coefficient[n]
+        sx += wp.abs(g[0])
+        sy += wp.abs(g[1])
+    s = wp.max(sx, sy)
+    if electric != 0:
+        s = sx + sy
+    out[i] = s * inv_material[i]
+
+
+@wp.kernel
+def adjoint_coefficients(
+    first: int,
+    rows: NeighbourRows,
+    volume: wp.array(dtype=float),
+    other_rows: NeighbourRows,
+    other_coefficient: wp.array(dtype=wp.vec3),
+    other_volume: wp.array(dtype=float),
+    coefficient: wp.array(dtype=wp.vec3),
+):
+    """g_kl = -(V_l/V_k) g'_lk for every pair (k, l) of row k, with g' the other set's coefficients: the operator
+    of this set is the negative adjoint of the other set's in the volume-weighted inner product, which makes
+    the semi-discrete E-H system skew-adjoint (its energy Σ ε V Ez²/2 + Σ μ V |H|²/2 is conserved, so its
+    spectrum is imaginary and the leapfrog is stable under its step limit)."""
+    k = first + wp.tid()
+    vk = volume[k]
+    for n in range(rows.start[k], rows.start[k] + rows.count[k]):
+        l = rows.index[n]
+        g = wp.vec3(0.0, 0.0, 0.0)
+        for m in range(other_rows.start[l], other_rows.start[l] + other_rows.count[l]):
+            if other_rows.index[m] == k:
+                g = -(other_volume[l] / vk) * other_coefficient[m]
+        coefficient[n] = g

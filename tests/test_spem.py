@@ -1,0 +1,237 @@
+"""SPEM (seed 000): derivative coefficients against NumPy and exact linear fields, the stable step against Yee's
+limit, the 1D line against the exact wave, a PEC box's resonance against the analytic TM11 frequency, thread
+independence and bad input."""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+import pytest
+
+from warpfree import device
+from warpfree.cli import load_scene
+from warpfree.errors import ParameterError
+from warpfree.solvers.spem import (C0, PML, SPEMModel, SPEMSolver, staggered_box, staggered_line,
+                                   support_for_jitter)
+from warpfree.time_loop import TimeLoop
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def rows_of(rows_list):
+    start, count, index = (a.numpy() for a in (rows_list.rows.start, rows_list.rows.count, rows_list.rows.index))
+    return start, count, index
+
+
+def apply(model, which, values):
+    """Σ_j g_ij u_j for every particle of set ``which`` ("e": over H values, "h": over E values), in NumPy."""
+    rows = model.e_rows if which == "e" else model.h_rows
+    coef = (model.e_coefficient if which == "e" else model.h_coefficient).numpy()
+    start, count, index = rows_of(rows)
+    out = np.zeros((count.size, 2))
+    for i in range(count.size):
+        sl = slice(start[i], start[i] + count[i])
+        out[i] = coef[sl, :2].T @ values[index[sl]]
+    return out
+
+
+@pytest.mark.parametrize("jitter", [0.0, 0.3])
+def test_fpm_derivative_reproduces_linear_fields_on_any_layout(jitter):
+    """FPM (seed eqs 2.30-2.35) is exact for u = a + b·x on uniform and jittered (30 %) layouts, walls included:
+    measured error ~1e-6 relative (float32 coefficients)."""
+    device.use("cpu", 2)
+    lay = staggered_box((0, 0), (1.0, 0.6), 0.05, jitter=jitter, seed=3)
+    model = SPEMModel(lay, support=support_for_jitter(jitter))
+    grad = np.array([0.7, -1.3])
+    for which, pts, held in (("e", lay.h_position, model.held), ("h", lay.e_position, np.zeros(lay.n_h, bool))):
+        u = 2.0 + pts[:, :2] @ grad
+        g = apply(model, which, u)[~held]
+        assert np.max(np.abs(g - grad)) < 2e-5 * np.abs(grad).max() * 10
+
+
+def test_cspm_is_exact_and_plain_sph_is_not_on_a_uniform_interior():
+    """The diagonal CSPM (eq. 3.6, u_i by Shepard) is exact for linear fields where the neighbourhood is symmetric.
+    Plain SPH is not consistent (2.21/2.22 fail at the particle level): on the nearest shell its gradient is 2.70x
+    the true one (measured), and it approaches it only with many neighbours (1.015 at 2 spacings, 0.994 at 3)."""
+    device.use("cpu", 1)
+    lay = staggered_box((0, 0), (1.0, 1.0), 0.05)
+    grad = np.array([0.4, 0.9])
+    u = lay.h_position[:, :2] @ grad
+    inner = np.all((lay.e_position[:, :2] > 0.3) & (lay.e_position[:, :2] < 0.7), axis=1)
+    g = apply(SPEMModel(lay, scheme="cspm"), "e", u)[inner]
+    assert np.max(np.abs(g - grad)) < 1e-5
+    ratio = {sup: apply(SPEMModel(lay, scheme="sph", support=sup), "e", u)[inner] / grad for sup in (1.1, 3.0)}
+    assert np.all(np.abs(ratio[1.1] - 1.0) > 0.5)
+    assert np.all(np.abs(ratio[3.0] - 1.0) < 0.02)
+
+
+def test_coefficients_equal_a_numpy_fpm_solve():
+    """Kernel against NumPy: the (d+1) moment system of FPM assembled and solved in float64 for every E particle
+    of a jittered box (support 1.7 spacings, several shells) gives the same coefficients."""
+    device.use("cpu", 1)
+    lay = staggered_box((0, 0), (0.5, 0.4), 0.05, jitter=0.3, seed=1)
+    model = SPEMModel(lay, support=1.7)
+    coef = model.e_coefficient.numpy()
+    start, count, index = rows_of(model.e_rows)
+    vol = model.magnetic.numpy("volume")
+    checked = 0
+    for i in np.flatnonzero(~model.held):
+        radius = 1.7 * lay.spacing
+        sl = slice(start[i], start[i] + count[i])
+        d = (lay.h_position[index[sl], :2] - lay.e_position[i, :2]) / radius
+        q = np.hypot(d[:, 0], d[:, 1])
+        w = np.where(q <= 0.5, 2 / 3 - 4 * q**2 + 4 * q**3, np.where(q < 1, 4 / 3 - 4 * q + 4 * q**2 - 4 / 3 * q**3, 0))
+        s = np.where(q <= 0.5, -8 * q + 12 * q**2, np.where(q < 1, -4 + 8 * q - 4 * q**2, 0)) / np.where(q > 0, q, 1)
+        rows = np.stack([w, s * d[:, 0], s * d[:, 1]]) * vol[index[sl]]       # (3, n): W, ∂xW, ∂yW times ω
+        basis = np.stack([np.ones_like(q), d[:, 0], d[:, 1]])                 # 1, Δx, Δy
+        m = rows @ basis.T
+        expected = (np.linalg.solve(m, rows)[1:] / radius).T
+        assert np.allclose(coef[sl, :2], expected, rtol=2e-4, atol=2e-4 * np.abs(expected).max())
+        checked += 1
+    assert checked > 20
+
+
+def test_stable_step_is_yee_limit_on_uniform_layouts():
+    """Gershgorin bound of the leapfrog operator: Δ/c in 1D and Δ/(c√2) in 2D on uniform layouts (Yee's limits)."""
+    device.use("cpu", 1)
+    line = staggered_line(0.0, 1.0, 0.01)
+    assert SPEMSolver(SPEMModel(line)).stable_dt() == pytest.approx(line.spacing / C0, rel=1e-5)
+    box = staggered_box((0, 0), (0.4, 0.3), 0.01)
+    assert SPEMSolver(SPEMModel(box)).stable_dt() == pytest.approx(box.spacing / (C0 * math.sqrt(2)), rel=1e-5)
+
+
+def test_line_1d_matches_the_exact_wave(tmp_path):
+    """Seed 000 §4.2 at 20 particles per wavelength (the thesis needed 40): mean error 5.5e-3 against the exact
+    wave on (0.5, 1.5) at t = 4.75 ns (measured 2026-11-23), wavelength error < 0.1 %. Asserted: the issue's
+    1e-2 and 0.1 %."""
+    device.use("cpu", 2)
+    run = load_scene(os.path.join(ROOT, "scenes", "em_line_1d.py")).build(frames=False, vtk=False)
+    line = run.run(str(tmp_path / "line"), progress=False)["analysis"]["line"]
+    assert line["particles_per_wavelength"] == pytest.approx(20.0, rel=0.01)
+    assert line["mean_error"] < 1e-2
+    assert abs(line["wavelength_rel_error"]) < 1e-3
+
+
+def pec_box(spacing: float, jitter: float = 0.0, adjoint: bool = False):
+    """A 1 m x 0.8 m PEC box started in its TM11 mode Ez = sin(πx/a) sin(πy/b), H = 0."""
+    a, b = 1.0, 0.8
+    lay = staggered_box((0, 0), (a, b), spacing, jitter=jitter, seed=2)
+    shape = lambda p: np.sin(np.pi * p[:, 0] / a) * np.sin(np.pi * p[:, 1] / b)  # noqa: E731
+    solver = SPEMSolver(SPEMModel(lay, support=support_for_jitter(jitter), adjoint=adjoint), ez=shape)
+    return solver, shape(lay.e_position), C0 * math.pi * math.hypot(1 / a, 1 / b)
+
+
+def cavity_frequency(spacing: float, periods: float = 3.0) -> float:
+    """Relative error of the TM11 frequency, from the zero crossings of the mode's projection, against
+    ω = cπ sqrt(1/a² + 1/b²)."""
+    solver, basis, omega = pec_box(spacing)
+    dt = 0.9 * solver.stable_dt()
+    steps = int(periods * 2 * math.pi / omega / dt)
+    proj = []
+    for _ in range(steps):
+        solver.step(dt)
+        proj.append(float(basis @ solver.model.electric.numpy("ez")))
+    p = np.asarray(proj)
+    t = (np.arange(steps) + 0.5) * dt
+    k = np.flatnonzero(np.sign(p[:-1]) * np.sign(p[1:]) < 0)
+    tc = t[k] - p[k] * dt / (p[k + 1] - p[k])
+    return math.pi / np.mean(np.diff(tc)) / omega - 1.0
+
+
+def test_pec_box_resonates_at_the_tm11_frequency_with_second_order_convergence():
+    """Measured 2026-11-23: frequency error -0.41 % at Δ = 0.05 m (~18 particles per wavelength of the mode) and
+    -0.10 % at 0.025 m (ratio 4.0: second order, as Yee). Asserted: below 1 % and a ratio above 3."""
+    device.use("cpu", 2)
+    coarse, fine = cavity_frequency(0.05), cavity_frequency(0.025)
+    assert abs(coarse) < 1e-2 and abs(fine) < 0.3e-2
+    assert abs(coarse) / abs(fine) > 3.0
+
+
+def box_energy(adjoint: bool, periods: int = 8):
+    solver, _, omega = pec_box(0.05, jitter=0.3, adjoint=adjoint)
+    dt = 0.9 * solver.stable_dt()
+    energy = []
+    for _ in range(periods):
+        for _ in range(int(2 * math.pi / omega / dt)):
+            solver.step(dt)
+        e = solver.energy()
+        energy.append(e["electric_energy"] + e["magnetic_energy"])
+    return np.asarray(energy)
+
+
+def test_adjoint_pair_conserves_energy_on_jittered_particles_where_fpm_on_both_sides_grows():
+    """On 30 %-jittered particles FPM on both sides is not skew-adjoint: measured, its energy grows by ~100x a
+    period. With H's derivatives the negative adjoint of E's (``adjoint=True``) the semi-discrete energy is
+    conserved: the energy sampled once a period stays within a few % (E and H are half a step apart).
+    Not yet accurate there (the adjoint side is not a consistent derivative on jittered particles): see the
+    issue's note; this test asserts only the stability property."""
+    device.use("cpu", 2)
+    conserved = box_energy(True)
+    assert np.max(conserved) / np.min(conserved) < 1.1
+    grows = box_energy(False)
+    assert grows[-1] / grows[0] > 1e3
+
+
+def test_cavity_series_reproduces_the_initial_profile():
+    from warpfree.validation.em_cavity_2d import cavity_field
+
+    r = np.linspace(0.0, 0.1, 41)
+    assert np.max(np.abs(cavity_field(r, 0.0, 0.1, 10.0) - (1.0 - (r / 0.1) ** 2))) < 1e-6
+
+
+def test_circular_cavity_against_the_bessel_series(tmp_path):
+    """Seed 000 §4.3 (εr = 10, r0 = 0.1 m) to t = 5.5 ns, 20 cells per radius: measured 2026-11-23, largest mean
+    error over the outputs 0.59 % of the peak over all E particles (1.7 % along the radial line); CSPM 1.9 %, plain
+    SPH 88 % (the thesis: about 5 % with plain SPH). Asserted: the issue's 1 % for FPM (mean over the particles)
+    and FPM at least twice as accurate as CSPM. Longer runs degrade (the scene's docstring): the default run only."""
+    device.use("cpu", 2)
+    scene = load_scene(os.path.join(ROOT, "scenes", "em_cavity_2d.py"))
+    err = {}
+    for scheme in ("fpm", "cspm"):
+        run = scene.build(scheme=scheme, frames=False, vtk=False)
+        err[scheme] = run.run(str(tmp_path / scheme), progress=False)["analysis"]["cavity"]["max_mean_error"]
+    assert err["fpm"] < 1e-2
+    assert err["cspm"] > 2 * err["fpm"]
+
+
+def test_results_are_bitwise_identical_for_any_thread_count(make_launcher):
+    lay = staggered_box((0, 0), (0.5, 0.5), 0.05, jitter=0.3, seed=4)
+    out = []
+    for threads in (1, 2):
+        launcher = make_launcher(threads=threads)
+        model = SPEMModel(lay, support=support_for_jitter(0.3), launcher=launcher,
+                          pml=PML(0.15, sides=("x+", "y+")), interior=((0, 0), (0.35, 0.35)))
+        solver = SPEMSolver(model, ez=lambda p: np.exp(-((p[:, 0] - 0.2) ** 2 + (p[:, 1] - 0.2) ** 2) / 0.01),
+                            launcher=launcher)
+        for _ in range(40):
+            solver.step(0.9 * solver.stable_dt())
+        out.append([a.numpy().copy() for a in (solver.state.ez, solver.state.hx, solver.state.hy)])
+    for a, b in zip(*out):
+        assert np.array_equal(a, b)
+
+
+def test_bad_input_names_the_parameter():
+    device.use("cpu", 1)
+    from warpfree.solvers.spem import StaggeredLayout
+
+    e = np.array([[0.0, 0.0, 0.0], [0.1, 0.05, 0.0], [0.2, 0.0, 0.0]])
+    h = np.array([[0.05, 0.0, 0.0], [0.15, 0.0, 0.0], [0.25, 0.0, 0.0], [-0.05, 0.0, 0.0]])  # all on y = 0
+    collinear = StaggeredLayout(2, e, h, np.full(3, 0.1), np.full(4, 0.1), np.zeros(3, bool), 0.1)
+    with pytest.raises(ParameterError, match=r"^support: .*particle 0 at \[0.0, 0.0\] with 4 magnetic"):
+        SPEMModel(collinear)  # H particles on one line: no y derivative at any E particle
+    box = staggered_box((0, 0), (0.5, 0.5), 0.05)
+    with pytest.raises(ParameterError, match="^pml.thickness"):
+        SPEMModel(box, pml=PML(0.05), interior=((0.05, 0.05), (0.45, 0.45)))
+    with pytest.raises(ParameterError, match="^eps_r"):
+        SPEMModel(box, eps_r=lambda p: np.where(p[:, 0] > 0.3, -1.0, 1.0))
+    with pytest.raises(ParameterError, match="^scheme"):
+        SPEMModel(box, scheme="fdtd")
+    with pytest.raises(ParameterError, match="^jitter"):
+        staggered_box((0, 0), (0.5, 0.5), 0.05, jitter=0.6)
+    with pytest.raises(ParameterError, match="^pml.reflection"):
+        SPEMModel(box, pml=PML(0.15, reflection=2.0), interior=((0.15, 0.15), (0.35, 0.35)))
+    solver = SPEMSolver(SPEMModel(box))
+    with pytest.raises(ParameterError, match="^dt"):
+        TimeLoop(solver, t_end=1e-9, output_interval=1e-10, dt=1.01 * solver.stable_dt())

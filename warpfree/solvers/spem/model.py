@@ -1,0 +1,237 @@
+"""The static part of SPEM: the E and H sets, their cross-set neighbour lists, derivative coefficients,
+materials and the PML loss rates, all computed once (the particles do not move).
+
+Supports. Particle i's support radius is ``support`` × its local spacing Δ_i (widened where that holds fewer
+than 2·dim particles of the other set, e.g. next to a curved wall). The default 1.1 Δ reaches
+the nearest shell of the other set (4 particles at Δ/√2 in 2D, 2 at Δ/2 in 1D) and no farther (the next
+shell is at 1.58 Δ in 2D, 1.5 Δ in 1D): on a uniform layout the FPM derivative is then Yee's central
+difference, the least dispersive consistent choice. Jittered layouts need a support that keeps the nearest
+shell inside whatever the offsets: 1.1 + 2·jitter (``support_for_jitter``). A particle whose derivative is
+ill conditioned (too few or collinear neighbours of the other set) is reported with its position and
+neighbour count, never inverted blindly.
+
+Units: SI. ε = ε0 εr, μ = μ0 μr per particle. PML (3.24-3.26): σ(ρ) = σm (ρ/δ)^n on each lossy axis,
+σm = -ln(ψ)(n+1) ε0 c/(2δ); per particle the loss rates κ = σ/ε (E) and, matched (3.21), σ*/μ = σ/ε (H).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from warpfree.device import Launcher, current_launcher
+from warpfree.errors import ParameterError, require_positive
+from warpfree.kernels import spem as K
+from warpfree.neighbours import NeighbourGrid, NeighbourList
+from warpfree.particles import ParticleSet
+from warpfree.space import Space
+
+from .layouts import StaggeredLayout
+
+__all__ = ["EPS0", "MU0", "C0", "PML", "SPEMModel", "support_for_jitter"]
+
+C0 = 299_792_458.0                       # m/s
+MU0 = 4e-7 * math.pi                     # H/m (the classical value; the 2019 SI differs by 1e-10)
+EPS0 = 1.0 / (MU0 * C0 * C0)             # F/m
+
+#: largest admitted condition number of a particle's scaled moment matrix (FPM) or denominator ratio (CSPM)
+CONDITION_LIMIT = 1.0e4
+
+
+def support_for_jitter(jitter: float) -> float:
+    """Support (in units of the spacing) that keeps the nearest shell of the other set inside for offsets of up
+    to ``jitter``·Δ per axis on both sets: 1.1 + 2·jitter."""
+    return 1.1 + 2.0 * float(jitter)
+
+
+@dataclass
+class PML:
+    """Berenger's split-field PML of ``thickness`` δ (m) on the given ``sides`` of the interior box
+    (e.g. ``("x-", "x+", "y-", "y+")``), graded σ = σm (ρ/δ)^order, σm from the normal-incidence
+    reflection ``reflection`` ψ (3.26)."""
+
+    thickness: float
+    sides: tuple = ("x-", "x+", "y-", "y+")
+    order: int = 3
+    reflection: float = 1e-6
+
+    def sigma_max(self) -> float:
+        """σm = -ln(ψ)(n+1) ε0 c/(2δ) (S/m), eq. 3.26."""
+        return -math.log(self.reflection) * (self.order + 1) * EPS0 * C0 / (2.0 * self.thickness)
+
+    def check(self, spacing: float) -> None:
+        require_positive("pml.thickness", self.thickness)
+        if self.thickness < 2.0 * spacing:
+            raise ParameterError("pml.thickness", f"{self.thickness:.4g} m is thinner than two particle spacings "
+                                                  f"(2 x {spacing:.4g} m): the grading cannot be resolved")
+        if not 0.0 < self.reflection < 1.0:
+            raise ParameterError("pml.reflection", f"must be in (0, 1) (the target reflection ψ), got {self.reflection}")
+        if isinstance(self.order, bool) or int(self.order) != self.order or not 1 <= self.order <= 6:
+            raise ParameterError("pml.order", f"must be an integer from 1 to 6 (3 or 4 usual), got {self.order!r}")
+        for s in self.sides:
+            if s not in ("x-", "x+", "y-", "y+"):
+                raise ParameterError("pml.sides", f"each side is one of x-, x+, y-, y+; got {s!r}")
+
+    def sigma(self, points: np.ndarray, inner_lower, inner_upper) -> np.ndarray:
+        """(N, 2) σx, σy (S/m) at ``points``: graded with the depth ρ beyond the interior box on each lossy side."""
+        sm = self.sigma_max()
+        out = np.zeros((points.shape[0], 2))
+        for side in self.sides:
+            a = 0 if side[0] == "x" else 1
+            rho = (inner_lower[a] - points[:, a]) if side[1] == "-" else (points[:, a] - inner_upper[a])
+            rho = np.clip(rho, 0.0, None)  # depth into the layer: 0 inside the interior (not a clamp of a result)
+            out[:, a] = np.maximum(out[:, a], sm * (rho / self.thickness) ** self.order)
+        return out
+
+
+Material = Callable[[np.ndarray], np.ndarray] | float
+
+
+def _material(name: str, value, points: np.ndarray) -> np.ndarray:
+    v = value(points) if callable(value) else value
+    v = np.broadcast_to(np.asarray(v, dtype=np.float64), (points.shape[0],)).copy()
+    if not np.all(np.isfinite(v)) or np.any(v <= 0):
+        bad = int(np.argmax(~np.isfinite(v) | (v <= 0)))
+        raise ParameterError(name, f"must be finite and > 0 everywhere; particle {bad} at {points[bad, :2]} has {v[bad]}")
+    return v
+
+
+class SPEMModel:
+    """E and H particle sets of ``layout`` with their materials, PML and derivative coefficients.
+
+    Parameters
+    ----------
+    layout: a :class:`~.layouts.StaggeredLayout`.
+    scheme: "fpm" (default), "cspm" (eq. 3.6) or "sph" (uncorrected).
+    support: support radius in units of each particle's spacing (default 1.1, module docstring).
+    eps_r, mu_r: relative permittivity / permeability: a number or f(points (N, 3)) -> (N,).
+    pml: a :class:`PML` or None; ``interior``: (lower, upper) of the interior box the PML surrounds.
+    pec: hold the layout's wall E particles at Ez = 0 (explicit perfect-conductor particles; default). False
+        leaves them free: the wall is then only the absence of particles beyond it (the thesis's natural
+        condition, §3.1.4).
+    """
+
+    def __init__(self, layout: StaggeredLayout, scheme: str = "fpm", support: float = 1.1, eps_r: Material = 1.0,
+                 mu_r: Material = 1.0, pml: PML | None = None, interior=None, pec: bool = True,
+                 adjoint: bool = False, launcher: Launcher | None = None):
+        launcher = launcher or current_launcher()
+        if scheme not in K.SCHEMES:
+            raise ParameterError("scheme", f"must be one of {sorted(K.SCHEMES)}, got {scheme!r}")
+        self.support = require_positive("support", support)
+        if not 0.75 <= self.support <= 4.0:
+            raise ParameterError("support", f"must be in [0.75, 4] spacings (the nearest particles of the other set "
+                                            f"are 0.5-0.71 spacings away), got {support}")
+        self.layout, self.scheme, self.dim = layout, scheme, layout.dim
+        self.space = Space.free(layout.dim)
+        dev = launcher.device
+        self.electric = ParticleSet("electric", layout.e_position, layout.dim, dev)
+        self.magnetic = ParticleSet("magnetic", layout.h_position, layout.dim, dev)
+        self.eps_r = _material("eps_r", eps_r, layout.e_position)
+        self.mu_r = _material("mu_r", mu_r, layout.h_position)
+        self.pml = pml
+        loss_e, loss_h = np.zeros((layout.n_e, 2)), np.zeros((layout.n_h, 2))
+        if pml is not None:
+            pml.check(layout.spacing)
+            if interior is None:
+                raise ParameterError("interior", "a PML needs the interior box (lower, upper) it surrounds")
+            lo, hi = np.asarray(interior[0], float), np.asarray(interior[1], float)
+            eps_h = _material("eps_r", eps_r, layout.h_position)
+            loss_e = pml.sigma(layout.e_position, lo, hi) / (EPS0 * self.eps_r[:, None])
+            loss_h = pml.sigma(layout.h_position, lo, hi) / (EPS0 * eps_h[:, None])  # σ*/μ = σ/ε (3.21)
+        self.interior = interior
+        self.pec = bool(pec)
+        e, h = self.electric, self.magnetic
+        self.held = layout.on_wall.copy() if self.pec else np.zeros(layout.n_e, bool)  # E particles not updated
+        e.add("support", self._supports(layout.e_position, layout.e_spacing, layout.h_position))
+        h.add("support", self._supports(layout.h_position, layout.h_spacing, layout.e_position))
+        e.add("inv_permittivity", 1.0 / (EPS0 * self.eps_r))
+        h.add("inv_permeability", 1.0 / (MU0 * self.mu_r))
+        e.add("permittivity", EPS0 * self.eps_r)
+        h.add("permeability", MU0 * self.mu_r)
+        e.add("loss", loss_e, dtype=wp.vec2)
+        h.add("loss", loss_h, dtype=wp.vec2)
+        e.add("cell_volume", layout.e_cell_volume())
+        h.add("cell_volume", layout.h_cell_volume())
+        reach = float(max(e.numpy("support").max(), h.numpy("support").max()))
+        self.launcher = launcher
+        # own-set volumes (2.15), then each set's rows over the other set and their coefficients
+        for s in (e, h):
+            own = NeighbourList(NeighbourGrid(launcher, reach, self.space, s.position), s.position)
+            s.add("volume")
+            launcher.launch(K.own_set_volume, s.n, [self.space.box, own.rows, s.position, s["support"], s["volume"]])
+        self.e_rows = NeighbourList(NeighbourGrid(launcher, reach, self.space, h.position), e.position)  # E -> H
+        self.h_rows = NeighbourList(NeighbourGrid(launcher, reach, self.space, e.position), h.position)  # H -> E
+        self.e_coefficient = self._coefficients(e, h, self.e_rows, self.held)
+        self.h_coefficient = self._coefficients(h, e, self.h_rows, np.zeros(h.n, bool))
+        self.adjoint = bool(adjoint)
+        if self.adjoint:  # H's derivatives: the negative adjoint of E's (energy-conserving pair)
+            launcher.launch(K.adjoint_coefficients, h.n, [self.h_rows.rows, h["volume"], self.e_rows.rows,
+                                                          self.e_coefficient, e["volume"], self.h_coefficient])
+
+    def _supports(self, points: np.ndarray, spacing: np.ndarray, other: np.ndarray) -> np.ndarray:
+        """Support radius per particle (m): ``support`` × its spacing, widened where that holds fewer than 2·dim
+        particles of the other set (next to a curved wall, a graded region) to 1.05 × the distance of the
+        2·dim-th nearest one (the k-th-nearest rule of EFG supports). Set-up, once (SciPy's KD-tree)."""
+        from scipy.spatial import cKDTree
+
+        k = 2 * self.dim
+        radius = self.support * spacing
+        if other.shape[0] >= k:
+            d, _ = cKDTree(other[:, :self.dim]).query(points[:, :self.dim], k=k)
+            radius = np.maximum(radius, 1.05 * d[:, -1])
+        return radius
+
+    def _coefficients(self, s: ParticleSet, other: ParticleSet, rows: NeighbourList, exempt: np.ndarray) -> wp.array:
+        """Derivative coefficients of ``s``'s rows over ``other`` (checked, except for the ``exempt`` particles,
+        which are never updated)."""
+        L = self.launcher
+        coef = wp.zeros(max(rows.n_pairs, 1), dtype=wp.vec3, device=L.device)
+        condition = wp.zeros(s.n, dtype=float, device=L.device)
+        L.launch(K.gradient_coefficients, s.n, [K.SCHEMES[self.scheme], self.dim, self.space.box, rows.rows,
+                                                 s.position, s["support"], other.position, other["volume"], coef,
+                                                 condition])
+        cond = condition.numpy()
+        bad = np.flatnonzero(~(cond <= CONDITION_LIMIT) & ~exempt)
+        if bad.size:
+            i = int(bad[np.argmax(cond[bad])])
+            counts = rows.counts()
+            raise ParameterError("support", f"{bad.size} {s.name} particle(s) have an ill-conditioned derivative "
+                                            f"(condition {cond[i]:.3g} > {CONDITION_LIMIT:.0g}), e.g. particle {i} at "
+                                            f"{np.round(s.numpy('position')[i, :self.dim], 6).tolist()} with {int(counts[i])} "
+                                            f"{other.name} neighbour(s) within {self.support} spacings: widen the support "
+                                            f"or fill the gap")
+        s.add("condition", cond)
+        return coef
+
+    def stable_dt(self) -> float:
+        """Largest stable leapfrog step (s): Δt <= 2/sqrt(ρ(AB)) with ρ(AB) <= max_i Σ|A_i·| max_k Σ|B_k·|
+        (Gershgorin bound of the E update A and the H update B). On a uniform layout it is Yee's limit,
+        Δ/(c√2) in 2D and Δ/c in 1D; eq. 3.16's √2 c Δt/h_min <= 1 is reported beside it (``describe``)."""
+        L = self.launcher
+        row = []
+        for s, rows, coef, material, electric in ((self.electric, self.e_rows, self.e_coefficient, "inv_permittivity", 1),
+                                                  (self.magnetic, self.h_rows, self.h_coefficient, "inv_permeability", 0)):
+            out = wp.zeros(s.n, dtype=float, device=L.device)
+            L.launch(K.row_abs_sums, s.n, [rows.rows, coef, s[material], electric, out])
+            values = out.numpy()
+            if electric:
+                values = values[~self.held]  # held particles are not updated (set once: a host read is fine)
+            row.append(float(values.max()))
+        return 2.0 / math.sqrt(row[0] * row[1])
+
+    def describe(self) -> dict:
+        lay = self.layout
+        d = {"n_electric": lay.n_e, "n_magnetic": lay.n_h, "spacing": lay.spacing, "scheme": self.scheme,
+             "support_spacings": self.support, "pairs_e_h": self.e_rows.n_pairs, "pairs_h_e": self.h_rows.n_pairs,
+             "neighbours_e_min": int(self.e_rows.counts().min()), "neighbours_h_min": int(self.h_rows.counts().min()),
+             # eq. 3.16 with the thesis's h = d_W/α, α = 2 (its Fig. 2.3): Δt <= h_min/(√2 c)
+             "eq_3_16_dt": float(0.5 * self.support * min(lay.e_spacing.min(), lay.h_spacing.min())
+                                 / (math.sqrt(2.0) * C0))}
+        if self.pml is not None:
+            d["pml"] = {"thickness": self.pml.thickness, "sides": list(self.pml.sides), "order": self.pml.order,
+                        "reflection": self.pml.reflection, "sigma_max": self.pml.sigma_max()}
+        return d
