@@ -202,12 +202,19 @@ def gradient_coefficients(
 
 @wp.func
 def exponential_step(kappa: float, dt: float, inv_material: float) -> wp.vec2:
-    """(a, b) of u ← a u + b f for m ∂u/∂t + σ u = f with κ = σ/m (1/s): a = exp(-κΔt), b = (1 - a)/(κ m)
-    (Δt/m when κ = 0); ``inv_material`` = 1/m (1/ε or 1/μ)."""
-    if kappa == 0.0:
-        return wp.vec2(1.0, dt * inv_material)
-    a = wp.exp(-kappa * dt)
-    return wp.vec2(a, (1.0 - a) * inv_material / kappa)
+    """(a, b) of u ← a u + b f for m ∂u/∂t + σ u = f with κ = σ/m (1/s): a = exp(-κΔt), b = (Δt/m)(1 - a)/(κΔt)
+    (Δt/m when κ = 0); ``inv_material`` = 1/m (1/ε or 1/μ). (1 - a)/(κΔt) by its series below κΔt = 1e-3: in
+    float32, 1 - exp(-κΔt) loses every digit for a tiny κ (a particle a rounding error inside the layer)."""
+    x = kappa * dt
+    phi = float(1.0)
+    a = float(1.0)
+    if x < 1.0e-3:
+        a = 1.0 - x * (1.0 - 0.5 * x)
+        phi = 1.0 - x * (0.5 - x / 6.0)
+    else:
+        a = wp.exp(-x)
+        phi = (1.0 - a) / x
+    return wp.vec2(a, dt * inv_material * phi)
 
 
 @wp.kernel

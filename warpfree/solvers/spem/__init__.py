@@ -4,7 +4,7 @@ sources (:mod:`.solver`). Kernels: ``warpfree.kernels.spem``."""
 
 from .layouts import StaggeredLayout, staggered_box, staggered_disk, staggered_line
 from .model import C0, EPS0, MU0, PML, SPEMModel, support_for_jitter
-from .solver import Source, SPEMSolver, SPEMState, Waveform
+from .solver import GaussianPulse, Source, SPEMSolver, SPEMState, Waveform
 
-__all__ = ["C0", "EPS0", "MU0", "PML", "SPEMModel", "SPEMSolver", "SPEMState", "Source", "StaggeredLayout",
+__all__ = ["C0", "EPS0", "MU0", "PML", "GaussianPulse", "SPEMModel", "SPEMSolver", "SPEMState", "Source", "StaggeredLayout",
            "Waveform", "staggered_box", "staggered_disk", "staggered_line", "support_for_jitter"]

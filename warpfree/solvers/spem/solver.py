@@ -7,8 +7,8 @@ Ezx (split field, 3.17), Hx, Hy and the time t^n of H (s). Sources:
 - hard: Ez = A_p f(t) on the source particles (they are not updated by the E phase);
 - soft: Ez += A_p f(t) after the E phase (an additive, transparent source).
 
-f(t) is a :class:`Waveform`: a sine sin(2π f t + φ), optionally switched on over ``ramp`` periods with
-a smooth (sin²) envelope.
+f(t) is a :class:`Waveform` (a sine sin(2π f t + φ), optionally switched on over ``ramp`` periods with a smooth
+sin² envelope) or a :class:`GaussianPulse`.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from warpfree.solver import OutputSet, State, TimeDependentSolver
 
 from .model import SPEMModel
 
-__all__ = ["Waveform", "Source", "SPEMState", "SPEMSolver"]
+__all__ = ["Waveform", "GaussianPulse", "Source", "SPEMState", "SPEMSolver"]
 
 
 @dataclass
@@ -44,6 +44,20 @@ class Waveform:
             s = min(1.0, t * self.frequency / self.ramp)
             envelope = math.sin(0.5 * math.pi * s) ** 2
         return envelope * math.sin(w * t + self.phase)
+
+
+@dataclass
+class GaussianPulse:
+    """sin(2π f (t - delay)) exp(-((t - delay)/width)²): a modulated pulse (s, Hz); ``delay`` >= 4 widths starts it
+    from (numerically) zero."""
+
+    frequency: float
+    width: float
+    delay: float
+
+    def __call__(self, t: float) -> float:
+        u = (t - self.delay) / self.width
+        return math.exp(-u * u) * math.sin(2.0 * math.pi * self.frequency * (t - self.delay))
 
 
 @dataclass
