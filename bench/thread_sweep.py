@@ -15,6 +15,8 @@ What it measures
     * ``3d``: the 3D dam break with obstacle (``scenes/dam_break_3d.py``, dx = 0.035: 15 680 fluid +
       41 259 boundary);
     * ``heat`` (on request): the example solver (``scenes/heat_conduction_2d.py``, n = 400: 160 000 particles);
+    * ``waveguide`` (on request): SPEM (``scenes/em_waveguide_2d.py`` at 375 particles per wavelength: 51 076 E +
+      50 625 H particles, PML included);
     * any other scene: ``--scene PATH --set name=value ...`` (a ``custom`` case).
 
 How
@@ -54,6 +56,7 @@ CASES = {
     "2d": ("dam_break_2d", {"dx": 0.006}, {"dx": 0.02}),
     "3d": ("dam_break_3d", {"dx": 0.035}, {"dx": 0.07}),
     "heat": ("heat_conduction_2d", {"n": 400}, {"n": 100}),
+    "waveguide": ("em_waveguide_2d", {"particles_per_wavelength": 375}, {"particles_per_wavelength": 60}),
 }
 
 
