@@ -11,7 +11,7 @@ and largest error, relative to E0, into ``summary.json``.
 
 Model: E at the lattice nodes, H at the cell centres, Δ = λ0/``particles_per_wavelength`` (λ0 = c/f = 0.833 m),
 FPM derivatives over the nearest shell; PML graded with n = 3 from ψ = 1e-6. Measured 2026-11-23, mean (largest)
-error / E0 at 4.1 ns: 20 particles per λ0 2.1 % (4.7 %), 40 (the default) 0.13 % (0.35 %), 80 0.035 % (0.11 %);
+error / E0 at 4.1 ns: 20 particles per λ0 2.0 % (5.1 %), 40 (the default) 0.14 % (0.31 %), 80 0.036 % (0.075 %);
 at 40, later times with the wave train in the PML: 10 ns 1.3 % (2.4 %), 20 ns 0.31 % (0.94 %).
 """
 

@@ -31,7 +31,7 @@ def cutoff_frequency(a: float) -> float:
 
 
 def tm1_field(y, t: float, a: float, source: Callable[[float], float], frequency: float,
-              window_periods: int = 4096, samples_per_period: int = 32) -> np.ndarray:
+              window_periods: int = 4096, samples_per_period: int = 512) -> np.ndarray:
     """u(y, t) for the source signal ``source(t)`` (zero before 0) of carrier ``frequency`` (Hz): Ez/(E0 sin(πx/a))."""
     y = np.atleast_1d(np.asarray(y, np.float64))
     k = max(1, int(math.ceil(t * frequency * samples_per_period)))

@@ -1,0 +1,100 @@
+"""A Yee FDTD solver of the waveguide of ``scenes/em_waveguide_2d.py``, as Warp kernels: the mesh method SPEM is
+compared with (``bench/spem_vs_fdtd.py``).
+
+TMz on Yee's staggered grid (Yee 1966; Taflove & Hagness, *Computational Electrodynamics*, ch. 3): Ez at (iΔ, jΔ),
+Hx at (iΔ, (j+½)Δ), Hy at ((i+½)Δ, jΔ); plates (Ez = 0) at i = 0 and i = nx, the line j = 0 driven with
+E0 sin(πx/a) s(t) (hard), a Berenger split-field PML (same grading and exponential update as SPEM's) on the
+top rows, backed by Ez = 0 at j = ny. Each update is a gather over a cell's own neighbours (race-free), launched
+through warpfree's launcher so that both codes use the same threads. float32, SI units.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import warp as wp
+
+from warpfree.kernels.spem import exponential_step
+from warpfree.solvers.spem import C0, EPS0, MU0, PML
+
+
+@wp.kernel
+def update_h(first: int, nx: int, ny: int, dt: float, inv_dx: float, ez: wp.array(dtype=float),
+             loss_hx: wp.array(dtype=float), hx: wp.array(dtype=float), hy: wp.array(dtype=float)):
+    """Hx(i, j+½) ← a Hx - b ∂Ez/∂y (σy* matched), Hy(i+½, j) ← Hy + (Δt/μ0) ∂Ez/∂x; arrays (nx+1)(ny+1)."""
+    k = first + wp.tid()
+    i = k // (ny + 1)
+    j = k - i * (ny + 1)
+    e = ez[k]
+    if j < ny:
+        p = exponential_step(loss_hx[k], dt, 1.0 / MU0)
+        hx[k] = p[0] * hx[k] - p[1] * (ez[k + 1] - e) * inv_dx
+    if i < nx:
+        hy[k] = hy[k] + dt / MU0 * (ez[k + ny + 1] - e) * inv_dx
+
+
+@wp.kernel
+def update_e(first: int, nx: int, ny: int, dt: float, inv_dx: float, hx: wp.array(dtype=float),
+             hy: wp.array(dtype=float), loss_ez: wp.array(dtype=float), ez: wp.array(dtype=float),
+             ezy: wp.array(dtype=float)):
+    """Interior Ez: Ezx ← Ezx + (Δt/ε0) ∂Hy/∂x, Ezy ← a Ezy - b ∂Hx/∂y, Ez = Ezx + Ezy; the border stays 0."""
+    k = first + wp.tid()
+    i = k // (ny + 1)
+    j = k - i * (ny + 1)
+    if i == 0 or i == nx or j == 0 or j == ny:
+        return
+    p = exponential_step(loss_ez[k], dt, 1.0 / EPS0)
+    e_y = ezy[k]
+    e_x = ez[k] - e_y + dt / EPS0 * (hy[k] - hy[k - ny - 1]) * inv_dx
+    e_y = p[0] * e_y - p[1] * (hx[k] - hx[k - 1]) * inv_dx
+    ezy[k] = e_y
+    ez[k] = e_x + e_y
+
+
+@wp.kernel
+def drive(first: int, ny: int, profile: wp.array(dtype=float), value: float, ez: wp.array(dtype=float)):
+    """Hard source on the line j = 0: Ez(i, 0) = profile_i s(t)."""
+    i = first + wp.tid()
+    ez[i * (ny + 1)] = profile[i] * value
+
+
+class YeeWaveguide:
+    """The waveguide of width a, interior length L and PML thickness δ on a Yee grid of spacing ≈ Δ."""
+
+    def __init__(self, launcher, width: float, length: float, pml_thickness: float, spacing: float, amplitude: float,
+                 pml: PML):
+        self.launcher = launcher
+        self.nx = int(round(width / spacing))
+        self.ny = int(round((length + pml_thickness) / spacing))
+        self.dx = width / self.nx
+        self.width = width
+        n = (self.nx + 1) * (self.ny + 1)
+        dev = launcher.device
+        i, j = np.divmod(np.arange(n), self.ny + 1)
+        x, y = i * self.dx, j * self.dx
+        sigma_e = pml.sigma(np.stack([x, y], 1), (0.0, 0.0), (width, length))[:, 1]
+        sigma_h = pml.sigma(np.stack([x, y + 0.5 * self.dx], 1), (0.0, 0.0), (width, length))[:, 1]
+        self.loss_ez = wp.array((sigma_e / EPS0).astype(np.float32), dtype=float, device=dev)
+        self.loss_hx = wp.array((sigma_h / EPS0).astype(np.float32), dtype=float, device=dev)
+        self.ez, self.ezy, self.hx, self.hy = (wp.zeros(n, dtype=float, device=dev) for _ in range(4))
+        xs = np.arange(self.nx + 1) * self.dx
+        self.profile = wp.array((amplitude * np.sin(np.pi * xs / width)).astype(np.float32), dtype=float, device=dev)
+        self.t = 0.0
+
+    def stable_dt(self) -> float:
+        return self.dx / (C0 * math.sqrt(2.0))
+
+    def step(self, dt: float, source) -> None:
+        L, nx, ny, inv = self.launcher, self.nx, self.ny, 1.0 / self.dx
+        n = (nx + 1) * (ny + 1)
+        L.launch(update_e, n, [nx, ny, float(dt), inv, self.hx, self.hy, self.loss_ez, self.ez, self.ezy])
+        L.launch(drive, nx + 1, [ny, self.profile, float(source(self.t + 0.5 * dt)), self.ez])
+        L.launch(update_h, n, [nx, ny, float(dt), inv, self.ez, self.loss_hx, self.hx, self.hy])
+        self.t += dt
+
+    def column(self, x: float) -> tuple[float, np.ndarray, np.ndarray]:
+        """(x of the grid column nearest x, y of its nodes, Ez there)."""
+        i = int(round(x / self.dx))
+        ez = self.ez.numpy().reshape(self.nx + 1, self.ny + 1)[i]
+        return i * self.dx, np.arange(self.ny + 1) * self.dx, ez

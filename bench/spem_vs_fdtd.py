@@ -1,0 +1,141 @@
+"""SPEM against Yee FDTD on the same waveguide: error against wall time, and the time ratio at equal error.
+
+What it measures
+    The waveguide of ``scenes/em_waveguide_2d.py`` (plates 0.5 m apart, TM1 at 1.2 f_c driven from y = 0, PML of
+    0.1 m beyond y = 0.4 m) to t = 4.1 ns, at several particles (cells) per wavelength, with SPEM (FPM, uniform
+    layout) and with the Yee FDTD of ``bench/fdtd_yee.py`` (same PML grading, same source profile, same
+    threads, dt = T / ceil(T / (0.95 × each method's stable step))). Error: mean |Ez - exact| / E0 along the
+    column nearest x = 0.244 m, 0 <= y <= 0.4 m, against the exact TM1 solution
+    (``warpfree.validation.em_waveguide_2d``). Time: the steps only (set-up excluded), median of ``--repeats``
+    runs. The ratio SPEM/FDTD at equal error is read off the two error-time curves (log-log interpolation).
+
+Usage
+    python bench/spem_vs_fdtd.py                 # 1 thread, ppw 20 40 80 160 320, 3 repeats
+    python bench/spem_vs_fdtd.py --threads 2
+Writes bench/results/spem_vs_fdtd.{json,md,png}.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import common  # noqa: E402
+
+
+def run_spem(ppw: float, t_end: float, threads: int) -> tuple[float, float, int]:
+    from warpfree.validation.em_waveguide_2d import tm1_field
+
+    loop = common.build_scene("em_waveguide_2d", threads, particles_per_wavelength=ppw, t_end=t_end)
+    s = loop.solver
+    src = s.sources[0].source
+    steps = math.ceil(t_end / (0.95 * s.stable_dt()))
+    dt = t_end / steps
+    s.step(dt)  # kernel loading, then start again from rest
+    for a in (s.state.ez, s.state.ezx, s.state.hx, s.state.hy):
+        a.zero_()
+    s.t = 0.0
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        s.step(dt)
+    wall = time.perf_counter() - t0
+    e = s.model.layout.e_position
+    width, amp = loop.params["width"], loop.params["amplitude"]
+    x0 = e[np.argmin(np.abs(e[:, 0] - 0.244)), 0]
+    col = np.flatnonzero((np.abs(e[:, 0] - x0) < 1e-9) & (e[:, 1] <= 0.4 + 1e-9))
+    ez = s.model.electric.numpy("ez")[col]
+    exact = amp * math.sin(math.pi * x0 / width) * tm1_field(e[col, 1], t_end - 0.5 * dt, width, src.waveform,
+                                                             src.waveform.frequency)
+    return wall, float(np.mean(np.abs(ez - exact)) / amp), steps
+
+
+def run_fdtd(ppw: float, t_end: float, threads: int) -> tuple[float, float, int]:
+    import warpfree.device
+    from fdtd_yee import YeeWaveguide
+    from warpfree.solvers.spem import C0, PML, Waveform
+    from warpfree.validation.em_waveguide_2d import cutoff_frequency, tm1_field
+
+    launcher = warpfree.device.use("cpu", threads)
+    width, length, delta, amp = 0.5, 0.4, 0.1, 0.2
+    f = 1.2 * cutoff_frequency(width)
+    wave = Waveform(f)
+    g = YeeWaveguide(launcher, width, length, delta, C0 / f / ppw, amp, PML(delta, sides=("y+",)))
+    steps = math.ceil(t_end / (0.95 * g.stable_dt()))
+    dt = t_end / steps
+    g.step(dt, wave)  # kernel loading, then start again
+    g.__init__(launcher, width, length, delta, C0 / f / ppw, amp, PML(delta, sides=("y+",)))
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        g.step(dt, wave)
+    wall = time.perf_counter() - t0
+    x0, y, ez = g.column(0.244)
+    keep = y <= length + 1e-9
+    exact = amp * math.sin(math.pi * x0 / width) * tm1_field(y[keep], t_end - 0.5 * dt, width, wave, f)
+    return wall, float(np.mean(np.abs(ez[keep] - exact)) / amp), steps
+
+
+def equal_error_ratio(a: list[dict], b: list[dict]) -> list[dict]:
+    """SPEM time / FDTD time at SPEM's errors, FDTD's time interpolated in log-log (inside its range only)."""
+    eb = np.log([r["error"] for r in b])
+    tb = np.log([r["wall_s"] for r in b])
+    order = np.argsort(eb)
+    out = []
+    for r in a:
+        e = math.log(r["error"])
+        if eb.min() <= e <= eb.max():
+            t = float(np.exp(np.interp(e, eb[order], tb[order])))
+            out.append({"error": r["error"], "spem_s": r["wall_s"], "fdtd_s": t, "ratio": r["wall_s"] / t})
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--ppw", type=float, nargs="+", default=[20, 40, 80, 160, 320])
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--t-end", type=float, default=4.1e-9)
+    ap.add_argument("--worker", default=None)
+    args = ap.parse_args()
+    if args.worker:
+        cfg = json.loads(args.worker)
+        wall, err, steps = (run_spem if cfg["code"] == "spem" else run_fdtd)(cfg["ppw"], cfg["t_end"], cfg["threads"])
+        common.emit_worker_result({"wall_s": wall, "error": err, "steps": steps})
+        return
+    rows = {"spem": [], "fdtd": []}
+    for ppw in args.ppw:
+        for code in ("spem", "fdtd"):
+            walls, res = [], None
+            for r in range(args.repeats):
+                res = common.run_worker(__file__, ["--worker", json.dumps(dict(code=code, ppw=ppw, t_end=args.t_end,
+                                                                                threads=args.threads))])
+                walls.append(res["wall_s"])
+            row = dict(ppw=ppw, wall_s=float(np.median(walls)), walls_s=walls, error=res["error"], steps=res["steps"])
+            rows[code].append(row)
+            print(f"  {code} ppw={ppw}: error {row['error']:.3e}, {row['steps']} steps, {row['wall_s']:.3f} s", flush=True)
+    ratios = equal_error_ratio(rows["spem"], rows["fdtd"])
+    md = [f"## SPEM against Yee FDTD, waveguide to t = {args.t_end:.3g} s ({args.threads} thread(s), "
+                  f"median of {args.repeats} runs, steps only)", "",
+          "| particles (cells) per λ | SPEM error | SPEM s | FDTD error | FDTD s |", "| --: | --: | --: | --: | --: |"]
+    for a, b in zip(rows["spem"], rows["fdtd"]):
+        md.append(f"| {a['ppw']:g} | {a['error']:.3e} | {a['wall_s']:.3f} | {b['error']:.3e} | {b['wall_s']:.3f} |")
+    md += ["", "SPEM time / FDTD time at SPEM's error (FDTD interpolated log-log): " +
+           (", ".join(f"{r['ratio']:.2f} (error {r['error']:.2e})" for r in ratios) or "no overlap of the error ranges")]
+    fig, ax = common.new_figure(figsize=(6, 4.2))
+    for code, mark in (("spem", "o-"), ("fdtd", "s--")):
+        ax.loglog([r["wall_s"] for r in rows[code]], [r["error"] for r in rows[code]], mark, label=code.upper())
+    ax.set_xlabel("wall s (steps only)")
+    ax.set_ylabel("mean |Ez - exact| / E0")
+    ax.set_title("Waveguide to 4.1 ns: error against wall time")
+    ax.legend()
+    fig.tight_layout()
+    common.write_results("spem_vs_fdtd", {"rows": rows, "ratios": ratios, "threads": args.threads}, "\n".join(md), fig)
+
+if __name__ == "__main__":
+    main()
