@@ -178,7 +178,10 @@ class OutputWriter:
 # -- the worker's side -------------------------------------------------------------------------------
 
 def _preload(modules) -> None:
-    """Import ``modules`` (in a thread of the worker, while it waits for its first batches)."""
+    """Import ``modules`` before the first batch is read. In the worker's main thread: a second thread importing
+    Matplotlib while the main one unpickles NumPy arrays (or imports the frame module) made the two imports race
+    and the worker die on a partially initialised ``numpy._core`` (seen once in ~10 suite runs). The worker is a
+    process of its own, so the run steps meanwhile all the same; the first batch waits in the pipe."""
     import importlib
 
     for name in modules:
@@ -198,9 +201,7 @@ def _serve(preload_plots: bool = False) -> None:
     except (AttributeError, OSError):
         pass
     if preload_plots:
-        import threading
-
-        threading.Thread(target=_preload, args=(PLOT_MODULES,), daemon=True).start()
+        _preload(PLOT_MODULES)
     while True:
         try:
             message = pickle.load(requests)
