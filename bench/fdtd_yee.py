@@ -82,6 +82,12 @@ class YeeWaveguide:
         self.profile = wp.array((amplitude * np.sin(np.pi * xs / width)).astype(np.float32), dtype=float, device=dev)
         self.t = 0.0
 
+    def reset(self) -> None:
+        """Fields to zero and t = 0 (after an untimed step that loads the kernels)."""
+        for a in (self.ez, self.ezy, self.hx, self.hy):
+            a.zero_()
+        self.t = 0.0
+
     def stable_dt(self) -> float:
         return self.dx / (C0 * math.sqrt(2.0))
 

@@ -22,11 +22,17 @@ SCENES = {
     "dam_break_3d": dict(dx=0.1, frames=False),
     "tank_at_rest_2d": dict(dx=0.05, frames=False, settle_periods=0.25),  # relaxed, briefly settled
     "heat_conduction_2d": dict(n=16, frames=False),
+    "em_line_1d": dict(particles_per_wavelength=10, frames=False),
+    "em_cavity_2d": dict(cells_per_radius=8, frames=False),
+    "em_waveguide_2d": dict(particles_per_wavelength=20, frames=False),
 }
 
 
 #: scene -> the run of the resume test (a few outputs, enough steps for checkpoints every 3 steps)
-RESUME = {"heat_conduction_2d": dict(t_end=2.0, output_interval=0.25)}
+RESUME = {"heat_conduction_2d": dict(t_end=2.0, output_interval=0.25),
+          "em_line_1d": dict(t_end=1.0e-9, output_interval=0.25e-9),
+          "em_cavity_2d": dict(t_end=1.0e-9, output_interval=0.25e-9),
+          "em_waveguide_2d": dict(t_end=1.64e-9, output_interval=0.41e-9)}
 
 
 def build(name, **extra):
