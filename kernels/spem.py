@@ -334,26 +334,110 @@ def row_abs_sums(
     out[i] = s * inv_material[i]
 
 
+@wp.struct
+class IncidentWave:
+    """A plane wave Ez = A f(τ), H = (A/η) f(τ) (d_y, -d_x), τ = t - (d·x - s0)/v, f(τ) = 0 for τ < 0 (causal):
+    ``kind`` 0 a sine sin(2π f τ + φ) with a sin² ramp over ``ramp`` periods, 1 a Gaussian pulse
+    sin(2π f (τ - delay)) exp(-((τ - delay)/width)²). Units: V/m, A/m, m, s."""
+
+    direction: wp.vec3  # unit d
+    start: float  # s0 (m): d·x where the wave front is at t = 0
+    speed: float  # v (m/s)
+    amplitude: float  # A (V/m)
+    admittance: float  # 1/η (S)
+    kind: int
+    frequency: float
+    phase: float
+    ramp: float
+    width: float
+    delay: float
+
+
+@wp.func
+def incident_signal(w: IncidentWave, x: wp.vec3, t: float) -> float:
+    """f(τ) of :class:`IncidentWave` at x and t (dimensionless)."""
+    tau = t - (wp.dot(w.direction, x) - w.start) / w.speed
+    value = float(0.0)
+    if tau >= 0.0:
+        if w.kind == 0:
+            envelope = float(1.0)
+            if w.ramp > 0.0:
+                s = wp.min(1.0, tau * w.frequency / w.ramp)
+                envelope = wp.sin(0.5 * wp.pi * s) * wp.sin(0.5 * wp.pi * s)
+            value = envelope * wp.sin(2.0 * wp.pi * w.frequency * tau + w.phase)
+        else:
+            u = (tau - w.delay) / w.width
+            value = wp.exp(-u * u) * wp.sin(2.0 * wp.pi * w.frequency * (tau - w.delay))
+    return value
+
+
 @wp.kernel
-def adjoint_coefficients(
+def plane_wave_electric(
     first: int,
+    dt: float,
+    t: float,
+    wave: IncidentWave,
+    targets: wp.array(dtype=wp.int32),
     rows: NeighbourRows,
-    volume: wp.array(dtype=float),
-    other_rows: NeighbourRows,
-    other_coefficient: wp.array(dtype=wp.vec3),
-    other_volume: wp.array(dtype=float),
     coefficient: wp.array(dtype=wp.vec3),
+    h_position: wp.array(dtype=wp.vec3),
+    inv_permittivity: wp.array(dtype=float),
+    loss: wp.array(dtype=wp.vec2),
+    held: wp.array(dtype=wp.int32),
+    ez: wp.array(dtype=float),
+    ezx: wp.array(dtype=float),
 ):
-    """g_kl = -(V_l/V_k) g'_lk for every pair (k, l) of row k, with g' the other set's coefficients: the operator
-    of this set is the negative adjoint of the other set's in the volume-weighted inner product, which makes
-    the semi-discrete E-H system skew-adjoint (its energy Σ ε V Ez²/2 + Σ μ V |H|²/2 is conserved, so its
-    spectrum is imaginary and the leapfrog is stable under its step limit)."""
-    k = first + wp.tid()
-    vk = volume[k]
-    for n in range(rows.start[k], rows.start[k] + rows.count[k]):
-        l = rows.index[n]
-        g = wp.vec3(0.0, 0.0, 0.0)
-        for m in range(other_rows.start[l], other_rows.start[l] + other_rows.count[l]):
-            if other_rows.index[m] == k:
-                g = -(other_volume[l] / vk) * other_coefficient[m]
-        coefficient[n] = g
+    """Total-field/scattered-field correction of the E phase: E particle ``targets[s]`` whose row crosses the
+    TF/SF boundary adds the incident H^n (time ``t``) of its partners across it, with the sign folded into the
+    coefficients (+ seen from the total side, - from the scattered side): Ezx += b_x Σ g_x Hy_inc,
+    Ezy -= b_y Σ g_y Hx_inc. Targets are distinct: race-free."""
+    s = first + wp.tid()
+    i = targets[s]
+    if held[i] != 0:
+        return
+    dhy_dx = float(0.0)
+    dhx_dy = float(0.0)
+    for n in range(rows.start[s], rows.start[s] + rows.count[s]):
+        j = rows.index[n]
+        g = coefficient[n]
+        h = wave.amplitude * wave.admittance * incident_signal(wave, h_position[j], t)
+        dhy_dx += g[0] * (-h * wave.direction[0])
+        dhx_dy += g[1] * (h * wave.direction[1])
+    k = loss[i]
+    px = exponential_step(k[0], dt, inv_permittivity[i])
+    py = exponential_step(k[1], dt, inv_permittivity[i])
+    ezx[i] = ezx[i] + px[1] * dhy_dx
+    ez[i] = ez[i] + px[1] * dhy_dx - py[1] * dhx_dy
+
+
+@wp.kernel
+def plane_wave_magnetic(
+    first: int,
+    dt: float,
+    t: float,
+    wave: IncidentWave,
+    targets: wp.array(dtype=wp.int32),
+    rows: NeighbourRows,
+    coefficient: wp.array(dtype=wp.vec3),
+    e_position: wp.array(dtype=wp.vec3),
+    inv_permeability: wp.array(dtype=float),
+    loss: wp.array(dtype=wp.vec2),
+    hx: wp.array(dtype=float),
+    hy: wp.array(dtype=float),
+):
+    """TF/SF correction of the H phase with the incident Ez at ``t`` (= t^{n+1/2}): Hx -= b_y Σ g_y Ez_inc,
+    Hy += b_x Σ g_x Ez_inc over the row's partners across the boundary (signed coefficients)."""
+    s = first + wp.tid()
+    k = targets[s]
+    dez_dx = float(0.0)
+    dez_dy = float(0.0)
+    for n in range(rows.start[s], rows.start[s] + rows.count[s]):
+        e = wave.amplitude * incident_signal(wave, e_position[rows.index[n]], t)
+        g = coefficient[n]
+        dez_dx += g[0] * e
+        dez_dy += g[1] * e
+    kk = loss[k]
+    px = exponential_step(kk[0], dt, inv_permeability[k])
+    py = exponential_step(kk[1], dt, inv_permeability[k])
+    hx[k] = hx[k] - py[1] * dez_dy
+    hy[k] = hy[k] + px[1] * dez_dx

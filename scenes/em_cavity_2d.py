@@ -6,12 +6,14 @@ the series) and into ``summary.json`` the mean error over all E particles and al
 of the initial peak, at every output and its largest value (``warpfree/validation/em_cavity_2d``).
 
 Model: E particles at the nodes of a lattice of spacing Δ = r0/``cells_per_radius`` and on the wall ring, H at
-the cell centres; FPM derivatives, support 1.5 Δ (widened where fewer than 4 particles of the other set are
-inside). Measured 2026-11-23 at t = 5.5 ns (2 periods of the fundamental), mean error over the E particles /
-along the radial line: 20 cells per radius 0.55 % / 1.7 %, 40 cells 0.09 % / 0.30 %; CSPM (eq. 3.6) 5.5 % / 5.0 %,
-plain SPH 50 % / 74 % (the thesis, plain SPH: about 5 %). Not yet robust: with support 1.1 Δ the irregular
-neighbourhoods next to the ring make the E-H operator pair non-skew-adjoint and the run grows without bound,
-and at 1.5 Δ the error still grows slowly (6.7 % at 20 ns, 20 cells per radius).
+the cell centres; the conservative FPM pair (``warpfree/solvers/spem/conservative.py``: exact for linear fields
+and energy-conserving, so the irregular neighbourhoods at the ring cannot make it grow), support 1.1 Δ (1.1 + 2
+jitter on jittered particles, widened where fewer than 4 particles of the other set are inside). Measured
+2026-11-23 at t = 5.5 ns (2 periods of the fundamental), largest mean error over the outputs, over the E particles
+/ along the radial line: 20 cells per radius 0.38 % / 0.79 %, 30 %-jittered 0.68 % / 1.10 %; 40 cells 0.12 % /
+0.32 %, jittered 0.18 % / 0.40 %; to 20 ns (7 periods) 1.3 %, jittered 2.0 %. The thesis's schemes at support
+1.5 Δ: CSPM (eq. 3.6) 1.9 %, plain SPH 88 % (the thesis, plain SPH: about 5 %). Plain FPM (``conservative=False``)
+grows without bound on the jittered disk.
 """
 
 import math
@@ -28,15 +30,18 @@ from warpfree.validation.em_cavity_2d import cavity_field
 
 def build(radius: float = 0.1, eps_r: float = 10.0, cells_per_radius: int = 20, courant: float = 0.9,
           t_end: float = 5.5e-9, output_interval: float = 0.25e-9, scheme: str = "fpm", support: float = 0.0,
-          jitter: float = 0.0, seed: int = 0, frames: bool = True, vtk: bool = True) -> TimeLoop:
-    """Times in s, lengths in m; ``support`` 0: 1.5 + 2·jitter spacings."""
+          jitter: float = 0.0, seed: int = 0, conservative: bool | None = None, frames: bool = True,
+          vtk: bool = True) -> TimeLoop:
+    """Times in s, lengths in m; ``support`` 0: 1.1 + 2·jitter spacings (``support_for_jitter``);
+    ``conservative``: the model's option (None: on for FPM)."""
     params = dict(locals())
     require_positive("radius", radius)
     require_positive("eps_r", eps_r)
     spacing = radius / require_positive("cells_per_radius", cells_per_radius)
     centre = np.array([radius, radius])
     layout = staggered_disk(centre, radius, spacing, jitter=jitter, seed=seed)
-    model = SPEMModel(layout, scheme=scheme, support=support or support_for_jitter(jitter) + 0.4, eps_r=eps_r)
+    model = SPEMModel(layout, scheme=scheme, support=support or support_for_jitter(jitter), eps_r=eps_r,
+                      conservative=conservative)
     r_e = np.hypot(*(layout.e_position[:, :2] - centre).T)
     solver = SPEMSolver(model, ez=lambda p: 1.0 - np.sum((p[:, :2] - centre) ** 2, axis=1) / radius**2)
     dt = solver.step_for(output_interval, courant)

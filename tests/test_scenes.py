@@ -182,6 +182,8 @@ def test_kills_during_checkpoint_writes_never_break_resume(tmp_path):
     ("em_line_1d.py", ["particles_per_wavelength=10", "t_end=0.95e-9"], "line.png"),
     ("em_cavity_2d.py", ["cells_per_radius=8", "t_end=0.5e-9"], "cavity.png"),
     ("em_waveguide_2d.py", ["particles_per_wavelength=20", "t_end=0.82e-9"], "waveguide.png"),
+    ("em_plane_wave_2d.py", ["particles_per_wavelength=20", "size=0.2", "margin=0.03", "t_end=0.5e-9"],
+     "plane_wave.png"),
 ])
 def test_em_scenes_write_frames_vtu_plot_and_their_error(tmp_path, scene, settings, plot):
     out = tmp_path / "em"

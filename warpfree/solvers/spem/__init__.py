@@ -1,10 +1,12 @@
 """SPEM (seed 000): time-domain Maxwell on interleaved E and H particle sets. Layouts (:mod:`.layouts`),
 the static model with its PML and derivative coefficients (:mod:`.model`), the leapfrog solver and its
-sources (:mod:`.solver`). Kernels: ``warpfree.kernels.spem``."""
+sources (:mod:`.solver`, plane waves :mod:`.plane_wave`), the energy-conserving operator pair
+(:mod:`.conservative`), Kronecker-delta nodal values (:mod:`.kronecker`). Kernels: ``warpfree.kernels.spem``."""
 
 from .layouts import StaggeredLayout, staggered_box, staggered_disk, staggered_line
 from .model import C0, EPS0, MU0, PML, SPEMModel, support_for_jitter
+from .plane_wave import PlaneWave
 from .solver import GaussianPulse, Source, SPEMSolver, SPEMState, Waveform
 
-__all__ = ["C0", "EPS0", "MU0", "PML", "GaussianPulse", "SPEMModel", "SPEMSolver", "SPEMState", "Source", "StaggeredLayout",
+__all__ = ["C0", "EPS0", "MU0", "PML", "GaussianPulse", "PlaneWave", "SPEMModel", "SPEMSolver", "SPEMState", "Source", "StaggeredLayout",
            "Waveform", "staggered_box", "staggered_disk", "staggered_line", "support_for_jitter"]

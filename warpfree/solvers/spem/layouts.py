@@ -15,6 +15,7 @@ perfect conductor) or leaves them free.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,6 +36,9 @@ class StaggeredLayout:
     h_spacing: np.ndarray
     on_wall: np.ndarray
     spacing: float  # the nominal Δ
+    lower: np.ndarray | None = None  # the region's bounding box (m)
+    upper: np.ndarray | None = None
+    inside: Callable | None = None  # inside(points (M, dim)) -> (M,) bool: the region the particles fill
 
     @property
     def n_e(self) -> int:
@@ -49,6 +53,65 @@ class StaggeredLayout:
 
     def h_cell_volume(self) -> np.ndarray:
         return self.h_spacing ** self.dim
+
+    def quadrature_volumes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each particle's Voronoi cell within the region, per set (m^dim): the quadrature of the energy-conserving
+        pair (``SPEMModel(conservative=True)``)."""
+        if self.inside is None:
+            raise ParameterError("layout", "this layout has no region (lower, upper, inside) to measure volumes in")
+        return tuple(voronoi_volumes(p, self.dim, self.lower, self.upper, self.inside, self.spacing)
+                     for p in (self.e_position, self.h_position))
+
+
+#: fine samples per spacing and axis measuring the Voronoi cells cut by the region's boundary 
+FINE_SAMPLES = 16
+
+
+def voronoi_volumes(points: np.ndarray, dim: int, lower, upper, inside: Callable, spacing: float) -> np.ndarray:
+    """Volume (m^dim) of each point's Voronoi cell within the region: in 1D exactly (midpoints, clipped to
+    [lower, upper]); in 2D the shoelace area of every cell whose vertices are all inside, and for the cells the
+    boundary cuts (or leaves open) a count of fine samples (``FINE_SAMPLES`` per spacing and axis) inside the
+    region that lie nearer to that point than to any other."""
+    from scipy.spatial import Voronoi, cKDTree
+
+    x = points[:, :dim]
+    if dim == 1:
+        order = np.argsort(x[:, 0])
+        xs = x[order, 0]
+        edges = np.concatenate([[lower[0]], 0.5 * (xs[1:] + xs[:-1]), [upper[0]]])
+        out = np.empty(xs.size)
+        out[order] = np.diff(edges)
+        return out
+    vor = Voronoi(x)
+    regions = [vor.regions[r] for r in vor.point_region]
+    length = np.array([len(r) for r in regions])
+    flat = np.fromiter((v for r in regions for v in r), dtype=np.int64, count=int(length.sum()))
+    start = np.concatenate([[0], np.cumsum(length)[:-1]])
+    bad = np.ones(x.shape[0], bool)  # open (a vertex at infinity), empty, or with a vertex outside the region
+    ok_vertex = np.concatenate([inside(vor.vertices), [False]])[np.where(flat < 0, -1, flat)]
+    closed = np.add.reduceat(ok_vertex.astype(np.int64), start[length > 0]) == length[length > 0]
+    bad[length > 0] = ~closed
+    nxt = np.arange(flat.size) + 1  # each polygon's next vertex, wrapping to its first
+    nxt[start + length - 1] = start
+    v, w = vor.vertices[np.maximum(flat, 0)], vor.vertices[np.maximum(flat[nxt], 0)]
+    cross = v[:, 0] * w[:, 1] - v[:, 1] * w[:, 0]
+    out = np.zeros(x.shape[0])
+    out[length > 0] = 0.5 * np.abs(np.add.reduceat(cross, start[length > 0]))
+    out[bad] = 0.0
+    cut = np.flatnonzero(bad)
+    if cut.size:
+        tree = cKDTree(x)
+        h = spacing / FINE_SAMPLES
+        k = np.arange(-int(1.5 * FINE_SAMPLES), int(1.5 * FINE_SAMPLES)) + 0.5
+        patch = np.stack(np.meshgrid(k * h, k * h, indexing="ij"), -1).reshape(-1, 2)
+        for chunk in np.array_split(cut, max(1, cut.size // 256)):
+            samples = (x[chunk][:, None, :] + patch[None, :, :]).reshape(-1, 2)
+            owner_wanted = np.repeat(chunk, patch.shape[0])
+            ok = inside(samples)
+            _, owner = tree.query(samples[ok])
+            mine = owner == owner_wanted[ok]
+            out += np.bincount(owner[mine], minlength=x.shape[0]) * h * h
+    return out
 
 
 def _pad3(p: np.ndarray) -> np.ndarray:
@@ -104,7 +167,9 @@ def staggered_line(x0: float, x1: float, spacing: float, jitter: float = 0.0, se
         rng = np.random.default_rng(seed)
         e = _jitter(e, on_wall, j * float(np.min(widths)), 1, rng)
         h = _jitter(h, np.zeros(h.shape[0], bool), j * float(np.min(widths)), 1, rng)
-    return StaggeredLayout(1, e, h, e_spacing, widths.copy(), on_wall, float((x1 - x0) / max(1, widths.size)))
+    return StaggeredLayout(1, e, h, e_spacing, widths.copy(), on_wall, float((x1 - x0) / max(1, widths.size)),
+                           np.array([nodes[0]]), np.array([nodes[-1]]),
+                           lambda p: (p[:, 0] >= nodes[0]) & (p[:, 0] <= nodes[-1]))
 
 
 def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int = 0) -> StaggeredLayout:
@@ -128,7 +193,8 @@ def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int =
         e = _jitter(e, on_wall, j * float(d.min()), 2, rng)
         h = _jitter(h, np.zeros(h.shape[0], bool), j * float(d.min()), 2, rng)
     nominal = float(d.max())
-    return StaggeredLayout(2, e, h, np.full(e.shape[0], nominal), np.full(h.shape[0], nominal), on_wall, nominal)
+    return StaggeredLayout(2, e, h, np.full(e.shape[0], nominal), np.full(h.shape[0], nominal), on_wall, nominal,
+                           lo, hi, lambda p: np.all((p[:, :2] >= lo) & (p[:, :2] <= hi), axis=1))
 
 
 def staggered_disk(centre, radius: float, spacing: float, jitter: float = 0.0, seed: int = 0) -> StaggeredLayout:
@@ -157,4 +223,5 @@ def staggered_disk(centre, radius: float, spacing: float, jitter: float = 0.0, s
         rng = np.random.default_rng(seed)
         e = _jitter(e, on_wall, j * spacing, 2, rng)
         h = _jitter(h, np.zeros(h.shape[0], bool), j * spacing, 2, rng)
-    return StaggeredLayout(2, e, h, np.full(e.shape[0], spacing), np.full(h.shape[0], spacing), on_wall, spacing)
+    return StaggeredLayout(2, e, h, np.full(e.shape[0], spacing), np.full(h.shape[0], spacing), on_wall, spacing,
+                           c - radius, c + radius, lambda p: np.hypot(p[:, 0] - c[0], p[:, 1] - c[1]) <= radius)

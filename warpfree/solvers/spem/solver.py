@@ -5,7 +5,8 @@ H^n → H^{n+1} from Ez^{n+1/2}; the launch boundary is the thesis's barrier. Th
 Ezx (split field, 3.17), Hx, Hy and the time t^n of H (s). Sources:
 
 - hard: Ez = A_p f(t) on the source particles (they are not updated by the E phase);
-- soft: Ez += A_p f(t) after the E phase (an additive, transparent source).
+- soft: Ez += A_p f(t) after the E phase (an additive, transparent source);
+- a :class:`~.plane_wave.PlaneWave`: a plane wave injected into a total-field box (TF/SF, E and H both).
 
 f(t) is a :class:`Waveform` (a sine sin(2π f t + φ), optionally switched on over ``ramp`` periods with a smooth
 sin² envelope) or a :class:`GaussianPulse`.
@@ -25,6 +26,7 @@ from warpfree.kernels import spem as K
 from warpfree.solver import OutputSet, State, TimeDependentSolver
 
 from .model import SPEMModel
+from .plane_wave import DevicePlaneWave, PlaneWave
 
 __all__ = ["Waveform", "GaussianPulse", "Source", "SPEMState", "SPEMSolver"]
 
@@ -121,7 +123,12 @@ class SPEMSolver(TimeDependentSolver):
         ez0[model.held] = 0.0
         self.state = SPEMState(e.add("ez", ez0), e.add("ezx", 0.5 * ez0), h.add("hx", initial("hx", hx, h)),
                                h.add("hy", initial("hy", hy, h)), wp.zeros(1, dtype=wp.float64, device=dev))
-        self.sources = [_DeviceSource(s, model, dev) for s in (sources or [])]
+        sources = list(sources or [])
+        for s in sources:
+            if not isinstance(s, Source | PlaneWave):
+                raise ParameterError("sources", f"each source is a Source or a PlaneWave, got {type(s).__name__}")
+        self.sources = [_DeviceSource(s, model, dev) for s in sources if isinstance(s, Source)]
+        self.plane_waves = [DevicePlaneWave(s, model, dev) for s in sources if isinstance(s, PlaneWave)]
         held = model.held.copy()
         for s in self.sources:
             if s.additive == 0:
@@ -138,6 +145,10 @@ class SPEMSolver(TimeDependentSolver):
         with self.phases("electric"):
             L.launch(K.update_electric, e.n, [float(dt), m.e_rows.rows, m.e_coefficient, st.hx, st.hy,
                                               e["inv_permittivity"], e["loss"], self.held, st.ez, st.ezx])
+            for w in self.plane_waves:  # TF/SF: the incident H^n across the box's boundary
+                L.launch(K.plane_wave_electric, w.n_e, [float(dt), float(self.t), w.struct, w.e_targets, w.e_rows,
+                                                        w.e_coefficient, h.position, e["inv_permittivity"], e["loss"],
+                                                        self.held, st.ez, st.ezx])
         with self.phases("sources"):
             t_half = self.t + 0.5 * dt
             for s in self.sources:
@@ -146,6 +157,10 @@ class SPEMSolver(TimeDependentSolver):
         with self.phases("magnetic"):
             L.launch(K.update_magnetic, h.n, [float(dt), m.h_rows.rows, m.h_coefficient, st.ez,
                                               h["inv_permeability"], h["loss"], st.hx, st.hy])
+            for w in self.plane_waves:  # TF/SF: the incident Ez^{n+1/2}
+                L.launch(K.plane_wave_magnetic, w.n_h, [float(dt), float(t_half), w.struct, w.h_targets, w.h_rows,
+                                                        w.h_coefficient, e.position, h["inv_permeability"], h["loss"],
+                                                        st.hx, st.hy])
         self.t += dt
         st.time.fill_(self.t)
 
