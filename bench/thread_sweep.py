@@ -16,7 +16,10 @@ What it measures
       41 259 boundary);
     * ``heat`` (on request): the example solver (``scenes/heat_conduction_2d.py``, n = 400: 160 000 particles);
     * ``waveguide`` (on request): SPEM (``scenes/em_waveguide_2d.py`` at 375 particles per wavelength: 51 076 E +
-      50 625 H particles, PML included);
+      50 625 H particles, PML included); ``waveguide_alternating``, ``_random``, ``_neighbours``: the same with
+      the thesis's other load distributions (§3.2.2, ``warpfree/distribution.py``); ``jittered_pml_<kind>``
+      for the four kinds: 30 %-jittered particles with a PML all round (``scenes/em_plane_wave_2d.py`` on a
+      0.2 m square: 14 161 E + 14 400 H particles);
     * any other scene: ``--scene PATH --set name=value ...`` (a ``custom`` case).
 
 How
@@ -58,6 +61,16 @@ CASES = {
     "heat": ("heat_conduction_2d", {"n": 400}, {"n": 100}),
     "waveguide": ("em_waveguide_2d", {"particles_per_wavelength": 375}, {"particles_per_wavelength": 60}),
 }
+# SPEM's load distributions (seed 000 §3.2.2; ``warpfree/distribution.py``): the waveguide ("waveguide" above is
+# "blocks") and a jittered layout with a PML all round (the plane-wave scene on a 0.2 m square, conservative pair)
+for _kind in ("blocks", "alternating", "random", "neighbours"):
+    if _kind != "blocks":
+        CASES[f"waveguide_{_kind}"] = ("em_waveguide_2d", {"particles_per_wavelength": 375, "distribution": _kind},
+                                       {"particles_per_wavelength": 60, "distribution": _kind})
+    CASES[f"jittered_pml_{_kind}"] = ("em_plane_wave_2d", {"size": 0.2, "margin": 0.03, "jitter": 0.3,
+                                                           "distribution": _kind},
+                                      {"size": 0.2, "margin": 0.03, "jitter": 0.3, "particles_per_wavelength": 20,
+                                       "distribution": _kind})
 
 
 def _control_kernel():

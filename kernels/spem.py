@@ -220,6 +220,7 @@ def exponential_step(kappa: float, dt: float, inv_material: float) -> wp.vec2:
 @wp.kernel
 def update_electric(
     first: int,
+    order: wp.array(dtype=wp.int32),
     dt: float,
     rows: NeighbourRows,
     coefficient: wp.array(dtype=wp.vec3),
@@ -233,8 +234,9 @@ def update_electric(
 ):
     """Ez^{n+1/2} from Ez^{n-1/2} and H^n (3.13; split field 3.17/3.18 with exponential loss):
     Ezx ← a_x Ezx + b_x ∂Hy/∂x, Ezy ← a_y Ezy - b_y ∂Hx/∂y, Ez = Ezx + Ezy. Held particles (PEC walls,
-    hard sources) keep their value."""
-    i = first + wp.tid()
+    hard sources) keep their value. Thread item ``first + tid`` updates particle ``order[first + tid]`` (the
+    load distribution, ``warpfree/distribution.py``)."""
+    i = order[first + wp.tid()]
     if held[i] != 0:
         return
     dhy_dx = float(0.0)
@@ -259,6 +261,7 @@ def update_electric(
 @wp.kernel
 def update_magnetic(
     first: int,
+    order: wp.array(dtype=wp.int32),
     dt: float,
     rows: NeighbourRows,
     coefficient: wp.array(dtype=wp.vec3),
@@ -269,8 +272,8 @@ def update_magnetic(
     hy: wp.array(dtype=float),
 ):
     """H^{n+1} from H^n and Ez^{n+1/2} (3.14/3.15; PML 3.19/3.20 with Hx damped by σy*, Hy by σx*):
-    Hx ← a_y Hx - b_y ∂Ez/∂y, Hy ← a_x Hy + b_x ∂Ez/∂x."""
-    i = first + wp.tid()
+    Hx ← a_y Hx - b_y ∂Ez/∂y, Hy ← a_x Hy + b_x ∂Ez/∂x; particle ``order[first + tid]``."""
+    i = order[first + wp.tid()]
     dez_dx = float(0.0)
     dez_dy = float(0.0)
     for n in range(rows.start[i], rows.start[i] + rows.count[i]):

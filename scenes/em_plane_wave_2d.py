@@ -39,10 +39,11 @@ from warpfree.time_loop import TimeLoop
 
 def build(size: float = 0.5, frequency: float = 3.6e9, amplitude: float = 1.0, particles_per_wavelength: float = 40.0,
           pml_cells: int = 12, margin: float = 0.05, ramp: float = 2.0, courant: float = 0.95, t_end: float = 2.0e-9,
-          output_interval: float = 0.25e-9, angle: float = 0.0, jitter: float = 0.0, seed: int = 0, frames: bool = True,
-          vtk: bool = True) -> TimeLoop:
+          output_interval: float = 0.25e-9, angle: float = 0.0, jitter: float = 0.0, seed: int = 0,
+          distribution: str = "blocks", frames: bool = True, vtk: bool = True) -> TimeLoop:
     """Lengths in m, times in s, ``frequency`` in Hz; ``ramp``: periods of the sin² switch-on; ``margin``: the
-    gap between the total-field box and the PML; ``angle``: the direction of travel, degrees from +y towards +x."""
+    gap between the total-field box and the PML; ``angle``: the direction of travel, degrees from +y towards +x;
+    ``distribution``: the load distribution over threads (``warpfree/distribution.py``)."""
     params = dict(locals())
     require_positive("size", size)
     require_positive("frequency", frequency)
@@ -66,7 +67,7 @@ def build(size: float = 0.5, frequency: float = 3.6e9, amplitude: float = 1.0, p
     direction = np.array([math.sin(math.radians(angle)), math.cos(math.radians(angle)), 0.0])
     wave = PlaneWave(waveform, lower=(margin, margin), upper=(size - margin, size - margin),
                      direction=tuple(direction[:2]), amplitude=amplitude)
-    solver = SPEMSolver(model, [wave])
+    solver = SPEMSolver(model, [wave], distribution=distribution)
     dt = solver.step_for(output_interval, courant)
     e = layout.e_position
     in_box = wave.inside(2, e)

@@ -33,8 +33,10 @@ from warpfree.validation.em_waveguide_2d import cutoff_frequency, tm1_field
 def build(width: float = 0.5, length: float = 0.4, pml_thickness: float = 0.1, frequency_ratio: float = 1.2,
           amplitude: float = 0.2, particles_per_wavelength: float = 40.0, courant: float = 0.95, ramp: float = 0.0,
           t_end: float = 4.1e-9, output_interval: float = 0.41e-9, line_x: float = 0.244, pml_order: int = 3,
-          pml_reflection: float = 1e-6, frames: bool = True, vtk: bool = True) -> TimeLoop:
-    """Lengths in m, times in s; ``frequency_ratio``: f/f_c of TM1 (> 1: propagating)."""
+          pml_reflection: float = 1e-6, distribution: str = "blocks", frames: bool = True,
+          vtk: bool = True) -> TimeLoop:
+    """Lengths in m, times in s; ``frequency_ratio``: f/f_c of TM1 (> 1: propagating); ``distribution``: the
+    load distribution over threads (``warpfree/distribution.py``)."""
     params = dict(locals())
     require_positive("width", width)
     require_positive("length", length)
@@ -53,7 +55,8 @@ def build(width: float = 0.5, length: float = 0.4, pml_thickness: float = 0.1, f
     profile = np.sin(np.pi * e[line, 0] / width)
     driven = line[np.abs(profile) > 1e-12]  # the plate particles stay PEC (profile 0 there)
     waveform = Waveform(frequency, ramp=ramp)
-    solver = SPEMSolver(model, [Source(driven, waveform, amplitude * np.sin(np.pi * e[driven, 0] / width))])
+    solver = SPEMSolver(model, [Source(driven, waveform, amplitude * np.sin(np.pi * e[driven, 0] / width))],
+                        distribution=distribution)
     dt = solver.step_for(output_interval, courant)
     column_x = e[np.argmin(np.abs(e[:, 0] - line_x)), 0]
     column = np.flatnonzero((np.abs(e[:, 0] - column_x) < 1e-9 * width) & (e[:, 1] <= length + 1e-9 * length))

@@ -21,10 +21,12 @@ import numpy as np
 import warp as wp
 
 from warpfree.device import Launcher, current_launcher
+from warpfree.distribution import launch_order
 from warpfree.errors import ParameterError, require_positive
 from warpfree.kernels import spem as K
 from warpfree.solver import OutputSet, State, TimeDependentSolver
 
+from .kronecker import NodalValues
 from .model import SPEMModel
 from .plane_wave import DevicePlaneWave, PlaneWave
 
@@ -100,13 +102,19 @@ class _DeviceSource:
 
 class SPEMSolver(TimeDependentSolver):
     """Leapfrog SPEM on ``model``; ``ez``/``hx``/``hy``: initial fields (arrays or f(points) -> values), zero
-    by default; ``sources``: a list of :class:`Source`."""
+    by default; ``sources``: a list of :class:`Source` and :class:`~.plane_wave.PlaneWave`.
+
+    ``kronecker``: the initial fields are field values, converted once to the nodal values whose SPH interpolant
+    takes them at the particles (seed §3.1.5, :mod:`.kronecker`; for the "sph" and "cspm" schemes, whose values
+    are read through that interpolant; FPM's values already are point values). PEC particles keep 0.
+    ``distribution``: which particles each thread updates (``warpfree/distribution.py``: "blocks",
+    "alternating", "random", "neighbours"); the results are bitwise the same for all."""
 
     name = "spem"
     work_unit = "particle-steps"
 
     def __init__(self, model: SPEMModel, sources: list[Source] | None = None, ez=None, hx=None, hy=None,
-                 launcher: Launcher | None = None):
+                 launcher: Launcher | None = None, kronecker: bool = False, distribution: str = "blocks"):
         super().__init__(model, launcher or model.launcher or current_launcher())
         e, h, dev = model.electric, model.magnetic, self.launcher.device
 
@@ -121,8 +129,11 @@ class SPEMSolver(TimeDependentSolver):
 
         ez0 = initial("ez", ez, e)
         ez0[model.held] = 0.0
-        self.state = SPEMState(e.add("ez", ez0), e.add("ezx", 0.5 * ez0), h.add("hx", initial("hx", hx, h)),
-                               h.add("hy", initial("hy", hy, h)), wp.zeros(1, dtype=wp.float64, device=dev))
+        hx0, hy0 = initial("hx", hx, h), initial("hy", hy, h)
+        if kronecker:
+            ez0, hx0, hy0 = self._nodal_values(model, ez0, hx0, hy0)
+        self.state = SPEMState(e.add("ez", ez0), e.add("ezx", 0.5 * ez0), h.add("hx", hx0),
+                               h.add("hy", hy0), wp.zeros(1, dtype=wp.float64, device=dev))
         sources = list(sources or [])
         for s in sources:
             if not isinstance(s, Source | PlaneWave):
@@ -136,6 +147,25 @@ class SPEMSolver(TimeDependentSolver):
         self.held = e.add("held", held.astype(np.int32), dtype=wp.int32)
         self.t = 0.0
         self._dt_max = model.stable_dt()
+        self.distribution = distribution
+        parts = self.launcher.threads
+        e_cost = np.where(held, 0, model.e_rows.rows.count.numpy()[:e.n])  # a held particle returns at once
+        h_cost = model.h_rows.rows.count.numpy()[:h.n]
+        self.e_order, self.h_order = (wp.array(launch_order(distribution, s.n, parts, cost=cost), dtype=wp.int32,
+                                               device=dev) for s, cost in ((e, e_cost), (h, h_cost)))
+
+    @staticmethod
+    def _nodal_values(model: SPEMModel, ez0, hx0, hy0):
+        """The nodal values of the initial fields (the ``kronecker`` option): E with its PEC particles at 0."""
+        if model.scheme == "fpm":
+            raise ParameterError("kronecker", "FPM's particle values are point values already (its derivative is "
+                                              "exact on them); the option is for the 'sph' and 'cspm' schemes")
+        free = np.flatnonzero(~model.held)
+        e = NodalValues.from_set(model.electric, model.dim, subset=free if model.held.any() else None)
+        ez = e.nodal(ez0) if e.subset is None else e.nodal_for(ez0[free], np.zeros(model.layout.n_e))
+        h = NodalValues.from_set(model.magnetic, model.dim)
+        hxy = h.nodal(np.stack([hx0, hy0], axis=1))
+        return ez, hxy[:, 0].copy(), hxy[:, 1].copy()
 
     # -- stepping --------------------------------------------------------------------------------
     def step(self, dt: float) -> None:
@@ -143,7 +173,7 @@ class SPEMSolver(TimeDependentSolver):
         m, L, st = self.model, self.launcher, self.state
         e, h = m.electric, m.magnetic
         with self.phases("electric"):
-            L.launch(K.update_electric, e.n, [float(dt), m.e_rows.rows, m.e_coefficient, st.hx, st.hy,
+            L.launch(K.update_electric, e.n, [self.e_order, float(dt), m.e_rows.rows, m.e_coefficient, st.hx, st.hy,
                                               e["inv_permittivity"], e["loss"], self.held, st.ez, st.ezx])
             for w in self.plane_waves:  # TF/SF: the incident H^n across the box's boundary
                 L.launch(K.plane_wave_electric, w.n_e, [float(dt), float(self.t), w.struct, w.e_targets, w.e_rows,
@@ -155,7 +185,7 @@ class SPEMSolver(TimeDependentSolver):
                 L.launch(K.set_source, s.index.size, [s.particles, s.amplitude, float(s.source.waveform(t_half)),
                                                       s.additive, st.ez, st.ezx])
         with self.phases("magnetic"):
-            L.launch(K.update_magnetic, h.n, [float(dt), m.h_rows.rows, m.h_coefficient, st.ez,
+            L.launch(K.update_magnetic, h.n, [self.h_order, float(dt), m.h_rows.rows, m.h_coefficient, st.ez,
                                               h["inv_permeability"], h["loss"], st.hx, st.hy])
             for w in self.plane_waves:  # TF/SF: the incident Ez^{n+1/2}
                 L.launch(K.plane_wave_magnetic, w.n_h, [float(dt), float(t_half), w.struct, w.h_targets, w.h_rows,
@@ -211,6 +241,6 @@ class SPEMSolver(TimeDependentSolver):
 
     def describe(self) -> dict:
         d = self.model.describe()
-        d.update(dt_max=self._dt_max, sources=[{"particles": int(s.index.size), "kind": s.source.kind,
+        d.update(dt_max=self._dt_max, distribution=self.distribution, sources=[{"particles": int(s.index.size), "kind": s.source.kind,
                                                 "frequency": s.source.waveform.frequency} for s in self.sources])
         return d

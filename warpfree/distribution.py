@@ -1,0 +1,67 @@
+"""Load distributions: which items each thread's chunk of a launch holds (seed 000 §3.2.2, Figs 3.4-3.7).
+
+The launcher (``warpfree.device.Launcher``) splits a launch of n items into contiguous chunks of launch
+indices, one per thread. A kernel that reads its item through an index map, ``i = order[first + tid]``,
+gets any assignment of items to threads without a change to the launcher, and stays race-free and bitwise
+reproducible as long as item i writes only its own slots (a gather): the order of the items changes which
+thread computes them, not what is computed.
+
+The thesis's four strategies, as index maps for ``parts`` chunks:
+
+- ``blocks``: contiguous blocks of indices (its "sequential", Fig. 3.4): the identity;
+- ``alternating``: round-robin by index, thread c takes i ≡ c (mod parts) (its "AD", Fig. 3.5);
+- ``random``: a random permutation, equal counts per thread (its "RD", Fig. 3.6), seeded;
+- ``neighbours``: by neighbourhood size (Fig. 3.7): items sorted by their cost (the neighbour count) and dealt
+  to the chunks in a serpentine (1..parts, parts..1, ...) so that every chunk holds the same number of items
+  and nearly the same total cost; within a chunk in index order.
+
+Each map fills the chunks of ``Launcher.chunks(n, parts)`` exactly (their sizes differ by at most one).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from warpfree.errors import ParameterError
+
+__all__ = ["DISTRIBUTIONS", "launch_order"]
+
+DISTRIBUTIONS = ("blocks", "alternating", "random", "neighbours")
+
+
+def _chunk_sizes(n: int, parts: int) -> np.ndarray:
+    """The sizes of the launcher's contiguous chunks (``Launcher.chunks``): (n(c+1))//k - (nc)//k."""
+    k = max(1, min(parts, n))
+    c = np.arange(k + 1)
+    return np.diff((n * c) // k)
+
+
+def launch_order(kind: str, n: int, parts: int, cost: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
+    """The index map (int32, a permutation of 0..n-1) of distribution ``kind`` for ``parts`` chunks;
+    ``cost`` (n,): the work per item (``neighbours`` only)."""
+    if kind not in DISTRIBUTIONS:
+        raise ParameterError("distribution", f"must be one of {', '.join(DISTRIBUTIONS)}, got {kind!r}")
+    if isinstance(parts, bool) or int(parts) != parts or parts < 1:
+        raise ParameterError("distribution", f"needs a whole number of parts >= 1, got {parts!r}")
+    index = np.arange(n)
+    sizes = _chunk_sizes(n, int(parts))
+    if kind == "blocks" or n == 0:
+        return index.astype(np.int32)
+    if kind == "random":
+        return np.random.default_rng(seed).permutation(n).astype(np.int32)
+    k = sizes.size
+    if kind == "alternating":
+        groups = [index[c::k] for c in range(k)]
+    else:
+        if cost is None or np.shape(cost) != (n,):
+            raise ParameterError("distribution", "'neighbours' needs the cost (neighbour count) of every item")
+        by_cost = np.argsort(-np.asarray(cost), kind="stable")
+        lap = np.arange(n) // k
+        slot = np.arange(n) % k
+        chunk = np.where(lap % 2 == 0, slot, k - 1 - slot)  # serpentine: 0..k-1, k-1..0, ...
+        groups = [np.sort(by_cost[chunk == c]) for c in range(k)]
+    # the groups have the chunks' sizes (n mod k of them one longer) in another order: pair them by size
+    placed = [None] * k
+    for chunk, group in zip(np.argsort(sizes, kind="stable"), sorted(groups, key=len)):
+        placed[chunk] = group
+    return np.concatenate(placed).astype(np.int32)
