@@ -9,6 +9,9 @@ What it measures
     * ``control``: a compute-bound Warp kernel (a sin loop, no memory traffic) launched through the same
       ``Launcher``: what the machine delivered to two threads during the run (on a shared 2-core machine
       well below 2 whenever anything else runs);
+    * ``control_memory`` (on request): a memory-bound Warp kernel, the STREAM triad a = b + s c over 3 arrays
+      of 8 M floats (96 MB, far beyond the caches), through the same launcher with every launch split: what the
+      machine's memory delivers to 1..N threads (GB/s), the ceiling of a gather such as SPEM's update;
     * ``2d_default``: the default scene as it ships (``scenes/dam_break_2d.py``, dx = 0.025: 3 200 fluid +
       1 948 boundary), where launch and hand-over overheads weigh most;
     * ``2d``: the 2D dam break (``scenes/dam_break_2d.py``, dx = 0.006: 55 278 fluid + 8 030 boundary);
@@ -55,6 +58,7 @@ import common  # noqa: E402
 CASES = {
     # name: (scene, full parameters, quick parameters)
     "control": ("control", {}, {}),
+    "control_memory": ("control_memory", {}, {}),
     "2d_default": ("dam_break_2d", {"dx": 0.025}, {"dx": 0.05}),
     "2d": ("dam_break_2d", {"dx": 0.006}, {"dx": 0.02}),
     "3d": ("dam_break_3d", {"dx": 0.035}, {"dx": 0.07}),
@@ -87,12 +91,43 @@ def _control_kernel():
     return spin
 
 
+def _triad_kernel():
+    import warp as wp
+
+    @wp.kernel
+    def triad(first: int, a: wp.array(dtype=float), b: wp.array(dtype=float), c: wp.array(dtype=float), s: float):
+        i = first + wp.tid()
+        a[i] = b[i] + s * c[i]
+
+    return triad
+
+
+def worker_control_memory(cfg: dict) -> dict:
+    """Memory-bound control: the STREAM triad through the same launcher, every launch split over the threads."""
+    import warp as wp
+
+    import warpfree.device
+
+    launcher = warpfree.device.use("cpu", cfg["threads"], min_items_per_thread=1)
+    kernel = _triad_kernel()
+    n = cfg["n"]
+    a, b, c = (wp.zeros(n, dtype=float, device="cpu") for _ in range(3))
+    res = common.time_steps(lambda: launcher.launch(kernel, n, [a, b, c, 1.5]), cfg["steps"], 1, cfg["repeats"])
+    counts = {"work_items": n, "work_unit": "items"}
+    res.update(threads=launcher.threads, dt=0.0, phase_s_per_step={}, loadavg=common.loadavg(), rebuild_every=None,
+               bytes_per_launch=3 * 4 * n, **counts)
+    res.update(common.throughput(counts, cfg["steps"], res["median_s"]))
+    return res
+
+
 def worker_control(cfg: dict) -> dict:
     """Compute-bound control: a Warp kernel with no memory traffic, through the same launcher."""
     import warp as wp
 
     import warpfree.device
 
+    if cfg["scene"] == "control_memory":
+        return worker_control_memory(cfg)
     launcher = warpfree.device.use("cpu", cfg["threads"])
     kernel = _control_kernel()
     n, iters = cfg["n"], cfg["iters"]
@@ -106,7 +141,7 @@ def worker_control(cfg: dict) -> dict:
 
 
 def worker(cfg: dict) -> dict:
-    if cfg["scene"] == "control":
+    if cfg["scene"] in ("control", "control_memory"):
         return worker_control(cfg)
     run = common.build_scene(cfg["scene"], cfg["threads"], **cfg["params"])
     solver = run.solver
@@ -127,6 +162,8 @@ def sweep_case(name: str, scene: str, params: dict, threads: list[int], args) ->
                        repeats=args.repeats, dt=dt)
             if scene == "control":
                 cfg.update(n=16384, iters=2000 if not args.quick else 500, steps=3)
+            if scene == "control_memory":
+                cfg.update(n=8_000_000 if not args.quick else 1_000_000, steps=5)
             res = common.run_worker(__file__, ["--worker", json.dumps(cfg)])
             dt = res["dt"]
             blocks[t].extend(res["block_s"])
@@ -163,6 +200,16 @@ def markdown(cases: list[dict]) -> str:
                                          common.fmt(r["efficiency"])] for r in c["rows"]]))
             out.append("")
             continue
+        if c["scene"] == "control_memory":
+            out.append(f"**Memory control**: the STREAM triad a = b + s c over 3 x {c['work_items']} floats through the "
+                       f"same launcher, split over the threads: the memory bandwidth the machine delivered (median of "
+                       f"{c['rounds'] * c['repeats']} blocks).\n")
+            out.append(common.md_table(["threads", "ms/launch", "GB/s", "speed-up"],
+                                       [[r["threads"], f"{r['s_per_step'] * 1e3:.2f}",
+                                         f"{12 * c['work_items'] / r['s_per_step'] / 1e9:.2f}", common.fmt(r["speedup"])]
+                                        for r in c["rows"]]))
+            out.append("")
+            continue
         reb = (f"a neighbour-table rebuild forced every {c['rebuild_every']} steps (developed-flow rate)"
                if c.get("rebuild_every") else "no forced rebuilds")
         size = (f"{c['n_fluid']} fluid + {c['n_boundary']} boundary = {c['n_particles']} particles"
@@ -189,9 +236,12 @@ def plot(cases: list[dict]):
     for i, c in enumerate(cases):
         th = [r["threads"] for r in c["rows"]]
         tmax = max(tmax, max(th))
-        if c["scene"] == "control":
+        if c["scene"] in ("control", "control_memory"):
             if c["rows"][0]["speedup"] is not None:
-                a1.plot(th, [r["speedup"] for r in c["rows"]], "x--", color="0.4", label="control (compute-bound kernel)")
+                a1.plot(th, [r["speedup"] for r in c["rows"]], "x--" if c["scene"] == "control" else "s--",
+                        color="0.4" if c["scene"] == "control" else "0.7",
+                        label="control (compute-bound kernel)" if c["scene"] == "control" else
+                        "memory control (STREAM triad)")
             continue
         lab = f"{c['case']} ({c['work_items']} items/step)"
         if c["rows"][0]["speedup"] is not None:

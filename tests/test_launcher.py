@@ -222,9 +222,10 @@ def test_close_is_idempotent():
 
 
 def test_split_from_measured_time():
-    """Measured splitting: a first launch runs whole; a split is tried when the whole launch is long against the
-    pool's hand-over; then the faster way is taken, the other re-timed every RETRY launches; the result is
-    bitwise the same either way."""
+    """Measured splitting: a first launch runs whole; a split is tried (over a burst of TRIAL launches) when the
+    whole launch is long against the pool's hand-over; then the faster way is taken, the other re-timed every
+    RETRY launches; a launch of more than ALWAYS_SPLIT hand-overs is always split; the result is bitwise the
+    same either way."""
     from warpfree.device import _Timing
 
     launcher = Launcher(device="cpu", threads=2)
@@ -238,19 +239,29 @@ def test_split_from_measured_time():
         launcher.launch(kt.eval_w_dwdr, n, args)
         whole = w.numpy().copy()
         key = Launcher.site(kt.eval_w_dwdr, n, args)
-        assert launcher._timings[key].whole > 0 and launcher._timings[key].split is None
+        assert launcher._timings[key].whole is None  # a kernel's first launch is cold: not counted
+        for _ in range(Launcher.TRIAL - 1):
+            launcher.launch(kt.eval_w_dwdr, n, args)
+        assert launcher._timings[key].whole > 0  # then timed: the warm whole launches
         timing = _Timing()
         launcher._timings[key] = timing
-        timing.add(1e-3, split=False)            # long against the hand-over: try a split
+        mid = 5.0 * launcher.handover_s
+        timing.add(mid, split=False)             # long against the hand-over: try a split ...
         assert launcher.split_count(kt.eval_w_dwdr, n, args) == 2
-        launcher.launch(kt.eval_w_dwdr, n, args)
-        assert np.array_equal(w.numpy(), whole) and timing.split is not None
-        timing.split, timing.launches = 2e-3, 5   # splitting measured slower: run whole
+        assert timing.trial_split and timing.trial_left == Launcher.TRIAL  # ... over a burst of launches
+        for _ in range(Launcher.TRIAL):
+            launcher.launch(kt.eval_w_dwdr, n, args)
+        assert np.array_equal(w.numpy(), whole) and timing.split is not None and timing.trial_left == 0
+        timing.split, timing.whole, timing.launches = 2 * mid, mid, 5   # splitting measured slower: run whole
         assert launcher.split_count(kt.eval_w_dwdr, n, args) == 1
         timing.launches = Launcher.RETRY          # ... but time the split again now and then
         assert launcher.split_count(kt.eval_w_dwdr, n, args) == 2
-        timing.split, timing.launches = 0.4e-3, 7
+        timing.trial_left, timing.split, timing.launches = 0, 0.4 * mid, 7
         assert launcher.split_count(kt.eval_w_dwdr, n, args) == 2
+        timing.split, timing.whole = 2.0, 1.0     # a launch of many hand-overs is split whatever was measured
+        assert timing.whole > Launcher.ALWAYS_SPLIT * launcher.handover_s
+        assert launcher.split_count(kt.eval_w_dwdr, n, args) == 2
+        timing.split, timing.whole = 0.4 * mid, mid
         short = _Timing()
         short.add(0.5 * launcher.handover_s, split=False)  # too short to be worth a try
         launcher._timings[key] = short

@@ -156,19 +156,20 @@ def test_line_1d_matches_the_exact_wave(tmp_path):
     assert abs(line["wavelength_rel_error"]) < 1e-3
 
 
-def pec_box(spacing: float, jitter: float = 0.0, conservative: bool = True):
+def pec_box(spacing: float, jitter: float = 0.0, conservative: bool = True, grading: float = 1.0):
     """A 1 m x 0.8 m PEC box started in its TM11 mode Ez = sin(πx/a) sin(πy/b), H = 0."""
     a, b = 1.0, 0.8
-    lay = staggered_box((0, 0), (a, b), spacing, jitter=jitter, seed=2)
+    lay = staggered_box((0, 0), (a, b), spacing, jitter=jitter, seed=2, grading=grading)
     shape = lambda p: np.sin(np.pi * p[:, 0] / a) * np.sin(np.pi * p[:, 1] / b)  # noqa: E731
     solver = SPEMSolver(SPEMModel(lay, support=support_for_jitter(jitter), conservative=conservative), ez=shape)
     return solver, shape(lay.e_position), C0 * math.pi * math.hypot(1 / a, 1 / b)
 
 
-def cavity_frequency(spacing: float, jitter: float = 0.0, conservative: bool = True, periods: float = 3.0):
+def cavity_frequency(spacing: float, jitter: float = 0.0, conservative: bool = True, periods: float = 3.0,
+                     grading: float = 1.0):
     """Relative error of the TM11 frequency, from the zero crossings of the mode's projection, against
     ω = cπ sqrt(1/a² + 1/b²), and the energy sampled once a period (8 periods)."""
-    solver, basis, omega = pec_box(spacing, jitter, conservative)
+    solver, basis, omega = pec_box(spacing, jitter, conservative, grading)
     dt = 0.9 * solver.stable_dt()
     per_period = int(2 * math.pi / omega / dt)
     proj, energy = [], []
@@ -211,6 +212,21 @@ def test_jittered_particles_conserve_energy_and_keep_the_uniform_accuracy():
     assert energy.max() / energy.min() < 1.15
     _, grows = cavity_frequency(0.05, jitter=0.3, conservative=False, periods=0)
     assert grows[-1] / grows[0] > 1e3
+
+
+def test_graded_layout_keeps_energy_and_accuracy():
+    """Graded particles (``staggered_box(grading=2)``: spacing from 0.67 to 1.33 of the mean along each axis,
+    so cells of different sizes and aspect ratios meet). Measured 2026-11-23 (conservative pair): TM11
+    frequency error -0.54 % at a mean spacing of 0.05 m and -0.22 % at 0.025 m (uniform: -0.31 %, -0.076 %;
+    the coarsest cells are 1.33x the mean, and 1.33² = 1.8), energy within 6 %; grading 3: -0.82 %, -0.18 %.
+    Asserted: below 1 %, converging, energy within 15 %."""
+    device.use("cpu", 2)
+    coarse, energy = cavity_frequency(0.05, grading=2.0)
+    fine, _ = cavity_frequency(0.025, grading=2.0)
+    assert abs(coarse) < 1e-2 and abs(fine) < 0.5 * abs(coarse)
+    assert energy.max() / energy.min() < 1.15
+    with pytest.raises(ParameterError, match="^grading"):
+        staggered_box((0, 0), (1, 1), 0.1, grading=5.0)
 
 
 def test_cavity_series_reproduces_the_initial_profile():

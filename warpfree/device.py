@@ -72,7 +72,12 @@ class Launcher:
     next launch the faster way. A first launch runs whole; a split is tried once the whole launch takes more
     than twice the pool's hand-over (measured when the pool starts, 20–60 µs on a VM), and both ways are timed
     again every ``RETRY`` launches, as the work of a kernel changes during a run (neighbour counts grow as a
-    dam break develops). On the default 2D dam break the rates kernel (3 ms a step) runs split, a drift over
+    dam break develops). A way is (re)timed over a burst of ``TRIAL`` consecutive launches whose first is
+    discarded (a kernel's first launch, and the first split after a run of whole ones, are cold). A launch
+    longer than ``ALWAYS_SPLIT`` hand-overs is always split: on a VM the sibling vCPU, idle between rare
+    trial splits, is parked by the hypervisor and a trial split ran as slowly as the whole launch (SPEM's
+    update, 1.25 ms both ways for its first ~100 launches), where in steady state it runs in 0.67 ms split
+    against 1.22 ms whole: the measurement chose whole, and the SPEM step ran at 1.0x on 2 threads. On the default 2D dam break the rates kernel (3 ms a step) runs split, a drift over
     the same particles (50 µs) whole. Since every chunked kernel is a gather, the split never changes a
     result: they are bitwise the same for any thread count and any split (tested). ``min_items_per_thread``
     = m instead splits every launch with at least m items per chunk (tests use 1 to exercise the chunking on
@@ -85,6 +90,11 @@ class Launcher:
     MAX_SITES = 4096
     #: a split is tried once a whole launch takes this many times the pool's hand-over
     TRY_SPLIT = 2.0
+    #: consecutive launches a way is timed over when it is tried (the first, cold, is not counted)
+    TRIAL = 4
+    #: a launch this many times the pool's hand-over is always split: it can lose at most one hand-over
+    #: (5 % of it) where the memory bus is already saturated, and gains up to the thread count where it is not
+    ALWAYS_SPLIT = 20.0
 
     def __init__(self, device: str | None = None, threads: int | None = None, min_items_per_thread: int | None = None):
         self.device = resolve_device(device)
@@ -142,10 +152,18 @@ class Launcher:
         t = self._timings.get(self.site(kernel, n, args))
         if t is None or t.whole is None:
             return 1
+        if t.whole > self.ALWAYS_SPLIT * self.handover_s:
+            return self.threads
+        if t.trial_left == 0:
+            if t.split is None:
+                if t.whole > self.TRY_SPLIT * self.handover_s:
+                    t.start_trial(split=True, launches=self.TRIAL)
+            elif t.launches % self.RETRY == 0:  # time the way not taken again
+                t.start_trial(split=t.split > t.whole, launches=self.TRIAL)
+        if t.trial_left > 0:
+            return self.threads if t.trial_split else 1
         if t.split is None:
-            return self.threads if t.whole > self.TRY_SPLIT * self.handover_s else 1
-        if t.launches % self.RETRY == 0:  # time the way not taken again
-            return 1 if t.split <= t.whole else self.threads
+            return 1
         return self.threads if t.split < t.whole else 1
 
     def launch(self, kernel, n: int, inputs: list, outputs: list | None = None) -> None:
@@ -174,7 +192,8 @@ class Launcher:
         if self.min_items_per_thread is None:
             if len(self._timings) > self.MAX_SITES:  # sites with fresh arrays each launch: start over
                 self._timings.clear()
-            self._timings.setdefault(self.site(kernel, n, args), _Timing()).add(time.perf_counter() - t0, len(chunks) > 1)
+            self._timings.setdefault(self.site(kernel, n, args), _Timing(self.TRIAL)).add(time.perf_counter() - t0,
+                                                                                          len(chunks) > 1)
 
     def _run(self, kernel, first: int, count: int, inputs: list, outputs: list) -> None:
         """One launch of ``count`` items from ``first``, replayed from a recorded command when it can be.
@@ -223,22 +242,39 @@ _SCALARS = (int, float, bool)
 
 
 class _Timing:
-    """Running averages of a kernel's launch wall time (s), run whole and run split, and its launch count."""
+    """A kernel's launch wall time (s) run whole and run split (each the median of its last ``KEEP`` warm
+    samples: one launch slowed by the machine does not flip the choice for ``RETRY`` launches), its launch
+    count, and the trial under way (``trial_left`` launches of the way ``trial_split``, the first not counted;
+    a new kernel starts with a trial of ``trial`` whole launches)."""
 
-    __slots__ = ("whole", "split", "launches")
+    KEEP = 5
+    __slots__ = ("whole", "split", "launches", "trial_left", "trial_split", "_cold", "_samples")
 
-    def __init__(self):
+    def __init__(self, trial: int = 1):
         self.whole = self.split = None
         self.launches = 0
+        self._samples = {False: [], True: []}
+        self.start_trial(split=False, launches=trial)  # the first launch of a kernel is cold too
+
+    def start_trial(self, split: bool, launches: int) -> None:
+        self.trial_left, self.trial_split, self._cold = launches, split, True
 
     def add(self, seconds: float, split: bool) -> None:
         self.launches += 1
-        old = self.split if split else self.whole
-        new = seconds if old is None else 0.8 * old + 0.2 * seconds
+        if self.trial_left > 0 and split == self.trial_split:
+            self.trial_left -= 1
+            if self._cold:  # the first launch of a trial: the pool thread woke, the other core's cache was cold
+                self._cold = False
+                if self.trial_left > 0:
+                    return
+        samples = self._samples[split]
+        samples.append(seconds)
+        del samples[:-self.KEEP]
+        value = float(sorted(samples)[len(samples) // 2])
         if split:
-            self.split = new
+            self.split = value
         else:
-            self.whole = new
+            self.whole = value
 
 
 def _no_op() -> None:

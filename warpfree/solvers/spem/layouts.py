@@ -7,8 +7,9 @@ particle's nearest particles of the other set surround it symmetrically (4 at Δ
 is λ/Δ: one E and one H particle per Δ (per Δ² in 2D), as FDTD counts cells.
 
 Layouts: ``uniform``; ``jittered`` (every particle not on a wall moved by a random offset of up to
-``jitter``·Δ per axis); ``graded`` (1D and 2D: the spacing along x grows geometrically by ``ratio`` per
-particle from ``x_grade`` on, to test particles of varying size). Walls: E particles on the boundary of
+``jitter``·Δ per axis); ``graded`` (1D: the spacing grows geometrically by ``ratio`` per cell from
+``grade_from`` on; 2D boxes: ``grading`` = the largest over the smallest spacing along each axis, varying
+smoothly, so cells of different sizes and aspect ratios meet, to test particles of varying size). Walls: E particles on the boundary of
 the region (a box's faces, a disk's circle) are flagged ``on_wall``: a scene holds them at Ez = 0 (a
 perfect conductor) or leaves them free.
 """
@@ -172,28 +173,48 @@ def staggered_line(x0: float, x1: float, spacing: float, jitter: float = 0.0, se
                            lambda p: (p[:, 0] >= nodes[0]) & (p[:, 0] <= nodes[-1]))
 
 
-def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int = 0) -> StaggeredLayout:
+def graded_nodes(lo: float, hi: float, cells: int, grading: float) -> np.ndarray:
+    """``cells`` + 1 nodes on [lo, hi] whose spacing varies smoothly by the factor ``grading`` (largest over
+    smallest): x(ξ) = lo + L (ξ + a sin(2πξ)/(2π)), ξ = k/cells, dx/dξ = L (1 + a cos 2πξ),
+    a = (grading − 1)/(grading + 1): coarsest at the ends, finest in the middle."""
+    a = (grading - 1.0) / (grading + 1.0)
+    xi = np.arange(cells + 1) / cells
+    return lo + (hi - lo) * (xi + a * np.sin(2.0 * np.pi * xi) / (2.0 * np.pi))
+
+
+def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int = 0,
+                  grading: float = 1.0) -> StaggeredLayout:
     """2D box: E at the lattice nodes (those on the faces flagged ``on_wall``), H at the cell centres; Δ is
-    adjusted per axis to fit whole cells (the larger of the two adjusted spacings is the nominal Δ)."""
+    adjusted per axis to fit whole cells (the larger of the two adjusted spacings is the nominal Δ).
+    ``grading`` > 1: the nodes along each axis from :func:`graded_nodes` (the mean spacing stays Δ); each
+    particle's local spacing is the larger side of its cell (of the cells around an E node)."""
     spacing = require_positive("spacing", spacing)
     lo, hi = np.asarray(lower, float)[:2], np.asarray(upper, float)[:2]
     if lo.shape != (2,) or hi.shape != (2,) or np.any(hi <= lo):
         raise ParameterError("upper", f"a 2D box needs lower < upper per axis, got {lower}, {upper}")
     j = _check_jitter(jitter)
+    if not (np.isfinite(grading) and 1.0 <= grading <= 3.0):
+        raise ParameterError("grading", f"must be in [1, 3] (largest over smallest spacing), got {grading}")
     cells = np.maximum(2, np.round((hi - lo) / spacing).astype(int))
-    d = (hi - lo) / cells
+    nodes = [graded_nodes(lo[a], hi[a], cells[a], grading) for a in range(2)]
+    widths = [np.diff(x) for x in nodes]
     ix, iy = np.meshgrid(np.arange(cells[0] + 1), np.arange(cells[1] + 1), indexing="ij")
-    e = np.stack([lo[0] + ix.ravel() * d[0], lo[1] + iy.ravel() * d[1]], axis=1)
+    e = np.stack([nodes[0][ix.ravel()], nodes[1][iy.ravel()]], axis=1)
     on_wall = (ix.ravel() == 0) | (ix.ravel() == cells[0]) | (iy.ravel() == 0) | (iy.ravel() == cells[1])
     cx, cy = np.meshgrid(np.arange(cells[0]), np.arange(cells[1]), indexing="ij")
-    h = np.stack([lo[0] + (cx.ravel() + 0.5) * d[0], lo[1] + (cy.ravel() + 0.5) * d[1]], axis=1)
+    h = np.stack([0.5 * (nodes[0][cx.ravel()] + nodes[0][cx.ravel() + 1]),
+                  0.5 * (nodes[1][cy.ravel()] + nodes[1][cy.ravel() + 1])], axis=1)
+    h_spacing = np.maximum(widths[0][cx.ravel()], widths[1][cy.ravel()])
+    node_width = [np.maximum(np.r_[w[0], w], np.r_[w, w[-1]]) for w in widths]  # the larger adjacent cell
+    e_spacing = np.maximum(node_width[0][ix.ravel()], node_width[1][iy.ravel()])
+    smallest = float(min(w.min() for w in widths))
     e, h = _pad3(e), _pad3(h)
     if j > 0:
         rng = np.random.default_rng(seed)
-        e = _jitter(e, on_wall, j * float(d.min()), 2, rng)
-        h = _jitter(h, np.zeros(h.shape[0], bool), j * float(d.min()), 2, rng)
-    nominal = float(d.max())
-    return StaggeredLayout(2, e, h, np.full(e.shape[0], nominal), np.full(h.shape[0], nominal), on_wall, nominal,
+        e = _jitter(e, on_wall, j * smallest, 2, rng)
+        h = _jitter(h, np.zeros(h.shape[0], bool), j * smallest, 2, rng)
+    nominal = float(((hi - lo) / cells).max())
+    return StaggeredLayout(2, e, h, e_spacing, h_spacing, on_wall, nominal,
                            lo, hi, lambda p: np.all((p[:, :2] >= lo) & (p[:, :2] <= hi), axis=1))
 
 
