@@ -374,6 +374,20 @@ def incident_signal(w: IncidentWave, x: wp.vec3, t: float) -> float:
     return value
 
 
+@wp.func
+def incident_sums(wave: IncidentWave, rows: NeighbourRows, s: int, coefficient: wp.array(dtype=wp.vec3),
+                  partner_position: wp.array(dtype=wp.vec3), t: float) -> wp.vec2:
+    """(Σ_j g_x f_j, Σ_j g_y f_j) over crossing row ``s``: f_j the incident signal at partner j at time t."""
+    sx = float(0.0)
+    sy = float(0.0)
+    for n in range(rows.start[s], rows.start[s] + rows.count[s]):
+        f = incident_signal(wave, partner_position[rows.index[n]], t)
+        g = coefficient[n]
+        sx += g[0] * f
+        sy += g[1] * f
+    return wp.vec2(sx, sy)
+
+
 @wp.kernel
 def plane_wave_electric(
     first: int,
@@ -398,14 +412,10 @@ def plane_wave_electric(
     i = targets[s]
     if held[i] != 0:
         return
-    dhy_dx = float(0.0)
-    dhx_dy = float(0.0)
-    for n in range(rows.start[s], rows.start[s] + rows.count[s]):
-        j = rows.index[n]
-        g = coefficient[n]
-        h = wave.amplitude * wave.admittance * incident_signal(wave, h_position[j], t)
-        dhy_dx += g[0] * (-h * wave.direction[0])
-        dhx_dy += g[1] * (h * wave.direction[1])
+    sums = incident_sums(wave, rows, s, coefficient, h_position, t)
+    h0 = wave.amplitude * wave.admittance  # Hx_inc = h0 f d_y, Hy_inc = -h0 f d_x
+    dhy_dx = -h0 * wave.direction[0] * sums[0]
+    dhx_dy = h0 * wave.direction[1] * sums[1]
     k = loss[i]
     px = exponential_step(k[0], dt, inv_permittivity[i])
     py = exponential_step(k[1], dt, inv_permittivity[i])
@@ -432,13 +442,9 @@ def plane_wave_magnetic(
     Hy += b_x Σ g_x Ez_inc over the row's partners across the boundary (signed coefficients)."""
     s = first + wp.tid()
     k = targets[s]
-    dez_dx = float(0.0)
-    dez_dy = float(0.0)
-    for n in range(rows.start[s], rows.start[s] + rows.count[s]):
-        e = wave.amplitude * incident_signal(wave, e_position[rows.index[n]], t)
-        g = coefficient[n]
-        dez_dx += g[0] * e
-        dez_dy += g[1] * e
+    sums = incident_sums(wave, rows, s, coefficient, e_position, t)
+    dez_dx = wave.amplitude * sums[0]
+    dez_dy = wave.amplitude * sums[1]
     kk = loss[k]
     px = exponential_step(kk[0], dt, inv_permeability[k])
     py = exponential_step(kk[1], dt, inv_permeability[k])

@@ -74,10 +74,10 @@ class Launcher:
     again every ``RETRY`` launches, as the work of a kernel changes during a run (neighbour counts grow as a
     dam break develops). A way is (re)timed over a burst of ``TRIAL`` consecutive launches whose first is
     discarded (a kernel's first launch, and the first split after a run of whole ones, are cold). A launch
-    longer than ``ALWAYS_SPLIT`` hand-overs is always split: on a VM the sibling vCPU, idle between rare
-    trial splits, is parked by the hypervisor and a trial split ran as slowly as the whole launch (SPEM's
-    update, 1.25 ms both ways for its first ~100 launches), where in steady state it runs in 0.67 ms split
-    against 1.22 ms whole: the measurement chose whole, and the SPEM step ran at 1.0x on 2 threads. On the default 2D dam break the rates kernel (3 ms a step) runs split, a drift over
+    longer than ``ALWAYS_SPLIT`` hand-overs is always split: on this VM the second core reaches full speed
+    only after about 0.1 s of continuous work (the SPEM waveguide split on 2 threads: 2.6 ms a step for its
+    first ~50 steps, then 1.4 ms; 2.4 ms on 1 thread), so trial splits between whole launches, with that
+    core idle, ran as slowly as the whole launch; the measurement chose whole and the step stayed at 1.0x. On the default 2D dam break the rates kernel (3 ms a step) runs split, a drift over
     the same particles (50 µs) whole. Since every chunked kernel is a gather, the split never changes a
     result: they are bitwise the same for any thread count and any split (tested). ``min_items_per_thread``
     = m instead splits every launch with at least m items per chunk (tests use 1 to exercise the chunking on
