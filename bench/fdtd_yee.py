@@ -1,5 +1,5 @@
-"""A Yee FDTD solver of the waveguide of ``scenes/em_waveguide_2d.py``, as Warp kernels: the mesh method SPEM is
-compared with (``bench/spem_vs_fdtd.py``).
+"""Yee FDTD solvers of the waveguide of ``scenes/em_waveguide_2d.py`` and of the line of ``scenes/em_line_1d.py``,
+as Warp kernels: the mesh method SPEM is compared with (``bench/spem_vs_fdtd.py``).
 
 TMz on Yee's staggered grid (Yee 1966; Taflove & Hagness, *Computational Electrodynamics*, ch. 3): Ez at (iΔ, jΔ),
 Hx at (iΔ, (j+½)Δ), Hy at ((i+½)Δ, jΔ); plates (Ez = 0) at i = 0 and i = nx, the line j = 0 driven with
@@ -104,3 +104,56 @@ class YeeWaveguide:
         i = int(round(x / self.dx))
         ez = self.ez.numpy().reshape(self.nx + 1, self.ny + 1)[i]
         return i * self.dx, np.arange(self.ny + 1) * self.dx, ez
+
+
+@wp.kernel
+def update_line_e(first: int, n: int, dt: float, inv_dx: float, hy: wp.array(dtype=float), ez: wp.array(dtype=float)):
+    """1D: Ez(k) ← Ez + (Δt/ε0) ∂Hy/∂x at the interior nodes (Hy(k+½) stored at k); the ends stay 0 (PEC)."""
+    k = first + wp.tid()
+    if k == 0 or k == n:
+        return
+    ez[k] = ez[k] + dt / EPS0 * (hy[k] - hy[k - 1]) * inv_dx
+
+
+@wp.kernel
+def update_line_h(first: int, dt: float, inv_dx: float, ez: wp.array(dtype=float), hy: wp.array(dtype=float)):
+    """1D: Hy(k+½) ← Hy + (Δt/μ0) ∂Ez/∂x, k = 0 .. n-1."""
+    k = first + wp.tid()
+    hy[k] = hy[k] + dt / MU0 * (ez[k + 1] - ez[k]) * inv_dx
+
+
+@wp.kernel
+def drive_node(first: int, node: int, value: float, ez: wp.array(dtype=float)):
+    """Hard source at one node: Ez(node) = s(t)."""
+    ez[node] = value
+
+
+class YeeLine:
+    """The line of ``scenes/em_line_1d.py`` on a 1D Yee grid: Ez at x_k = kΔ (k = 0..n, PEC ends), Hy at the
+    midpoints, Δ = length/n with n = round(length/spacing) (the nodes of ``staggered_line``), a hard sine source
+    at the node nearest the centre."""
+
+    def __init__(self, launcher, length: float, spacing: float):
+        self.launcher = launcher
+        self.n = max(2, int(round(length / spacing)))
+        self.dx = length / self.n
+        self.x = np.arange(self.n + 1) * self.dx
+        self.source = int(np.argmin(np.abs(self.x - 0.5 * length)))
+        dev = launcher.device
+        self.ez, self.hy = (wp.zeros(self.n + 1, dtype=float, device=dev) for _ in range(2))
+        self.t = 0.0
+
+    def reset(self) -> None:
+        for a in (self.ez, self.hy):
+            a.zero_()
+        self.t = 0.0
+
+    def stable_dt(self) -> float:
+        return self.dx / C0
+
+    def step(self, dt: float, source) -> None:
+        L, inv = self.launcher, 1.0 / self.dx
+        L.launch(update_line_e, self.n + 1, [self.n, float(dt), inv, self.hy, self.ez])
+        L.launch(drive_node, 1, [self.source, float(source(self.t + 0.5 * dt)), self.ez])
+        L.launch(update_line_h, self.n, [float(dt), inv, self.ez, self.hy])
+        self.t += dt

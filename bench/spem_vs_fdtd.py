@@ -1,7 +1,7 @@
-"""SPEM against Yee FDTD on the same waveguide: error against wall time, and the time ratio at equal error.
+"""SPEM against Yee FDTD on the same problem: error against wall time, and the time ratio at equal error.
 
 What it measures
-    The waveguide of ``scenes/em_waveguide_2d.py`` (plates 0.5 m apart, TM1 at 1.2 f_c driven from y = 0, PML of
+    ``--case waveguide`` (default): the waveguide of ``scenes/em_waveguide_2d.py`` (plates 0.5 m apart, TM1 at 1.2 f_c driven from y = 0, PML of
     0.1 m beyond y = 0.4 m) to t = 4.1 ns, at several particles (cells) per wavelength, with SPEM (FPM, uniform
     layout) and with the Yee FDTD of ``bench/fdtd_yee.py`` (same PML grading, same source profile, same
     threads, dt = T / ceil(T / (0.95 × each method's stable step))). Error: mean |Ez - exact| / E0 along the
@@ -9,10 +9,16 @@ What it measures
     (``warpfree.validation.em_waveguide_2d``). Time: the steps only (set-up excluded), median of ``--repeats``
     runs. The ratio SPEM/FDTD at equal error is read off the two error-time curves (log-log interpolation).
 
+    ``--case line``: the 1D line of ``scenes/em_line_1d.py`` (1.8 GHz hard sine source at the centre of [0, π] m,
+    PEC ends) to t = 4.75 ns, SPEM against the 1D Yee grid of ``fdtd_yee.YeeLine`` with the same nodes, source and
+    step; error: the scene's mean |Ez - exact| on (0.5, 1.5) m (``warpfree.validation.em_line_1d``). On a uniform
+    line SPEM's FPM pair is Yee's difference, so the errors agree and the ratio is the cost of a step.
+
 Usage
-    python bench/spem_vs_fdtd.py                 # 1 thread, ppw 20 40 80 160 320, 3 repeats
+    python bench/spem_vs_fdtd.py                 # waveguide, 1 thread, ppw 20 40 80 160 320, 3 repeats
+    python bench/spem_vs_fdtd.py --case line     # the 1D line, ppw 10 20 40 80 160 320
     python bench/spem_vs_fdtd.py --threads 2
-Writes bench/results/spem_vs_fdtd.{json,md,png}.
+Writes bench/results/spem_vs_fdtd.{json,md,png} (the line: spem_vs_fdtd_line.*).
 """
 
 from __future__ import annotations
@@ -81,6 +87,55 @@ def run_fdtd(ppw: float, t_end: float, threads: int) -> tuple[float, float, int]
     return wall, float(np.mean(np.abs(ez[keep] - exact)) / amp), steps
 
 
+LINE = dict(frequency=1.8e9, length=math.pi, window=(0.5, 1.5))
+
+
+def run_spem_line(ppw: float, t_end: float, threads: int) -> tuple[float, float, int]:
+    from warpfree.validation.em_line_1d import mean_error
+
+    loop = common.build_scene("em_line_1d", threads, particles_per_wavelength=ppw, t_end=t_end)
+    s = loop.solver
+    steps = math.ceil(t_end / (0.95 * s.stable_dt()))
+    dt = t_end / steps
+    s.step(dt)  # kernel loading, then start again from rest
+    for a in (s.state.ez, s.state.ezx, s.state.hx, s.state.hy):
+        a.zero_()
+    s.t = 0.0
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        s.step(dt)
+    wall = time.perf_counter() - t0
+    x = s.model.layout.e_position[:, 0]
+    source = int(s.sources[0].index[0])
+    err = mean_error(x, s.model.electric.numpy("ez"), t_end - 0.5 * dt, x[source], LINE["frequency"], LINE["window"])
+    return wall, float(err), steps
+
+
+def run_fdtd_line(ppw: float, t_end: float, threads: int) -> tuple[float, float, int]:
+    import warpfree.device
+    from fdtd_yee import YeeLine
+    from warpfree.solvers.spem import C0, Waveform
+    from warpfree.validation.em_line_1d import mean_error
+
+    launcher = warpfree.device.use("cpu", threads)
+    f = LINE["frequency"]
+    g = YeeLine(launcher, LINE["length"], C0 / f / ppw)
+    wave = Waveform(f)
+    steps = math.ceil(t_end / (0.95 * g.stable_dt()))
+    dt = t_end / steps
+    g.step(dt, wave)
+    g.reset()
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        g.step(dt, wave)
+    wall = time.perf_counter() - t0
+    err = mean_error(g.x, g.ez.numpy(), t_end - 0.5 * dt, g.x[g.source], f, LINE["window"])
+    return wall, float(err), steps
+
+
+RUNNERS = {"waveguide": (run_spem, run_fdtd), "line": (run_spem_line, run_fdtd_line)}
+
+
 def equal_error_ratio(a: list[dict], b: list[dict]) -> list[dict]:
     """SPEM time / FDTD time at SPEM's errors, FDTD's time interpolated in log-log (inside its range only)."""
     eb = np.log([r["error"] for r in b])
@@ -97,15 +152,21 @@ def equal_error_ratio(a: list[dict], b: list[dict]) -> list[dict]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--ppw", type=float, nargs="+", default=[20, 40, 80, 160, 320])
+    ap.add_argument("--case", choices=sorted(RUNNERS), default="waveguide")
+    ap.add_argument("--ppw", type=float, nargs="+", default=None,
+                    help="default: 20 40 80 160 320 (line: 10 20 40 80 160 320)")
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--t-end", type=float, default=4.1e-9)
+    ap.add_argument("--t-end", type=float, default=None, help="default: 4.1e-9 s (line: 4.75e-9 s)")
     ap.add_argument("--worker", default=None)
     args = ap.parse_args()
+    line = args.case == "line"
+    args.ppw = args.ppw or ([10, 20, 40, 80, 160, 320] if line else [20, 40, 80, 160, 320])
+    args.t_end = args.t_end or (4.75e-9 if line else 4.1e-9)
     if args.worker:
         cfg = json.loads(args.worker)
-        wall, err, steps = (run_spem if cfg["code"] == "spem" else run_fdtd)(cfg["ppw"], cfg["t_end"], cfg["threads"])
+        spem, fdtd = RUNNERS[cfg["case"]]
+        wall, err, steps = (spem if cfg["code"] == "spem" else fdtd)(cfg["ppw"], cfg["t_end"], cfg["threads"])
         common.emit_worker_result({"wall_s": wall, "error": err, "steps": steps})
         return
     rows = {"spem": [], "fdtd": []}
@@ -113,14 +174,15 @@ def main() -> None:
         for code in ("spem", "fdtd"):
             walls, res = [], None
             for r in range(args.repeats):
-                res = common.run_worker(__file__, ["--worker", json.dumps(dict(code=code, ppw=ppw, t_end=args.t_end,
+                res = common.run_worker(__file__, ["--worker", json.dumps(dict(case=args.case, code=code, ppw=ppw,
+                                                                                t_end=args.t_end,
                                                                                 threads=args.threads))])
                 walls.append(res["wall_s"])
             row = dict(ppw=ppw, wall_s=float(np.median(walls)), walls_s=walls, error=res["error"], steps=res["steps"])
             rows[code].append(row)
             print(f"  {code} ppw={ppw}: error {row['error']:.3e}, {row['steps']} steps, {row['wall_s']:.3f} s", flush=True)
     ratios = equal_error_ratio(rows["spem"], rows["fdtd"])
-    md = [f"## SPEM against Yee FDTD, waveguide to t = {args.t_end:.3g} s ({args.threads} thread(s), "
+    md = [f"## SPEM against Yee FDTD, {args.case} to t = {args.t_end:.3g} s ({args.threads} thread(s), "
                   f"median of {args.repeats} runs, steps only)", "",
           "| particles (cells) per λ | SPEM error | SPEM s | FDTD error | FDTD s |", "| --: | --: | --: | --: | --: |"]
     for a, b in zip(rows["spem"], rows["fdtd"]):
@@ -131,11 +193,12 @@ def main() -> None:
     for code, mark in (("spem", "o-"), ("fdtd", "s--")):
         ax.loglog([r["wall_s"] for r in rows[code]], [r["error"] for r in rows[code]], mark, label=code.upper())
     ax.set_xlabel("wall s (steps only)")
-    ax.set_ylabel("mean |Ez - exact| / E0")
-    ax.set_title("Waveguide to 4.1 ns: error against wall time")
+    ax.set_ylabel("mean |Ez - exact| / amplitude")
+    ax.set_title(f"{'1D line' if line else 'Waveguide'} to {args.t_end * 1e9:.3g} ns: error against wall time")
     ax.legend()
     fig.tight_layout()
-    common.write_results("spem_vs_fdtd", {"rows": rows, "ratios": ratios, "threads": args.threads}, "\n".join(md), fig)
+    common.write_results("spem_vs_fdtd_line" if line else "spem_vs_fdtd",
+                         {"case": args.case, "rows": rows, "ratios": ratios, "threads": args.threads}, "\n".join(md), fig)
 
 if __name__ == "__main__":
     main()

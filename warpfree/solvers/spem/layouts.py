@@ -55,13 +55,16 @@ class StaggeredLayout:
     def h_cell_volume(self) -> np.ndarray:
         return self.h_spacing ** self.dim
 
-    def quadrature_volumes(self) -> tuple[np.ndarray, np.ndarray]:
+    def quadrature_volumes(self, e_position: np.ndarray | None = None,
+                           h_position: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Each particle's Voronoi cell within the region, per set (m^dim): the quadrature of the energy-conserving
-        pair (``SPEMModel(conservative=True)``)."""
+        pair (``SPEMModel(conservative=True)``), of the layout's positions or of the given ones (the model passes
+        the float32 positions its kernels see, so that the volumes and the derivative rows describe one geometry)."""
         if self.inside is None:
             raise ParameterError("layout", "this layout has no region (lower, upper, inside) to measure volumes in")
-        return tuple(voronoi_volumes(p, self.dim, self.lower, self.upper, self.inside, self.spacing)
-                     for p in (self.e_position, self.h_position))
+        e = self.e_position if e_position is None else e_position
+        h = self.h_position if h_position is None else h_position
+        return tuple(voronoi_volumes(p, self.dim, self.lower, self.upper, self.inside, self.spacing) for p in (e, h))
 
 
 #: fine samples per spacing and axis measuring the Voronoi cells cut by the region's boundary 

@@ -68,6 +68,7 @@ class PlaneWave:
         return ez, h * d[1], -h * d[0]
 
     def front_start(self, dim: int) -> float:
+        """s0 (m): d·x at the corner of the total-field box the wave front reaches first (at t = 0)."""
         d = self.unit_direction(dim)
         lo, hi = np.zeros(3), np.zeros(3)
         lo[:dim], hi[:dim] = np.asarray(self.lower, float)[:dim], np.asarray(self.upper, float)[:dim]
@@ -75,6 +76,7 @@ class PlaneWave:
         return float(np.min(corners @ d))
 
     def inside(self, dim: int, points: np.ndarray) -> np.ndarray:
+        """(N,) bool: ``points`` in the total-field box (its boundary included, to 1e-9 of its size)."""
         lo, hi = np.asarray(self.lower, float)[:dim], np.asarray(self.upper, float)[:dim]
         tol = 1e-9 * float(np.max(np.abs(hi - lo)))
         return np.all((points[:, :dim] >= lo - tol) & (points[:, :dim] <= hi + tol), axis=1)
