@@ -36,22 +36,28 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402
 
 
-def run_spem(ppw: float, t_end: float, threads: int) -> tuple[float, float, int]:
-    from warpfree.validation.em_waveguide_2d import tm1_field
-
-    loop = common.build_scene("em_waveguide_2d", threads, particles_per_wavelength=ppw, t_end=t_end)
-    s = loop.solver
-    src = s.sources[0].source
+def timed_spem_run(s, t_end: float) -> tuple[float, float, int]:
+    """Steps of 0.95 x the stable limit dividing t_end, timed from rest after one untimed step (kernel loading):
+    (wall s, dt, steps)."""
     steps = math.ceil(t_end / (0.95 * s.stable_dt()))
     dt = t_end / steps
-    s.step(dt)  # kernel loading, then start again from rest
+    s.step(dt)
     for a in (s.state.ez, s.state.ezx, s.state.hx, s.state.hy):
         a.zero_()
     s.t = 0.0
     t0 = time.perf_counter()
     for _ in range(steps):
         s.step(dt)
-    wall = time.perf_counter() - t0
+    return time.perf_counter() - t0, dt, steps
+
+
+def run_spem(ppw: float, t_end: float, threads: int) -> tuple[float, float, int]:
+    from warpfree.validation.em_waveguide_2d import tm1_field
+
+    loop = common.build_scene("em_waveguide_2d", threads, particles_per_wavelength=ppw, t_end=t_end)
+    s = loop.solver
+    src = s.sources[0].source
+    wall, dt, steps = timed_spem_run(s, t_end)
     e = s.model.layout.e_position
     width, amp = loop.params["width"], loop.params["amplitude"]
     x0 = e[np.argmin(np.abs(e[:, 0] - 0.244)), 0]
@@ -95,16 +101,7 @@ def run_spem_line(ppw: float, t_end: float, threads: int) -> tuple[float, float,
 
     loop = common.build_scene("em_line_1d", threads, particles_per_wavelength=ppw, t_end=t_end)
     s = loop.solver
-    steps = math.ceil(t_end / (0.95 * s.stable_dt()))
-    dt = t_end / steps
-    s.step(dt)  # kernel loading, then start again from rest
-    for a in (s.state.ez, s.state.ezx, s.state.hx, s.state.hy):
-        a.zero_()
-    s.t = 0.0
-    t0 = time.perf_counter()
-    for _ in range(steps):
-        s.step(dt)
-    wall = time.perf_counter() - t0
+    wall, dt, steps = timed_spem_run(s, t_end)
     x = s.model.layout.e_position[:, 0]
     source = int(s.sources[0].index[0])
     err = mean_error(x, s.model.electric.numpy("ez"), t_end - 0.5 * dt, x[source], LINE["frequency"], LINE["window"])
