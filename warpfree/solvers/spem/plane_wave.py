@@ -62,7 +62,7 @@ class PlaneWave:
         """(Ez, Hx, Hy) of the incident wave at ``points`` (N, 3) and time ``t`` (NumPy, for analyses)."""
         d = self.unit_direction(dim)
         tau = t - (points @ d - self.front_start(dim)) / self.speed()
-        f = np.array([self.waveform(x) for x in tau]) * (tau >= 0)
+        f = self.waveform(tau) * (tau >= 0)
         ez = self.amplitude * f
         h = ez * math.sqrt(EPS0 * self.eps_r / (MU0 * self.mu_r))
         return ez, h * d[1], -h * d[0]

@@ -35,19 +35,20 @@ __all__ = ["Waveform", "GaussianPulse", "Source", "SPEMState", "SPEMSolver"]
 
 @dataclass
 class Waveform:
-    """sin(2π f t + phase), times a sin² ramp over the first ``ramp`` periods (0: none)."""
+    """sin(2π f t + phase), times a sin² ramp over the first ``ramp`` periods (0: none); ``t`` (s) a number or
+    an array."""
 
     frequency: float
     phase: float = 0.0
     ramp: float = 0.0
 
-    def __call__(self, t: float) -> float:
+    def __call__(self, t):
         w = 2.0 * math.pi * self.frequency
         envelope = 1.0
         if self.ramp > 0:
-            s = min(1.0, t * self.frequency / self.ramp)
-            envelope = math.sin(0.5 * math.pi * s) ** 2
-        return envelope * math.sin(w * t + self.phase)
+            s = np.minimum(1.0, np.asarray(t) * self.frequency / self.ramp)
+            envelope = np.sin(0.5 * math.pi * s) ** 2
+        return envelope * np.sin(w * np.asarray(t) + self.phase)
 
 
 @dataclass
@@ -59,9 +60,9 @@ class GaussianPulse:
     width: float
     delay: float
 
-    def __call__(self, t: float) -> float:
-        u = (t - self.delay) / self.width
-        return math.exp(-u * u) * math.sin(2.0 * math.pi * self.frequency * (t - self.delay))
+    def __call__(self, t):
+        u = (np.asarray(t) - self.delay) / self.width
+        return np.exp(-u * u) * np.sin(2.0 * math.pi * self.frequency * (np.asarray(t) - self.delay))
 
 
 @dataclass
