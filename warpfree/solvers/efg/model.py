@@ -1,0 +1,268 @@
+"""The EFG model: nodes, their supports and MLS shape functions at any set of points (seeds 003 and 002).
+
+An :class:`EFGModel` holds what does not change once built: the nodes (float64), their materials, the MLS
+settings (:class:`MLSSettings`), each node's support (half-widths R_I = d_max · c_I, with c_I the distance to its
+``rank``-th nearest node, seed 003 §4.1.1 and eqs 3.33 / seed 002 eq 4.1) and a ``wp.HashGrid`` over the nodes.
+:meth:`EFGModel.shape_at` gives the shape functions and their gradients at any points (Gauss points, plotting
+points, plasma particles) as a :class:`ShapeData`: CSR rows of the nodes whose support holds each point, with
+φ_I and ∇φ_I per entry. Another solver (the PIC field solve) holds the model and asks it for shape data.
+
+A point whose moment matrix cannot be inverted (fewer nodes than basis terms, or nodes on a line for the linear
+basis) is refused with its position and node count, never inverted blindly (``kernels/efg.py`` has the
+algebra; float64 throughout, see there).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import warp as wp
+
+from warpfree.device import Launcher, current_launcher
+from warpfree.errors import ParameterError, require_positive
+from warpfree.kernels import efg as ek
+from warpfree.kernels import neighbours as nk
+from warpfree.neighbours import NeighbourGrid
+from warpfree.space import Space
+
+__all__ = ["MLSSettings", "EFGModel", "ShapeData", "BASES", "WEIGHTS", "RCOND_LIMIT"]
+
+BASES = {"linear": 3, "quadratic": 6}
+WEIGHTS = {"cubic_spline": 0, "quartic": 1, "gaussian": 2, "singular": 3}
+SUPPORTS = ("circular", "rectangular")
+
+#: smallest admitted pivot of the Jacobi-scaled moment matrix: below it the fit is ill-posed (nodes on a line,
+#: a point at the edge of too few supports) and the shape functions would carry its rounding error, 1e-16/rcond
+RCOND_LIMIT = 1e-10
+
+
+@dataclass(frozen=True)
+class MLSSettings:
+    """MLS shape functions: ``basis`` "linear" (1, x, y) or "quadratic"; ``weight`` "cubic_spline" (seed 003 eq
+    3.32), "quartic" (3.30), "gaussian" (3.31) or "singular" (interpolating, seed 002 §3.5); ``d_max`` the support
+    scale (seed 003 eq 3.33: R_I = d_max c_I; the thesis uses 3.5 for the beam, 2.5 for the cylinder, 1.8 for
+    Cook); ``support`` "circular" or "rectangular" (tensor-product weight, seed 002 eq 3.23); ``rank``: c_I is the
+    distance from node I to its rank-th nearest node (4: the grid spacing inside a regular 2D grid)."""
+
+    basis: str = "linear"
+    weight: str = "cubic_spline"
+    d_max: float = 2.0
+    support: str = "circular"
+    rank: int = 4
+
+    def __post_init__(self):
+        if self.basis not in BASES:
+            raise ParameterError("basis", f"must be one of {sorted(BASES)}, got {self.basis!r}")
+        if self.weight not in WEIGHTS:
+            raise ParameterError("weight", f"must be one of {sorted(WEIGHTS)}, got {self.weight!r}")
+        if self.support not in SUPPORTS:
+            raise ParameterError("support", f"must be one of {list(SUPPORTS)}, got {self.support!r}")
+        d = require_positive("d_max", self.d_max)
+        if d <= 1.0:
+            raise ParameterError("d_max", f"must be > 1 (a support no wider than the distance to the nearest nodes "
+                                          f"cannot hold the {BASES[self.basis]} nodes the basis needs), got {d}")
+        if isinstance(self.rank, bool) or not isinstance(self.rank, (int, np.integer)) \
+                or not 1 <= self.rank <= ek.MAX_RANK:
+            raise ParameterError("rank", f"must be an integer from 1 to {ek.MAX_RANK}, got {self.rank!r}")
+
+    @property
+    def terms(self) -> int:
+        return BASES[self.basis]
+
+    def params(self) -> ek.MLSParams:
+        p = ek.MLSParams()
+        p.terms = self.terms
+        p.weight = WEIGHTS[self.weight]
+        p.rectangular = int(self.support == "rectangular")
+        return p
+
+    @property
+    def interpolating(self) -> bool:
+        """φ_I(x_J) = δ_IJ (the singular weight): essential conditions by direct substitution."""
+        return self.weight == "singular"
+
+
+class ShapeData:
+    """Shape functions at ``n`` points: row i lists the nodes whose support holds point i (``rows``, a
+    :class:`~warpfree.kernels.neighbours.NeighbourRows`), ``phi`` and ``dphi`` (float64, ``wp.vec2d``) per entry,
+    ``counts`` (host copy) and ``rcond`` per point."""
+
+    def __init__(self, points: np.ndarray, rows: nk.NeighbourRows, counts: np.ndarray, n_entries: int,
+                 phi: wp.array, dphi: wp.array, rcond: wp.array, n_nodes: int):
+        self.points = points
+        self.rows = rows
+        self.counts = counts
+        self.n_entries = n_entries
+        self.phi = phi
+        self.dphi = dphi
+        self.rcond = rcond
+        self.n_nodes = n_nodes
+
+    @property
+    def n(self) -> int:
+        return self.points.shape[0]
+
+    def _csr(self, data: np.ndarray) -> sp.csr_matrix:
+        offsets = np.zeros(self.n + 1, dtype=np.int64)
+        np.cumsum(self.counts, out=offsets[1:])
+        index = self.rows.index.numpy()[: self.n_entries]
+        return sp.csr_matrix((data, index, offsets), shape=(self.n, self.n_nodes))
+
+    def matrix(self) -> sp.csr_matrix:
+        """Φ (n points × n nodes): u^h(points) = Φ u."""
+        return self._csr(self.phi.numpy()[: self.n_entries])
+
+    def gradient_matrices(self) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        """(∂Φ/∂x, ∂Φ/∂y): ∇u^h(points) = (Φ_x u, Φ_y u)."""
+        d = self.dphi.numpy()[: self.n_entries]
+        return self._csr(d[:, 0]), self._csr(d[:, 1])
+
+
+def _points2(points, name: str) -> np.ndarray:
+    p = np.asarray(points, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] < 2 or p.shape[0] == 0:
+        raise ParameterError(name, f"must be a non-empty (n, 2) array of points, got shape {p.shape}")
+    p = np.ascontiguousarray(p[:, :2])
+    if not np.all(np.isfinite(p)):
+        bad = int(np.flatnonzero(~np.all(np.isfinite(p), axis=1))[0])
+        raise ParameterError(name, f"point {bad} is not finite: {p[bad].tolist()}")
+    return p
+
+
+def _vec3(points: np.ndarray, device: str) -> wp.array:
+    p3 = np.zeros((points.shape[0], 3), dtype=np.float32)
+    p3[:, :2] = points
+    return wp.array(p3, dtype=wp.vec3, device=device)
+
+
+def _materials(values, n: int, name: str, device: str) -> wp.array:
+    m = np.full(n, -1, dtype=np.int32) if values is None else np.asarray(values)
+    if m.shape != (n,) or not np.issubdtype(m.dtype, np.integer) or np.any(m < -1):
+        raise ParameterError(name, f"must be {n} integers >= -1 (-1: sees / is seen by every material)")
+    return wp.array(m.astype(np.int32), dtype=wp.int32, device=device)
+
+
+class EFGModel:
+    """Nodes, supports and shape functions (module docstring).
+
+    nodes: (n, 2) positions; settings: :class:`MLSSettings`; node_material: (n,) ints, -1 for a node that serves
+    every material (on an interface, or a one-material model: the default); launcher: the device and threads.
+    """
+
+    def __init__(self, nodes, settings: MLSSettings | None = None, node_material=None,
+                 launcher: Launcher | None = None):
+        self.settings = settings or MLSSettings()
+        self.launcher = launcher or current_launcher()
+        dev = self.launcher.device
+        self.nodes_np = _points2(nodes, "nodes")
+        n = self.node_count = self.nodes_np.shape[0]
+        if n < self.settings.terms:
+            raise ParameterError("nodes", f"{n} nodes cannot carry the {self.settings.basis} basis "
+                                          f"({self.settings.terms} terms)")
+        self.nodes = wp.array(self.nodes_np, dtype=wp.vec2d, device=dev)
+        self.nodes32 = _vec3(self.nodes_np, dev)
+        self.node_material = _materials(node_material, n, "node_material", dev)
+        self.spacing = self._rank_distance()
+        half = self.settings.d_max * self.spacing
+        self.support_np = np.stack([half, half], axis=1)
+        self.support = wp.array(self.support_np, dtype=wp.vec2d, device=dev)
+        reach = float(np.max(half)) * (math.sqrt(2.0) if self.settings.support == "rectangular" else 1.0)
+        # the query radius must cover every support; float32 positions: widen by a rounding margin
+        self.reach = reach * (1.0 + 1e-5)
+        self.grid = NeighbourGrid(self.launcher, self.reach, Space.free(2), self.nodes32)
+        self._params = self.settings.params()
+
+    def _rank_distance(self) -> np.ndarray:
+        """c_I: distance from each node to its rank-th nearest node (a Warp kernel over a HashGrid; the radius
+        doubles until every node has ``rank`` others inside it)."""
+        x = self.nodes_np
+        extent = np.ptp(x, axis=0)
+        area = max(float(np.prod(extent[extent > 0])) if np.any(extent > 0) else 1.0, 1e-300)
+        radius = 2.5 * math.sqrt(area / x.shape[0]) * math.sqrt(self.settings.rank)
+        if not np.any(extent > 0):
+            raise ParameterError("nodes", "all nodes coincide")
+        distance = wp.zeros(x.shape[0], dtype=wp.float64, device=self.launcher.device)
+        for _ in range(60):
+            grid = NeighbourGrid(self.launcher, radius, Space.free(2), self.nodes32)
+            self.launcher.launch(ek.kth_nearest, x.shape[0], [grid.id, self.nodes32, self.nodes,
+                                                              self.settings.rank, radius, distance])
+            d = distance.numpy()
+            if np.all(d >= 0):
+                break
+            radius *= 2.0
+        if np.any(d <= 0):
+            bad = int(np.flatnonzero(d <= 0)[0])
+            raise ParameterError("nodes", f"node {bad} at {x[bad].tolist()} coincides with its "
+                                          f"{self.settings.rank}-th nearest node (duplicate nodes)")
+        return d
+
+    def shape_at(self, points, material=None, name: str = "point") -> ShapeData:
+        """Shape functions and gradients at ``points`` (n, 2); ``material`` (n,) ints (default -1: sees every
+        node). Raises ParameterError('support') naming the first point whose fit is ill-posed."""
+        p = _points2(points, name)
+        n, dev, L = p.shape[0], self.launcher.device, self.launcher
+        points64 = wp.array(p, dtype=wp.vec2d, device=dev)
+        points32 = _vec3(p, dev)
+        mat = _materials(material, n, "material", dev)
+        rows = nk.NeighbourRows()
+        rows.start = wp.zeros(n, dtype=wp.int32, device=dev)
+        rows.count = wp.zeros(n, dtype=wp.int32, device=dev)
+        rows.index = wp.zeros(1, dtype=wp.int32, device=dev)
+        args = [self.grid.id, self.reach, points32, points64, mat, self.nodes, self.support, self.node_material,
+                self._params]
+        L.launch(ek.support_rows, n, args + [0, rows])
+        counts = rows.count.numpy().astype(np.int64)
+        starts = np.zeros(n, dtype=np.int64)
+        np.cumsum(counts[:-1], out=starts[1:])
+        total = int(counts.sum())
+        if total >= 2**31:
+            raise ParameterError("d_max", f"{total} point-node pairs exceed the int32 index range")
+        rows.start = wp.array(starts.astype(np.int32), dtype=wp.int32, device=dev)
+        rows.index = wp.zeros(max(total, 1), dtype=wp.int32, device=dev)
+        L.launch(ek.support_rows, n, args + [1, rows])
+        phi = wp.zeros(max(total, 1), dtype=wp.float64, device=dev)
+        dphi = wp.zeros(max(total, 1), dtype=wp.vec2d, device=dev)
+        rcond = wp.zeros(n, dtype=wp.float64, device=dev)
+        L.launch(ek.shape_functions, n, [points64, rows, self.nodes, self.support, self._params, phi, dphi, rcond])
+        self._check(p, counts, rcond.numpy(), name)
+        return ShapeData(p, rows, counts, total, phi, dphi, rcond, self.node_count)
+
+    def _check(self, p: np.ndarray, counts: np.ndarray, rcond: np.ndarray, name: str) -> None:
+        terms = self.settings.terms
+        few = np.flatnonzero(counts < terms)
+        if few.size:
+            i = int(few[0])
+            raise ParameterError("support", f"{name} {i} at ({p[i, 0]:.6g}, {p[i, 1]:.6g}) lies in the support of "
+                                            f"{counts[i]} node(s); the {self.settings.basis} basis needs at least "
+                                            f"{terms} ({few.size} such points): raise d_max (now "
+                                            f"{self.settings.d_max}) or add nodes there")
+        bad = np.flatnonzero(~(rcond >= RCOND_LIMIT))
+        if bad.size:
+            i = int(bad[np.argmin(rcond[bad])])
+            raise ParameterError("support", f"the moment matrix at {name} {i} ({p[i, 0]:.6g}, {p[i, 1]:.6g}), "
+                                            f"{counts[i]} nodes, is ill-conditioned (scaled pivot {rcond[i]:.1e} < "
+                                            f"{RCOND_LIMIT:.0e}; nodes on a line?) at {bad.size} point(s): raise "
+                                            f"d_max (now {self.settings.d_max}) or move nodes")
+
+    def evaluate(self, nodal, shape: ShapeData, components: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """(u^h (n, components), ∇u^h (n, components, 2)) at the points of ``shape`` from nodal parameters
+        ``nodal`` (node count × components, node-major: u_{cI+k})."""
+        dev = self.launcher.device
+        u = np.ascontiguousarray(np.asarray(nodal, dtype=np.float64).reshape(-1))
+        if u.size != components * self.node_count:
+            raise ParameterError("nodal", f"needs {components * self.node_count} values, got {u.size}")
+        value = wp.zeros(shape.n * components, dtype=wp.float64, device=dev)
+        grad = wp.zeros(shape.n * components, dtype=wp.vec2d, device=dev)
+        self.launcher.launch(ek.evaluate_field, shape.n, [shape.rows, shape.phi, shape.dphi,
+                                                          wp.array(u, dtype=wp.float64, device=dev), components,
+                                                          value, grad])
+        return value.numpy().reshape(shape.n, components), grad.numpy().reshape(shape.n, components, 2)
+
+    def describe(self) -> dict:
+        s = self.settings
+        return {"nodes": self.node_count, "basis": s.basis, "weight": s.weight, "d_max": s.d_max,
+                "support": s.support, "rank": s.rank, "support_radius_min": float(self.support_np[:, 0].min()),
+                "support_radius_max": float(self.support_np[:, 0].max())}

@@ -1,0 +1,382 @@
+"""EFG static solvers: scalar Poisson/conduction and 2D linear elasticity, through the core's run shell.
+
+Both take an :class:`~warpfree.solvers.efg.model.EFGModel` (nodes, supports, MLS settings), integration points
+(:class:`~warpfree.solvers.efg.quadrature.QuadraturePoints`: background cells or triangles), boundary conditions
+(:mod:`~warpfree.solvers.efg.boundary`) and materials, and ``solve()`` in timed phases: "shape functions" (at the
+Gauss points), "assembly", "boundary", "factorisation", "solve". The system is factorised once
+(:class:`~warpfree.sparse.FactorisedSystem`, SciPy's SuperLU) and kept: :meth:`EFGSolver.resolve` solves again for
+new loads (the PIC field solve). The solution is nodal parameters ``nodal`` (not nodal values unless the shape
+functions interpolate); :meth:`EFGSolver.field_at` evaluates u^h and ∇u^h anywhere.
+
+Problems:
+
+- :class:`PoissonSolver`: -∇·(k ∇u) = s (seed 002 eq 3.3 with the sign made consistent; K_IJ = ∫ k ∇φ_I·∇φ_J,
+  f_I = ∫ φ_I s + ∫_Γ φ_I q̄, q̄ = k ∂u/∂n the inflow flux... given as the natural value), k per material; Gauss
+  points and nodes carry material indices so that nodes serve only their own material (seed 002 §3.3).
+- :class:`ElasticitySolver`: ∇·σ + b = 0, σ = D ε (seed 003 eqs 3.34-3.38), plane stress or plane strain.
+
+float64 throughout (``kernels/efg.py``). Units: the caller's, consistently (SI or any consistent set).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import ClassVar
+
+import numpy as np
+import scipy.sparse as sp
+
+from warpfree.errors import ParameterError, require_finite, require_positive
+from warpfree.solver import OutputSet, StaticSolver
+from warpfree.sparse import FactorisedSystem, PrescribedValues
+
+from . import assembly
+from .boundary import Essential, Natural, essential_points, nodes_on_polyline
+from .model import EFGModel, ShapeData
+from .plots import von_mises
+from .quadrature import BoundaryPoints, QuadraturePoints
+
+__all__ = ["EFGSolver", "PoissonSolver", "ElasticitySolver", "elasticity_matrix", "METHODS"]
+
+METHODS = ("lagrange", "penalty", "direct")
+INTEGRATIONS = ("consistent", "gauss")
+#: relative tolerance of the check that the boundary pieces enclose the cells (∮ x·n dΓ = 2 · area)
+CLOSURE_RTOL = 1e-6
+
+
+def elasticity_matrix(young: float, poisson: float, plane: str) -> np.ndarray:
+    """D (3, 3), Voigt with engineering shear: plane stress (seed 003 eq 3.37) E/(1-ν²) [[1, ν, 0], [ν, 1, 0],
+    [0, 0, (1-ν)/2]]; plane strain (3.38) E/((1+ν)(1-2ν)) [[1-ν, ν, 0], [ν, 1-ν, 0], [0, 0, (1-2ν)/2]]."""
+    e = require_positive("young", young)
+    nu = require_finite("poisson", poisson)
+    if not -1.0 < nu < 0.5:
+        raise ParameterError("poisson", f"must lie in (-1, 0.5), got {nu}")
+    if plane == "stress":
+        return e / (1.0 - nu * nu) * np.array([[1.0, nu, 0.0], [nu, 1.0, 0.0], [0.0, 0.0, 0.5 * (1.0 - nu)]])
+    if plane == "strain":
+        return e / ((1.0 + nu) * (1.0 - 2.0 * nu)) * np.array([[1.0 - nu, nu, 0.0], [nu, 1.0 - nu, 0.0],
+                                                               [0.0, 0.0, 0.5 - nu]])
+    raise ParameterError("plane", f"must be 'stress' or 'strain', got {plane!r}")
+
+
+class EFGSolver(StaticSolver):
+    """What both problems share: shape functions at the Gauss points, boundary conditions, factorise, solve.
+
+    model: the :class:`EFGModel`; cells: Gauss points of the domain (``cell`` indices select materials);
+    essential / natural: boundary conditions; free: boundary points of the rest of the boundary (traction-free or
+    insulated: no load, but part of the boundary integral of consistent integration); method: "lagrange",
+    "penalty" or "direct" (module ``boundary``); penalty: α as a multiple of the largest diagonal entry of K per
+    unit boundary weight; integration: "consistent" (test gradients corrected so that the discrete divergence
+    theorem holds, ``assembly.consistent_test_gradients``: linear fields exact; needs essential + natural + free to
+    cover the whole boundary) or "gauss" (plain Gauss quadrature, the thesis's).
+    """
+
+    name: ClassVar[str] = "efg"
+    work_unit: ClassVar[str] = "Gauss points"
+    components: ClassVar[int] = 1
+
+    def __init__(self, model: EFGModel, cells: QuadraturePoints, essential: list[Essential] | None = None,
+                 natural: list[Natural] | None = None, method: str = "lagrange", penalty: float = 1e7,
+                 cell_material=None, free: list[BoundaryPoints] | None = None, integration: str = "consistent"):
+        super().__init__(model, model.launcher)
+        if method not in METHODS:
+            raise ParameterError("method", f"must be one of {list(METHODS)}, got {method!r}")
+        if method == "direct" and not model.settings.interpolating:
+            raise ParameterError("method", "'direct' substitution needs interpolating shape functions "
+                                           "(weight='singular'); use 'lagrange' or 'penalty'")
+        if integration not in INTEGRATIONS:
+            raise ParameterError("integration", f"must be one of {list(INTEGRATIONS)}, got {integration!r}")
+        if integration == "consistent" and cell_material is not None:
+            raise ParameterError("integration", "consistent integration with material truncation (interfaces inside "
+                                                "node supports) is not implemented: use integration='gauss'")
+        self.integration = integration
+        self.free = list(free or [])
+        self.method = method
+        self.penalty = require_positive("penalty", penalty)
+        self.cells = cells
+        self.essential = list(essential or [])
+        self.natural = list(natural or [])
+        if not self.essential:
+            raise ParameterError("essential", "needs at least one boundary with prescribed values (else the "
+                                              "solution is defined only up to a rigid motion or a constant)")
+        self.point_material = None if cell_material is None else np.asarray(cell_material)[np.asarray(cells.cell)]
+        self.nodal = np.zeros(self.components * model.node_count)
+        self.shape: ShapeData | None = None
+        self.system: FactorisedSystem | None = None
+        self.matrix: sp.csr_matrix | None = None
+        self.load: np.ndarray | None = None
+        self.multipliers = np.zeros(0)
+        self.correction: np.ndarray | None = None  # ξ_I of consistent integration (N, 2)
+
+    # -- what a problem defines --------------------------------------------------------------------------------
+    def stiffness(self, shape: ShapeData, test_dphi) -> sp.csr_matrix:
+        """K with test gradients ``test_dphi`` (None: ∇φ)."""
+        raise NotImplementedError
+
+    def body_load(self, shape: ShapeData) -> np.ndarray:
+        return np.zeros(self.components * self.model.node_count)
+
+    # -- the solve ---------------------------------------------------------------------------------------------
+    @property
+    def dim(self) -> int:
+        return 2
+
+    @property
+    def work_items(self) -> int:
+        return int(self.cells.position.shape[0])
+
+    def solve(self) -> None:
+        model, c = self.model, self.components
+        with self.phases("shape functions"):
+            self.shape = model.shape_at(self.cells.position, self.point_material, name="Gauss point")
+            essential = [] if self.method == "direct" else [self._essential_set(b) for b in self.essential]
+            natural = [(nat, model.shape_at(nat.points.position, name=f"{nat.name} point")) for nat in self.natural]
+            test = None
+            if self.integration == "consistent":
+                pieces = [(sh, ep.points) for ep, sh in essential] + [(sh, nat.points) for nat, sh in natural]
+                pieces += [(model.shape_at(p.position, name="free boundary point"), p) for p in self.free]
+                if self.method == "direct":
+                    pieces += [self._direct_boundary_piece(b) for b in self.essential]
+                self._check_closed([p for _, p in pieces])
+                test, self.correction = assembly.consistent_test_gradients(
+                    model, self.shape, self.cells.weight, [(sh, p.weight, p.normal) for sh, p in pieces])
+        with self.phases("assembly"):
+            K = self.stiffness(self.shape, test)
+            f = self.body_load(self.shape)
+            for nat, sh in natural:
+                f = f + self._natural_load(nat, sh)
+        with self.phases("boundary"):
+            system_matrix, rhs, prescribed = self._impose(K, f, essential)
+        with self.phases("factorisation"):
+            self.system = FactorisedSystem(system_matrix, prescribed)
+        with self.phases("solve"):
+            x = self.system.solve(rhs)
+        n = c * model.node_count
+        self.nodal, self.multipliers = x[:n], x[n:]
+        self.matrix, self.load = K, f
+
+    def _essential_set(self, b: Essential):
+        ep = essential_points(b, self.components)
+        shape = self.model.shape_at(ep.points.position, name=f"{b.name} point")
+        return ep, shape
+
+    def _direct_boundary_piece(self, b: Essential):
+        ep = essential_points(b, self.components)
+        return self.model.shape_at(ep.points.position, name=f"{b.name} point"), ep.points
+
+    def _check_closed(self, pieces: list[BoundaryPoints]) -> None:
+        """The boundary pieces must enclose the cells: ∮ x·n dΓ = 2 · area (divergence theorem)."""
+        area = float(np.sum(self.cells.weight))
+        flux = sum(float(np.sum(p.weight * np.einsum("ij,ij->i", p.position, p.normal))) for p in pieces) \
+            if pieces else 0.0
+        if not abs(flux - 2.0 * area) <= CLOSURE_RTOL * 2.0 * area:
+            raise ParameterError("free", f"the boundary pieces (essential, natural, free) do not enclose the "
+                                         f"integration cells: ∮ x·n dΓ = {flux:.6g}, 2 · area = {2 * area:.6g}; add the "
+                                         f"load-free sides to free=, or use integration='gauss'")
+
+    def _natural_load(self, nat: Natural, shape: ShapeData) -> np.ndarray:
+        pts = nat.points
+        value = np.asarray(nat.value(pts.position, pts.normal), dtype=np.float64).reshape(len(pts.weight), -1)
+        if value.shape[1] != self.components or not np.all(np.isfinite(value)):
+            raise ParameterError(f"{nat.name}.value", f"must return finite (n, {self.components}) values")
+        return assembly.load_vector(self.model, shape, value * pts.weight[:, None])
+
+    def _impose(self, K, f, essential) -> tuple[sp.csr_matrix, np.ndarray, PrescribedValues]:
+        model, c = self.model, self.components
+        n = c * model.node_count
+        if self.method == "direct":
+            idx, val = [], []
+            tol = 1e-9 * float(model.spacing.min())
+            for b in self.essential:
+                nodes = nodes_on_polyline(model.nodes_np, np.asarray(b.vertices, dtype=np.float64)[:, :2], tol)
+                if nodes.size == 0:
+                    raise ParameterError(f"{b.name}.vertices", "no node lies on this boundary: direct substitution "
+                                                               "needs nodes on it")
+                ubar = np.asarray(b.value(model.nodes_np[nodes]), dtype=np.float64).reshape(nodes.size, -1)
+                for k in range(c):
+                    if b.constrained[k]:
+                        idx.append(c * nodes + k)
+                        val.append(ubar[:, k])
+            idx, val = np.concatenate(idx), np.concatenate(val)
+            idx, first = np.unique(idx, return_index=True)
+            return K, f, PrescribedValues(idx, val[first], n)
+        blocks, rhs_parts, mass = [], [], None
+        for (ep, shape), b in zip(essential, self.essential):
+            if shape.counts.min() == 0:
+                raise ParameterError(f"{b.name}.vertices", "part of this boundary lies outside every node's support")
+            if self.method == "lagrange":
+                G = assembly.multiplier_matrix(model, shape, ep.points.weight, ep.multiplier, ep.hat, c, b.constrained,
+                                               ep.n_multipliers)
+                q = np.zeros((ep.n_multipliers, c))
+                for e in range(2):
+                    np.add.at(q, ep.multiplier[:, e], -(ep.points.weight * ep.hat[:, e])[:, None] * ep.prescribed)
+                keep = np.flatnonzero(np.tile(np.asarray(b.constrained, bool), ep.n_multipliers))
+                blocks.append(G[:, keep])
+                rhs_parts.append(q.reshape(-1)[keep])
+            else:
+                M = assembly.boundary_mass_matrix(model, shape, ep.points.weight, c, b.constrained)
+                mask = np.asarray(b.constrained, dtype=float)[None, :]
+                fb = assembly.load_vector(model, shape, ep.prescribed * mask * ep.points.weight[:, None])
+                mass = M if mass is None else mass + M
+                rhs_parts.append(fb)
+        if self.method == "penalty":
+            alpha = self.penalty * float(np.abs(K.diagonal()).max()) / float(np.abs(mass.diagonal()).max())
+            return (K + alpha * mass).tocsr(), f + alpha * np.sum(rhs_parts, axis=0), PrescribedValues([], [], n)
+        G = sp.hstack(blocks).tocsr()
+        m = G.shape[1]
+        kkt = sp.bmat([[K, G], [G.T, None]]).tocsr()
+        return kkt, np.concatenate([f] + rhs_parts), PrescribedValues([], [], n + m)
+
+    def resolve(self, load) -> np.ndarray:
+        """Solve again with the kept factorisation for a new load vector on the nodes (same conditions)."""
+        if self.system is None:
+            raise ParameterError("resolve", "call solve() first")
+        f = np.asarray(load, dtype=np.float64)
+        n = self.components * self.model.node_count
+        if f.shape != (n,):
+            raise ParameterError("load", f"must have shape ({n},), got {f.shape}")
+        rhs = f if self.method != "lagrange" else np.concatenate([f, self._constraint_rhs()])
+        x = self.system.solve(rhs)
+        self.nodal = x[:n]
+        return self.nodal
+
+    def _constraint_rhs(self) -> np.ndarray:
+        n = self.components * self.model.node_count
+        return np.zeros(self.system.K_ff.shape[0] - n)  # homogeneous conditions only
+
+    # -- results -----------------------------------------------------------------------------------------------
+    def field_at(self, points, material=None) -> tuple[np.ndarray, np.ndarray]:
+        """(u^h (n, components), ∇u^h (n, components, 2)) at any points inside the model."""
+        shape = self.model.shape_at(points, material, name="point")
+        return self.model.evaluate(self.nodal, shape, self.components)
+
+    def gauss_field(self) -> tuple[np.ndarray, np.ndarray]:
+        """u^h and ∇u^h at the Gauss points (reusing their shape functions)."""
+        return self.model.evaluate(self.nodal, self.shape, self.components)
+
+    def nodal_values(self) -> np.ndarray:
+        """u^h at the nodes (n_nodes, components): the nodal parameters are not nodal values unless the shape
+        functions interpolate."""
+        return self.field_at(self.model.nodes_np, self._node_point_material())[0]
+
+    def _node_point_material(self):
+        m = self.model.node_material.numpy()
+        return None if np.all(m < 0) else m
+
+    def describe(self) -> dict:
+        return {**self.model.describe(), "gauss_points": self.work_items, "method": self.method,
+                "integration": self.integration,
+                "unknowns": int(self.components * self.model.node_count),
+                "multipliers": int(self.multipliers.size)}
+
+
+class PoissonSolver(EFGSolver):
+    """-∇·(k ∇u) = s with k per material (``conductivity``: one value per material index), s = ``source(points)``.
+    Node materials (the model's ``node_material``) and cell materials (``cell_material``, per integration cell)
+    truncate supports at interfaces (seed 002 §3.3)."""
+
+    name: ClassVar[str] = "efg_poisson"
+    components: ClassVar[int] = 1
+
+    def __init__(self, model: EFGModel, cells: QuadraturePoints, conductivity=1.0,
+                 source: Callable[[np.ndarray], np.ndarray] | None = None, **kwargs):
+        super().__init__(model, cells, **kwargs)
+        k = np.atleast_1d(np.asarray(conductivity, dtype=np.float64))
+        if not np.all(np.isfinite(k)) or np.any(k <= 0):
+            raise ParameterError("conductivity", f"must be finite and > 0 per material, got {k.tolist()}")
+        self.conductivity = k
+        m = self.point_material
+        if m is None and k.size != 1:
+            raise ParameterError("cell_material", f"{k.size} conductivities need a material index per cell")
+        if m is not None and (m.min() < 0 or m.max() >= k.size):
+            bad = int(np.flatnonzero((m < 0) | (m >= k.size))[0])
+            raise ParameterError("cell_material", f"Gauss point {bad} at {cells.position[bad].tolist()} has material "
+                                                  f"{m[bad]}, not one of 0..{k.size - 1}")
+        self.source = source
+
+    def point_conductivity(self) -> np.ndarray:
+        return self.conductivity[0] * np.ones(self.work_items) if self.point_material is None \
+            else self.conductivity[self.point_material]
+
+    def stiffness(self, shape: ShapeData, test_dphi) -> sp.csr_matrix:
+        return assembly.conduction_matrix(self.model, shape, self.cells.weight * self.point_conductivity(), test_dphi)
+
+    def body_load(self, shape: ShapeData) -> np.ndarray:
+        if self.source is None:
+            return np.zeros(self.model.node_count)
+        s = np.asarray(self.source(self.cells.position), dtype=np.float64).reshape(-1)
+        return assembly.load_vector(self.model, shape, (s * self.cells.weight)[:, None])
+
+    def output_sets(self) -> list[OutputSet]:
+        """Gauss points (potential, field -∇u, flux -k∇u; zeros before the solve) and nodes (parameters)."""
+        n = self.work_items
+        u, g = self.gauss_field() if self.shape is not None else (np.zeros((n, 1)), np.zeros((n, 1, 2)))
+        flux = -self.point_conductivity()[:, None] * g[:, 0, :]
+        return [OutputSet("gauss_points", _points3(self.cells.position),
+                          {"potential": u[:, 0], "field_x": -g[:, 0, 0], "field_y": -g[:, 0, 1],
+                           "flux_x": flux[:, 0], "flux_y": flux[:, 1]}, frame_field="potential"),
+                OutputSet("nodes", _points3(self.model.nodes_np), {"parameter": self.nodal.copy()})]
+
+
+def _points3(p: np.ndarray) -> np.ndarray:
+    out = np.zeros((p.shape[0], 3))
+    out[:, :2] = p
+    return out
+
+
+class ElasticitySolver(EFGSolver):
+    """Plane linear elasticity, one material: ``young`` E, ``poisson`` ν, ``plane`` "stress" or "strain", body force
+    ``body(points)`` -> (n, 2) (optional). Unknowns (u_x, u_y) per node."""
+
+    name: ClassVar[str] = "efg_elasticity"
+    components: ClassVar[int] = 2
+
+    def __init__(self, model: EFGModel, cells: QuadraturePoints, young: float, poisson: float, plane: str = "stress",
+                 body: Callable[[np.ndarray], np.ndarray] | None = None, **kwargs):
+        self.D = elasticity_matrix(young, poisson, plane)
+        self.young, self.poisson, self.plane = float(young), float(poisson), plane
+        super().__init__(model, cells, **kwargs)
+        self.body = body
+
+    def stiffness(self, shape: ShapeData, test_dphi) -> sp.csr_matrix:
+        d = np.broadcast_to(self.D, (shape.n, 3, 3))
+        return assembly.elastic_matrix(self.model, shape, self.cells.weight, d, test_dphi)
+
+    def body_load(self, shape: ShapeData) -> np.ndarray:
+        if self.body is None:
+            return np.zeros(2 * self.model.node_count)
+        b = np.asarray(self.body(self.cells.position), dtype=np.float64).reshape(-1, 2)
+        return assembly.load_vector(self.model, shape, b * self.cells.weight[:, None])
+
+    @staticmethod
+    def strain_from(gradient: np.ndarray) -> np.ndarray:
+        """Engineering strains [ε_xx, ε_yy, γ_xy] (n, 3) from ∇u (n, 2, 2) (row: component, column: ∂/∂x_b)."""
+        return np.stack([gradient[:, 0, 0], gradient[:, 1, 1], gradient[:, 0, 1] + gradient[:, 1, 0]], axis=1)
+
+    def strain_stress_at(self, points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(u (n, 2), ε (n, 3), σ (n, 3)) at ``points``."""
+        u, g = self.field_at(points)
+        eps = self.strain_from(g)
+        return u, eps, eps @ self.D.T
+
+    def gauss_strain(self) -> np.ndarray:
+        return self.strain_from(self.gauss_field()[1])
+
+    def strain_energy(self) -> float:
+        """½ ∫ σ:ε dΩ of the solution (Gauss points)."""
+        eps = self.gauss_strain()
+        return 0.5 * float(np.sum(self.cells.weight * np.einsum("ni,ij,nj->n", eps, self.D, eps)))
+
+    def output_sets(self) -> list[OutputSet]:
+        """Gauss points (displacement, stresses, von Mises; zeros before the solve) and nodes (parameters)."""
+        n = self.work_items
+        u, g = self.gauss_field() if self.shape is not None else (np.zeros((n, 2)), np.zeros((n, 2, 2)))
+        sig = self.strain_from(g) @ self.D.T
+        vm = von_mises(sig)
+        return [OutputSet("gauss_points", _points3(self.cells.position),
+                          {"displacement": _points3(u), "stress_xx": sig[:, 0], "stress_yy": sig[:, 1],
+                           "stress_xy": sig[:, 2], "von_mises": vm}, frame_field="von_mises"),
+                OutputSet("nodes", _points3(self.model.nodes_np), {"parameter": _points3(self.nodal.reshape(-1, 2))})]
+
+    def describe(self) -> dict:
+        return {**super().describe(), "young": self.young, "poisson": self.poisson, "plane": self.plane}
