@@ -259,6 +259,39 @@ def support_rows(
 
 
 @wp.kernel
+def support_rows_brute(
+    first: int,
+    n_nodes: int,
+    points: wp.array(dtype=wp.vec2d),
+    point_material: wp.array(dtype=wp.int32),
+    nodes: wp.array(dtype=wp.vec2d),
+    support: wp.array(dtype=wp.vec2d),
+    node_material: wp.array(dtype=wp.int32),
+    params: MLSParams,
+    fill: int,
+    rows: NeighbourRows,
+):
+    """:func:`support_rows` by testing every node (O(points x nodes)): the reference for the HashGrid search (seed
+    003 compared its k-d tree with brute force the same way). Rows in node order."""
+    i = first + wp.tid()
+    x = points[i]
+    m = point_material[i]
+    n = int(0)
+    base = rows.start[i]
+    for j in range(n_nodes):
+        if not inside_support(params, x - nodes[j], support[j]):
+            continue
+        mj = node_material[j]
+        if mj >= 0 and m >= 0 and mj != m:
+            continue
+        if fill != 0:
+            rows.index[base + n] = j
+        n += 1
+    if fill == 0:
+        rows.count[i] = n
+
+
+@wp.kernel
 def shape_functions(
     first: int,
     points: wp.array(dtype=wp.vec2d),
@@ -555,3 +588,90 @@ def evaluate_field(
             gy = gy + d[1] * u
         value[components * i + k] = v
         gradient[components * i + k] = wp.vec2d(gx, gy)
+
+
+# --- assembly by node rows: each node gathers its Gauss points (race-free, no triplet sum) ------------------
+
+
+@wp.func
+def pattern_position(cols: wp.array(dtype=wp.int32), lo: int, hi: int, j: int) -> int:
+    """Position of column j in the sorted ``cols[lo:hi]`` of one pattern row (binary search; j is present)."""
+    a = lo
+    b = hi
+    while a < b:
+        m = (a + b) // 2
+        if cols[m] < j:
+            a = m + 1
+        else:
+            b = m
+    return a
+
+
+@wp.kernel
+def conduction_rows(
+    first: int,
+    rows: NeighbourRows,
+    node_entries: NeighbourRows,
+    entry_point: wp.array(dtype=wp.int32),
+    test_dphi: wp.array(dtype=wp.vec2d),
+    dphi: wp.array(dtype=wp.vec2d),
+    weight: wp.array(dtype=wp.float64),
+    pattern_start: wp.array(dtype=wp.int32),
+    pattern_cols: wp.array(dtype=wp.int32),
+    values: wp.array(dtype=wp.float64),
+):
+    """Row I of K_IJ = Σ_g w_g ∇ψ_I(x_g)·∇φ_J(x_g) (seed 002 eq 3.9): node I gathers the Gauss points g in its
+    support (``node_entries``: the row entries that hold I, in Gauss-point order; ``entry_point``: entry -> g) and
+    adds each pair into its slot of the CSR pattern (``pattern_start``/``pattern_cols``, sorted columns)."""
+    i = first + wp.tid()
+    lo = pattern_start[i]
+    hi = pattern_start[i + 1]
+    for k in range(node_entries.count[i]):
+        e = node_entries.index[node_entries.start[i] + k]
+        g = entry_point[e]
+        t = test_dphi[e]
+        wg = weight[g]
+        s = rows.start[g]
+        for b in range(rows.count[g]):
+            q = dphi[s + b]
+            pos = pattern_position(pattern_cols, lo, hi, rows.index[s + b])
+            values[pos] = values[pos] + wg * (t[0] * q[0] + t[1] * q[1])
+
+
+@wp.kernel
+def elastic_rows(
+    first: int,
+    rows: NeighbourRows,
+    node_entries: NeighbourRows,
+    entry_point: wp.array(dtype=wp.int32),
+    test_dphi: wp.array(dtype=wp.vec2d),
+    dphi: wp.array(dtype=wp.vec2d),
+    weight: wp.array(dtype=wp.float64),
+    material: wp.array(dtype=wp.mat33d),
+    pattern_start: wp.array(dtype=wp.int32),
+    pattern_cols: wp.array(dtype=wp.int32),
+    values: wp.array(dtype=wp.mat22d),
+):
+    """Block row I of K_IJ = Σ_g w_g B̂_Iᵀ D_g B_J (seed 003 eq 3.35), 2 x 2 blocks (row: component of the test node
+    I, column: of the trial node J), gathered as in :func:`conduction_rows`."""
+    i = first + wp.tid()
+    lo = pattern_start[i]
+    hi = pattern_start[i + 1]
+    for k in range(node_entries.count[i]):
+        e = node_entries.index[node_entries.start[i] + k]
+        g = entry_point[e]
+        t = test_dphi[e]
+        wg = weight[g]
+        dm = material[g]
+        s = rows.start[g]
+        for b in range(rows.count[g]):
+            q = dphi[s + b]
+            # D B_J, columns for u_x and u_y of J
+            c0 = wp.vec3d(dm[0, 0] * q[0] + dm[0, 2] * q[1], dm[1, 0] * q[0] + dm[1, 2] * q[1],
+                          dm[2, 0] * q[0] + dm[2, 2] * q[1])
+            c1 = wp.vec3d(dm[0, 1] * q[1] + dm[0, 2] * q[0], dm[1, 1] * q[1] + dm[1, 2] * q[0],
+                          dm[2, 1] * q[1] + dm[2, 2] * q[0])
+            block = wp.mat22d(t[0] * c0[0] + t[1] * c0[2], t[0] * c1[0] + t[1] * c1[2],
+                              t[1] * c0[1] + t[0] * c0[2], t[1] * c1[1] + t[0] * c1[2])
+            pos = pattern_position(pattern_cols, lo, hi, rows.index[s + b])
+            values[pos] = values[pos] + wg * block

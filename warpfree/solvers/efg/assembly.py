@@ -1,8 +1,16 @@
 """Gauss-point assembly of EFG matrices and load vectors (Warp kernels into per-point slots, summed on the host).
 
-Each Gauss point owns ``slots(n_g)`` consecutive slots (n_g: the nodes in its row), so the kernels in
-``kernels/efg.py`` are race-free and give bitwise the same matrix for any thread count; ``warpfree.sparse``
-sums the duplicates. Unknowns are node-major: component k of node I is unknown ``components·I + k``.
+Two race-free forms, both bitwise the same for any thread count (``kernels/efg.py``):
+
+- triplets: each Gauss point owns ``slots(n_g)`` consecutive slots (n_g: the nodes in its row) and
+  ``warpfree.sparse`` sums the duplicates on the host (loads, boundary matrices, and stiffness with
+  ``gather=False``);
+- node rows (stiffness, the default): the pattern of K (node pairs that share a Gauss point, SᵀS of the rows'
+  0/1 matrix S) is built once, and each node gathers the Gauss points in its support and adds every pair into
+  its own row of the pattern. At 637 nodes with d_max 3.5 (38.6 nodes per Gauss point) the stiffness is 14.1 M
+  triplets, whose host sum (COO -> CSR) took 1.6 s of the 1.8 s assembly; the gather writes no triplets.
+
+Unknowns are node-major: component k of node I is unknown ``components·I + k``.
 
 - :func:`conduction_matrix`: K_IJ = Σ_g w_g k_g ∇φ_I·∇φ_J (seed 002 eq 3.9, with the material's k)
 - :func:`elastic_matrix`: K_IJ = Σ_g w_g B_Iᵀ D_g B_J (seed 003 eq 3.35)
@@ -27,6 +35,7 @@ import warp as wp
 
 from warpfree.errors import ParameterError
 from warpfree.kernels import efg as ek
+from warpfree.kernels import neighbours as nk
 from warpfree.sparse import LoadBuffer, TripletBuffer, load_vector as _sum_loads, to_csr
 
 from .model import EFGModel, ShapeData
@@ -79,31 +88,89 @@ def consistent_test_gradients(model: EFGModel, shape: ShapeData, weight, boundar
     return out, xi
 
 
-def conduction_matrix(model: EFGModel, shape: ShapeData, weight, test_dphi: wp.array | None = None) -> sp.csr_matrix:
+class NodeRows:
+    """What the gather assembly needs from a ShapeData: for each node the row entries that hold it (in Gauss-point
+    order), entry -> Gauss point, and K's pattern (CSR, sorted columns). Built once per ShapeData (host, set-up)."""
+
+    def __init__(self, model: EFGModel, shape: ShapeData):
+        dev = model.launcher.device
+        index = shape.rows.index.numpy()[: shape.n_entries].astype(np.int64)
+        point = np.repeat(np.arange(shape.n, dtype=np.int64), shape.counts)
+        order = np.argsort(index, kind="stable")          # node-major, Gauss points ascending within a node
+        count = np.bincount(index, minlength=model.node_count)
+        start = np.zeros(model.node_count, dtype=np.int64)
+        np.cumsum(count[:-1], out=start[1:])
+        self.entries = nk.NeighbourRows()
+        self.entries.start = wp.array(start.astype(np.int32), dtype=wp.int32, device=dev)
+        self.entries.count = wp.array(count.astype(np.int32), dtype=wp.int32, device=dev)
+        self.entries.index = wp.array(order.astype(np.int32) if order.size else np.zeros(1, np.int32),
+                                      dtype=wp.int32, device=dev)
+        self.entry_point = wp.array(point.astype(np.int32) if point.size else np.zeros(1, np.int32),
+                                    dtype=wp.int32, device=dev)
+        s = sp.csr_matrix((np.ones(index.size), index, np.r_[0, np.cumsum(shape.counts)]),
+                          shape=(shape.n, model.node_count))
+        pattern = (s.T @ s).tocsr()
+        pattern.sort_indices()
+        self.indptr, self.indices = pattern.indptr.astype(np.int32), pattern.indices.astype(np.int32)
+        self.pattern_start = wp.array(self.indptr, dtype=wp.int32, device=dev)
+        self.pattern_cols = wp.array(self.indices if self.indices.size else np.zeros(1, np.int32), dtype=wp.int32,
+                                     device=dev)
+
+    @property
+    def nnz(self) -> int:
+        return int(self.indices.size)
+
+
+def node_rows(model: EFGModel, shape: ShapeData) -> NodeRows:
+    """The shape data's :class:`NodeRows`, built on first use and kept on it."""
+    if getattr(shape, "_node_rows", None) is None:
+        shape._node_rows = NodeRows(model, shape)
+    return shape._node_rows
+
+
+def conduction_matrix(model: EFGModel, shape: ShapeData, weight, test_dphi: wp.array | None = None,
+                      gather: bool = True) -> sp.csr_matrix:
     """(N, N) K from Gauss points ``shape`` with ``weight`` = w_g |J_g| k_g (conductivity or permittivity);
-    ``test_dphi``: corrected test gradients (default ∇φ: symmetric K)."""
+    ``test_dphi``: corrected test gradients (default ∇φ: symmetric K); ``gather``: node rows, else triplets."""
     dev, n = model.launcher.device, shape.n
     w = wp.array(_per_point(weight, n, "weight"), dtype=wp.float64, device=dev)
+    test = shape.dphi if test_dphi is None else test_dphi
+    if gather:
+        nr = node_rows(model, shape)
+        values = wp.zeros(max(nr.nnz, 1), dtype=wp.float64, device=dev)
+        model.launcher.launch(ek.conduction_rows, model.node_count, [shape.rows, nr.entries, nr.entry_point, test,
+                                                                     shape.dphi, w, nr.pattern_start, nr.pattern_cols,
+                                                                     values])
+        return sp.csr_matrix((values.numpy()[: nr.nnz], nr.indices, nr.indptr),
+                             shape=(model.node_count, model.node_count))
     starts, total = _slot_starts(shape.counts ** 2, dev)
     slots = TripletBuffer(total, dev)
-    test = shape.dphi if test_dphi is None else test_dphi
     model.launcher.launch(ek.conduction_stiffness, n, [shape.rows, test, shape.dphi, w, starts, slots.triplets])
     return to_csr(slots, (model.node_count, model.node_count))
 
 
 def elastic_matrix(model: EFGModel, shape: ShapeData, weight, material,
-                   test_dphi: wp.array | None = None) -> sp.csr_matrix:
+                   test_dphi: wp.array | None = None, gather: bool = True) -> sp.csr_matrix:
     """(2N, 2N) K from Gauss points ``shape``: ``weight`` w_g |J_g|, ``material`` (n, 3, 3) D per point (Voigt,
-    engineering shear strain); ``test_dphi`` as for :func:`conduction_matrix`."""
+    engineering shear strain); ``test_dphi``, ``gather`` as for :func:`conduction_matrix`."""
     dev, n = model.launcher.device, shape.n
     w = wp.array(_per_point(weight, n, "weight"), dtype=wp.float64, device=dev)
     d = np.asarray(material, dtype=np.float64)
     if d.shape != (n, 3, 3) or not np.all(np.isfinite(d)):
         raise ParameterError("material", f"must be finite with shape ({n}, 3, 3), got {d.shape}")
     dm = wp.array(np.ascontiguousarray(d), dtype=wp.mat33d, device=dev)
+    test = shape.dphi if test_dphi is None else test_dphi
+    if gather:
+        nr = node_rows(model, shape)
+        values = wp.zeros(max(nr.nnz, 1), dtype=wp.mat22d, device=dev)
+        model.launcher.launch(ek.elastic_rows, model.node_count, [shape.rows, nr.entries, nr.entry_point, test,
+                                                                  shape.dphi, w, dm, nr.pattern_start, nr.pattern_cols,
+                                                                  values])
+        blocks = values.numpy()[: nr.nnz]
+        return sp.bsr_matrix((blocks, nr.indices, nr.indptr),
+                             shape=(2 * model.node_count, 2 * model.node_count)).tocsr()
     starts, total = _slot_starts(4 * shape.counts ** 2, dev)
     slots = TripletBuffer(total, dev)
-    test = shape.dphi if test_dphi is None else test_dphi
     model.launcher.launch(ek.elastic_stiffness, n, [shape.rows, test, shape.dphi, w, dm, starts, slots.triplets])
     return to_csr(slots, (2 * model.node_count, 2 * model.node_count))
 

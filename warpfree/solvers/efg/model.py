@@ -199,21 +199,25 @@ class EFGModel:
                                           f"{self.settings.rank}-th nearest node (duplicate nodes)")
         return d
 
-    def shape_at(self, points, material=None, name: str = "point") -> ShapeData:
-        """Shape functions and gradients at ``points`` (n, 2); ``material`` (n,) ints (default -1: sees every
-        node). Raises ParameterError('support') naming the first point whose fit is ill-posed."""
+    def support_rows(self, points, material=None, name: str = "point", brute_force: bool = False):
+        """(float64 points, rows, counts, entries): for each point the nodes whose support holds it and whose
+        material it sees (``kernels/efg.py: support_rows``; ``brute_force``: every node tested, for checks and the
+        search benchmark)."""
         p = _points2(points, name)
         n, dev, L = p.shape[0], self.launcher.device, self.launcher
         points64 = wp.array(p, dtype=wp.vec2d, device=dev)
-        points32 = _vec3(p, dev)
         mat = _materials(material, n, "material", dev)
         rows = nk.NeighbourRows()
         rows.start = wp.zeros(n, dtype=wp.int32, device=dev)
         rows.count = wp.zeros(n, dtype=wp.int32, device=dev)
         rows.index = wp.zeros(1, dtype=wp.int32, device=dev)
-        args = [self.grid.id, self.reach, points32, points64, mat, self.nodes, self.support, self.node_material,
-                self._params]
-        L.launch(ek.support_rows, n, args + [0, rows])
+        if brute_force:
+            kernel, args = ek.support_rows_brute, [self.node_count, points64, mat, self.nodes, self.support,
+                                                    self.node_material, self._params]
+        else:
+            kernel, args = ek.support_rows, [self.grid.id, self.reach, _vec3(p, dev), points64, mat, self.nodes,
+                                             self.support, self.node_material, self._params]
+        L.launch(kernel, n, args + [0, rows])
         counts = rows.count.numpy().astype(np.int64)
         starts = np.zeros(n, dtype=np.int64)
         np.cumsum(counts[:-1], out=starts[1:])
@@ -222,11 +226,19 @@ class EFGModel:
             raise ParameterError("d_max", f"{total} point-node pairs exceed the int32 index range")
         rows.start = wp.array(starts.astype(np.int32), dtype=wp.int32, device=dev)
         rows.index = wp.zeros(max(total, 1), dtype=wp.int32, device=dev)
-        L.launch(ek.support_rows, n, args + [1, rows])
+        L.launch(kernel, n, args + [1, rows])
+        return p, points64, rows, counts, total
+
+    def shape_at(self, points, material=None, name: str = "point") -> ShapeData:
+        """Shape functions and gradients at ``points`` (n, 2); ``material`` (n,) ints (default -1: sees every
+        node). Raises ParameterError('support') naming the first point whose fit is ill-posed."""
+        p, points64, rows, counts, total = self.support_rows(points, material, name)
+        n, dev = p.shape[0], self.launcher.device
         phi = wp.zeros(max(total, 1), dtype=wp.float64, device=dev)
         dphi = wp.zeros(max(total, 1), dtype=wp.vec2d, device=dev)
         rcond = wp.zeros(n, dtype=wp.float64, device=dev)
-        L.launch(ek.shape_functions, n, [points64, rows, self.nodes, self.support, self._params, phi, dphi, rcond])
+        self.launcher.launch(ek.shape_functions, n, [points64, rows, self.nodes, self.support, self._params, phi,
+                                                     dphi, rcond])
         self._check(p, counts, rcond.numpy(), name)
         return ShapeData(p, rows, counts, total, phi, dphi, rcond, self.node_count)
 
