@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
+import math
 import os
 import platform
 import statistics
@@ -237,6 +238,21 @@ def particle_throughput(n_particles: int, n_fluid: int, steps: int, wall_s: floa
     fluid peers, whose own figures come in these units)."""
     return {"particle_steps_per_s": n_particles * steps / wall_s,
             "fluid_particle_steps_per_s": n_fluid * steps / wall_s, "s_per_step": wall_s / steps}
+
+
+def equal_error_ratio(a: list[dict], b: list[dict]) -> list[dict]:
+    """Time of method a / time of method b at a's errors, b's time interpolated log-log between its runs (inside
+    its error range only). Rows: {"error", "wall_s"}; returns [{"error", "a_s", "b_s", "ratio"}]."""
+    eb = np.log([r["error"] for r in b])
+    tb = np.log([r["wall_s"] for r in b])
+    order = np.argsort(eb)
+    out = []
+    for r in a:
+        e = math.log(r["error"])
+        if eb.min() <= e <= eb.max():
+            t = float(np.exp(np.interp(e, eb[order], tb[order])))
+            out.append({"error": r["error"], "a_s": r["wall_s"], "b_s": t, "ratio": r["wall_s"] / t})
+    return out
 
 
 def median(values):

@@ -133,20 +133,6 @@ def run_fdtd_line(ppw: float, t_end: float, threads: int) -> tuple[float, float,
 RUNNERS = {"waveguide": (run_spem, run_fdtd), "line": (run_spem_line, run_fdtd_line)}
 
 
-def equal_error_ratio(a: list[dict], b: list[dict]) -> list[dict]:
-    """SPEM time / FDTD time at SPEM's errors, FDTD's time interpolated in log-log (inside its range only)."""
-    eb = np.log([r["error"] for r in b])
-    tb = np.log([r["wall_s"] for r in b])
-    order = np.argsort(eb)
-    out = []
-    for r in a:
-        e = math.log(r["error"])
-        if eb.min() <= e <= eb.max():
-            t = float(np.exp(np.interp(e, eb[order], tb[order])))
-            out.append({"error": r["error"], "spem_s": r["wall_s"], "fdtd_s": t, "ratio": r["wall_s"] / t})
-    return out
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--case", choices=sorted(RUNNERS), default="waveguide")
@@ -178,7 +164,7 @@ def main() -> None:
             row = dict(ppw=ppw, wall_s=float(np.median(walls)), walls_s=walls, error=res["error"], steps=res["steps"])
             rows[code].append(row)
             print(f"  {code} ppw={ppw}: error {row['error']:.3e}, {row['steps']} steps, {row['wall_s']:.3f} s", flush=True)
-    ratios = equal_error_ratio(rows["spem"], rows["fdtd"])
+    ratios = common.equal_error_ratio(rows["spem"], rows["fdtd"])
     md = [f"## SPEM against Yee FDTD, {args.case} to t = {args.t_end:.3g} s ({args.threads} thread(s), "
                   f"median of {args.repeats} runs, steps only)", "",
           "| particles (cells) per λ | SPEM error | SPEM s | FDTD error | FDTD s |", "| --: | --: | --: | --: | --: |"]

@@ -264,3 +264,34 @@ def test_cook_membrane_converges_to_the_fem_reference(tmp_path):
     errors = [abs(lvl["uy_48_60_rel_error"]) for lvl in levels]
     assert all(b < a for a, b in zip(errors, errors[1:])) and errors[-1] < 1e-2
     assert abs(levels[-1]["uy_48_52_rel_error"]) < 2e-3
+
+
+@pytest.mark.parametrize("method,weight", [("lagrange", "cubic_spline"), ("penalty", "cubic_spline"),
+                                           ("direct", "singular")])
+def test_resolve_keeps_the_factorisation_and_the_boundary_values(launcher, method, weight):
+    """The PIC field solve re-solves with the same matrix: the same load gives the same solution (the boundary
+    conditions' right-hand side, here ū = 1 + 2x + 3y, is kept), a doubled load adds the homogeneous response."""
+    nodes = unit_grid(8)
+    model = EFGModel(nodes, MLSSettings(d_max=2.0, weight=weight), launcher=launcher)
+    solver = PoissonSolver(model, rectangle_cells((0, 0), (1, 1), (8, 8), 2), method=method,
+                           source=lambda p: np.sin(3 * p[:, 0]) + p[:, 1],
+                           essential=[Essential(v, _linear, (True,)) for v in _square_sides(nodes)])
+    solver.solve()
+    first, load = solver.nodal.copy(), solver.load.copy()
+    assert solver.system.counts["factorise"] == 1
+    assert np.abs(solver.resolve(load) - first).max() < 1e-12 * np.abs(first).max()
+    doubled = solver.resolve(2.0 * load)
+    homogeneous = doubled - first
+    assert solver.system.counts["factorise"] == 1 and np.abs(homogeneous).max() > 1e-3
+    # the penalty system's condition number carries the factor α = 1e7 x the stiffness scale: round-off 1e7 larger
+    rtol = 1e-8 if method == "penalty" else 1e-10
+    assert np.abs(solver.resolve(3.0 * load) - (first + 2.0 * homogeneous)).max() < rtol * np.abs(first).max()
+
+
+def test_node_outside_the_geometry_is_refused(launcher):
+    nodes = np.vstack([unit_grid(4), [[1.3, 0.5]]])
+    model = EFGModel(nodes, MLSSettings(d_max=2.0), launcher=launcher)
+    solver = PoissonSolver(model, rectangle_cells((0, 0), (1, 1), (4, 4), 2),
+                           essential=[Essential(v, _linear, (True,)) for v in _square_sides(unit_grid(4))])
+    with pytest.raises(ParameterError, match=r"nodes: node 25 at \(1.3, 0.5\) lies outside"):
+        solver.solve()

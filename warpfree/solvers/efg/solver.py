@@ -42,6 +42,9 @@ METHODS = ("lagrange", "penalty", "direct")
 INTEGRATIONS = ("consistent", "gauss")
 #: relative tolerance of the check that the boundary pieces enclose the cells (∮ x·n dΓ = 2 · area)
 CLOSURE_RTOL = 1e-6
+#: winding number below which a node counts as outside the domain (a boundary node at an interior angle θ has
+#: θ/2π: 0.25 at a right corner, 0.12 at Cook's sharpest corner)
+OUTSIDE_WINDING = 0.02
 
 
 def elasticity_matrix(young: float, poisson: float, plane: str) -> np.ndarray:
@@ -107,6 +110,7 @@ class EFGSolver(StaticSolver):
         self.load: np.ndarray | None = None
         self.multipliers = np.zeros(0)
         self.correction: np.ndarray | None = None  # ξ_I of consistent integration (N, 2)
+        self._multiplier_scale = 1.0
 
     # -- what a problem defines --------------------------------------------------------------------------------
     def stiffness(self, shape: ShapeData, test_dphi) -> sp.csr_matrix:
@@ -138,6 +142,7 @@ class EFGSolver(StaticSolver):
                 if self.method == "direct":
                     pieces += [self._direct_boundary_piece(b) for b in self.essential]
                 self._check_closed([p for _, p in pieces])
+                self._check_nodes_inside([p for _, p in pieces])
                 test, self.correction = assembly.consistent_test_gradients(
                     model, self.shape, self.cells.weight, [(sh, p.weight, p.normal) for sh, p in pieces])
         with self.phases("assembly"):
@@ -147,12 +152,14 @@ class EFGSolver(StaticSolver):
                 f = f + self._natural_load(nat, sh)
         with self.phases("boundary"):
             system_matrix, rhs, prescribed = self._impose(K, f, essential)
+        self._condition_rhs = rhs.copy()
+        self._condition_rhs[: c * model.node_count] -= f      # what the boundary conditions add
         with self.phases("factorisation"):
             self.system = FactorisedSystem(system_matrix, prescribed)
         with self.phases("solve"):
             x = self.system.solve(rhs)
         n = c * model.node_count
-        self.nodal, self.multipliers = x[:n], x[n:]
+        self.nodal, self.multipliers = x[:n], x[n:] * self._multiplier_scale
         self.matrix, self.load = K, f
 
     def _essential_set(self, b: Essential):
@@ -173,6 +180,27 @@ class EFGSolver(StaticSolver):
             raise ParameterError("free", f"the boundary pieces (essential, natural, free) do not enclose the "
                                          f"integration cells: ∮ x·n dΓ = {flux:.6g}, 2 · area = {2 * area:.6g}; add the "
                                          f"load-free sides to free=, or use integration='gauss'")
+
+    def _check_nodes_inside(self, pieces: list[BoundaryPoints]) -> None:
+        """Every node inside or on the boundary: its winding number (1/2π) ∮ (x_b - x)·n / |x_b - x|² dΓ is 1
+        inside, 0 outside, the interior angle / 2π on the boundary (1/4 at a right corner); below
+        ``OUTSIDE_WINDING`` a node is outside (a wrong layout or geometry)."""
+        xb = np.vstack([p.position for p in pieces])
+        wn = np.concatenate([p.weight[:, None] * p.normal for p in pieces])
+        nodes = self.model.nodes_np
+        winding = np.empty(nodes.shape[0])
+        for lo in range(0, nodes.shape[0], 2048):
+            d = xb[None, :, :] - nodes[lo:lo + 2048, None, :]
+            r2 = np.einsum("nmk,nmk->nm", d, d)
+            flux = np.einsum("nmk,mk->nm", d, wn)
+            winding[lo:lo + 2048] = np.sum(np.divide(flux, r2, out=np.zeros_like(flux), where=r2 > 0), axis=1)
+        winding /= 2.0 * np.pi
+        outside = np.flatnonzero(winding < OUTSIDE_WINDING)
+        if outside.size:
+            i = int(outside[0])
+            raise ParameterError("nodes", f"node {i} at ({nodes[i, 0]:.6g}, {nodes[i, 1]:.6g}) lies outside the domain "
+                                          f"the boundary pieces enclose (winding number {winding[i]:.3f}; "
+                                          f"{outside.size} such nodes)")
 
     def _natural_load(self, nat: Natural, shape: ShapeData) -> np.ndarray:
         pts = nat.points
@@ -222,27 +250,29 @@ class EFGSolver(StaticSolver):
         if self.method == "penalty":
             alpha = self.penalty * float(np.abs(K.diagonal()).max()) / float(np.abs(mass.diagonal()).max())
             return (K + alpha * mass).tocsr(), f + alpha * np.sum(rhs_parts, axis=0), PrescribedValues([], [], n)
+        # scale the constraint rows so that both blocks' pivots are of K's size (K ~ E, G ~ length: unscaled, the
+        # multipliers' Schur complement -GᵀK⁻¹G is 1e-14 of K's pivots and reads as singular); λ = β λ'
         G = sp.hstack(blocks).tocsr()
         m = G.shape[1]
-        kkt = sp.bmat([[K, G], [G.T, None]]).tocsr()
-        return kkt, np.concatenate([f] + rhs_parts), PrescribedValues([], [], n + m)
+        beta = float(np.abs(K.diagonal()).max()) / max(float(np.abs(G).max()), 1e-300)
+        self._multiplier_scale = beta
+        kkt = sp.bmat([[K, beta * G], [beta * G.T, None]]).tocsr()
+        return kkt, np.concatenate([f] + [beta * q for q in rhs_parts]), PrescribedValues([], [], n + m)
 
     def resolve(self, load) -> np.ndarray:
-        """Solve again with the kept factorisation for a new load vector on the nodes (same conditions)."""
+        """Solve again with the kept factorisation for a new load vector on the nodes, under the same boundary
+        conditions (their contributions to the right-hand side are kept from :meth:`solve`)."""
         if self.system is None:
             raise ParameterError("resolve", "call solve() first")
         f = np.asarray(load, dtype=np.float64)
         n = self.components * self.model.node_count
         if f.shape != (n,):
             raise ParameterError("load", f"must have shape ({n},), got {f.shape}")
-        rhs = f if self.method != "lagrange" else np.concatenate([f, self._constraint_rhs()])
+        rhs = self._condition_rhs.copy()
+        rhs[:n] += f
         x = self.system.solve(rhs)
-        self.nodal = x[:n]
+        self.nodal, self.multipliers = x[:n], x[n:] * self._multiplier_scale
         return self.nodal
-
-    def _constraint_rhs(self) -> np.ndarray:
-        n = self.components * self.model.node_count
-        return np.zeros(self.system.K_ff.shape[0] - n)  # homogeneous conditions only
 
     # -- results -----------------------------------------------------------------------------------------------
     def field_at(self, points, material=None) -> tuple[np.ndarray, np.ndarray]:

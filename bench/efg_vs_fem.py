@@ -1,0 +1,249 @@
+"""EFG against the finite element method: energy-norm error against wall time, Timoshenko beam and thick cylinder.
+
+What it measures
+    For each case and resolution, the wall time of a whole solve and its relative energy-norm error against the
+    exact solution, for
+    * EFG (``scenes/efg_timoshenko.py`` / ``scenes/efg_cylinder.py`` solvers: nodes, supports, shape functions,
+      assembly, Lagrange multipliers, SuperLU), timed from the node layout to the solution;
+    * FEM with linear (P1) and quadratic (P2) triangles from scikit-fem (``pip install scikit-fem``, the bench
+      extra), timed from the mesh to the solution: mesh, basis, assembly, the traction load, the Dirichlet values
+      interpolated at the boundary DOFs, condensation and a sparse direct solve.
+    Errors: sqrt(½ ∫ (ε_h - ε)ᵀ D (ε_h - ε)) / sqrt(½ ∫ εᵀ D ε) by each method's own quadrature (EFG: its 2 x 2
+    Gauss points per cell; FEM: the basis quadrature of order 4). Times: the median of ``--repeats`` solves after a
+    warm-up (kernel loads). One thread count for all (``--threads``, default all cores). The ratio EFG / FEM at
+    equal error is read off the FEM curve (log-log interpolation), as for SPEM against FDTD.
+
+Usage
+    python bench/efg_vs_fem.py            # ~2 min on 2 cores
+    python bench/efg_vs_fem.py --quick
+Writes bench/results/efg_vs_fem[_quick].{json,md,png}.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import common  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "scenes"))
+
+
+def _timed(fn, repeats: int):
+    fn()
+    times, out = [], None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times)), out
+
+
+# -- EFG -----------------------------------------------------------------------------------------------------
+def efg_beam(n: int):
+    import efg_timoshenko
+
+    s = efg_timoshenko.beam_solver(4 * n, n)
+    s.solve()
+    return s
+
+
+def efg_cylinder(n: int):
+    import efg_cylinder
+
+    s = efg_cylinder.cylinder_solver(n, n)
+    s.solve()
+    return s
+
+
+def efg_error(case: str, solver) -> float:
+    from warpfree.validation import efg_cylinder as ring
+    from warpfree.validation import efg_timoshenko as beam
+
+    if case == "beam":
+        err, norm = beam.energy_norm(solver.cells.position, solver.cells.weight, solver.gauss_strain())
+    else:
+        err, norm = ring.energy_norm(solver.cells.position, solver.cells.weight, solver.gauss_strain(), plane="strain")
+    return err / norm
+
+
+# -- FEM (scikit-fem) ----------------------------------------------------------------------------------------
+def _fem_mesh(case: str, n: int):
+    from skfem import MeshTri
+
+    if case == "beam":
+        return MeshTri.init_tensor(np.linspace(0.0, 48.0, 4 * n + 1), np.linspace(-6.0, 6.0, n + 1))
+    m = MeshTri.init_tensor(np.linspace(10.0, 25.0, n + 1), np.linspace(0.0, math.pi / 2, n + 1))
+    r, t = m.p
+    return MeshTri(np.array([r * np.cos(t), r * np.sin(t)]), m.t)
+
+
+def fem_solve(case: str, n: int, degree: int):
+    """(basis, solution, D) of the case on an n-element-per-unit structured triangle mesh, P1 or P2."""
+    from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, FacetBasis, LinearForm, asm, condense, solve
+    from skfem.models.elasticity import lame_parameters, linear_elasticity
+
+    from warpfree.validation import efg_cylinder as ring
+    from warpfree.validation import efg_timoshenko as beam
+
+    mesh = _fem_mesh(case, n)
+    element = ElementVector(ElementTriP2() if degree == 2 else ElementTriP1())
+    basis = Basis(mesh, element, intorder=4)
+    if case == "beam":
+        p = beam.DEFAULTS
+        lam, mu = lame_parameters(p["E"], p["nu"])
+        lam = 2.0 * lam * mu / (lam + 2.0 * mu)                      # plane stress
+        loaded = mesh.facets_satisfying(lambda x: np.isclose(x[0], 48.0))
+        fixed = basis.get_dofs(lambda x: np.isclose(x[0], 0.0))
+
+        def traction(x, normal):
+            return beam.traction_end(x.reshape(2, -1).T).T.reshape(x.shape)
+
+        exact = beam.displacement
+    else:
+        p = ring.DEFAULTS
+        lam, mu = lame_parameters(p["E"], p["nu"])
+        # the inner arc's boundary facets (straight chords: their midpoints lie inside r = 10 by the sagitta)
+        loaded = mesh.facets_satisfying(lambda x: np.hypot(x[0], x[1]) < 10.0 + 0.25 * 15.0 / n, boundaries_only=True)
+        fixed = None
+
+        def traction(x, normal):
+            pts = x.reshape(2, -1).T
+            return ring.traction_on(pts, -pts / np.linalg.norm(pts, axis=1, keepdims=True)).T.reshape(x.shape)
+
+        exact = None
+    K = asm(linear_elasticity(lam, mu), basis)
+    fbasis = FacetBasis(mesh, element, facets=loaded, intorder=4)
+
+    @LinearForm
+    def load(v, w):
+        t = traction(w.x, None)
+        return t[0] * v[0] + t[1] * v[1]
+
+    f = asm(load, fbasis)
+    u = np.zeros(basis.N)
+    if case == "beam":
+        ix, iy = basis.split_indices()
+        locs = basis.doflocs
+        u[ix] = exact(locs[:, ix].T)[:, 0]
+        u[iy] = exact(locs[:, iy].T)[:, 1]
+        dofs = fixed
+    else:
+        dofs = np.concatenate([basis.get_dofs(lambda x: np.isclose(x[1], 0.0)).keep("u^2").flatten(),   # u_y = 0
+                               basis.get_dofs(lambda x: np.isclose(x[0], 0.0)).keep("u^1").flatten()])  # u_x = 0
+    u = solve(*condense(K, f, x=u, D=dofs))
+    return basis, u
+
+
+def fem_error(case: str, basis, u) -> float:
+    from skfem import Functional
+
+    from warpfree.validation import efg_cylinder as ring
+    from warpfree.validation import efg_timoshenko as beam
+
+    plane = "stress" if case == "beam" else "strain"
+    dm = beam.elasticity_matrix(*(beam.DEFAULTS["E"], beam.DEFAULTS["nu"]) if case == "beam"
+                                else (ring.DEFAULTS["E"], ring.DEFAULTS["nu"]), plane)
+    exact_strain = beam.strain if case == "beam" else (lambda pts: ring.strain(pts, plane="strain"))
+
+    def densities(w):
+        g = w["u"].grad
+        eps = np.array([g[0, 0], g[1, 1], g[0, 1] + g[1, 0]])
+        shape = eps.shape[1:]
+        ex = exact_strain(w.x.reshape(2, -1).T).T.reshape((3,) + shape)
+        return eps - ex, ex
+
+    @Functional
+    def error_energy(w):
+        e, _ = densities(w)
+        return 0.5 * np.einsum("i...,ij,j...->...", e, dm, e)
+
+    @Functional
+    def exact_energy(w):
+        _, ex = densities(w)
+        return 0.5 * np.einsum("i...,ij,j...->...", ex, dm, ex)
+
+    uh = basis.interpolate(u)
+    return math.sqrt(error_energy.assemble(basis, u=uh) / exact_energy.assemble(basis, u=uh))
+
+
+def run_case(case: str, args) -> dict:
+    levels = [2, 4, 8, 16, 32] if not args.quick else [2, 4, 8]
+    cyl_levels = [4, 8, 16, 32, 64] if not args.quick else [4, 8]
+    out = {"efg": [], "fem_p1": [], "fem_p2": []}
+    for n in (levels if case == "beam" else cyl_levels):
+        solve_efg = (lambda n=n: efg_beam(n)) if case == "beam" else (lambda n=n: efg_cylinder(n))
+        t, s = _timed(solve_efg, args.repeats)
+        out["efg"].append({"n": n, "unknowns": 2 * s.model.node_count, "wall_s": t, "error": efg_error(case, s)})
+        for degree in (1, 2):
+            fn = (lambda n=n, d=degree: fem_solve(case, 2 * n if d == 1 else n, d))
+            t, (basis, u) = _timed(fn, args.repeats)
+            out[f"fem_p{degree}"].append({"n": n, "unknowns": int(basis.N), "wall_s": t,
+                                          "error": fem_error(case, basis, u)})
+        print(f"  {case} n={n}: " + ", ".join(f"{k} {v[-1]['unknowns']} dof {v[-1]['wall_s']:.3f} s "
+                                             f"err {v[-1]['error']:.2e}" for k, v in out.items()), flush=True)
+    out["ratio_p1"] = common.equal_error_ratio(out["efg"], out["fem_p1"])
+    out["ratio_p2"] = common.equal_error_ratio(out["efg"], out["fem_p2"])
+    return out
+
+
+def markdown(result: dict) -> str:
+    lines = ["# EFG against FEM (scikit-fem), energy-norm error against wall time", "",
+             f"Machine: {result['machine'].get('cpu')}, threads {result['threads']}.", ""]
+    for case in ("beam", "cylinder"):
+        r = result[case]
+        lines += [f"## {case}", ""]
+        rows = []
+        for k in ("efg", "fem_p1", "fem_p2"):
+            for x in r[k]:
+                rows.append([k, x["n"], x["unknowns"], common.fmt(x["wall_s"]), f"{x['error']:.3e}"])
+        lines.append(common.md_table(["method", "level", "unknowns", "wall s", "energy-norm error"], rows))
+        for k in ("ratio_p1", "ratio_p2"):
+            lines.append("")
+            lines.append(f"EFG time / FEM {k[-2:].upper()} time at equal error: " +
+                         (", ".join(f"{x['ratio']:.2f} (error {x['error']:.2e})" for x in r[k]) or
+                          "no overlap of the error ranges"))
+        lines.append("")
+    return "\n".join(lines) + "\n"
+
+
+def plot(result: dict):
+    fig, axes = common.new_figure(1, 2, figsize=(10, 4))
+    for ax, case in zip(axes, ("beam", "cylinder")):
+        for k, style in (("efg", "o-"), ("fem_p1", "s--"), ("fem_p2", "^--")):
+            rows = result[case][k]
+            ax.loglog([x["wall_s"] for x in rows], [x["error"] for x in rows], style, label=k.upper().replace("_", " "))
+        ax.set_xlabel("wall time (s)")
+        ax.set_ylabel("relative energy-norm error")
+        ax.set_title(f"{case}: error against time")
+        ax.legend()
+    return fig
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--quick", action="store_true")
+    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--threads", type=int, default=None)
+    args = p.parse_args(argv)
+    from warpfree import device
+
+    launcher = device.use("cpu", args.threads)
+    if args.quick:
+        args.repeats = 1
+    result = {"machine": common.machine_info(), "threads": launcher.threads}
+    for case in ("beam", "cylinder"):
+        result[case] = run_case(case, args)
+    common.write_results("efg_vs_fem", result, markdown(result), plot(result), quick=args.quick)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
