@@ -1,0 +1,9 @@
+"""Natural element method (seed 003 §3.4): Laplace (non-Sibsonian) shape functions on the Voronoi diagram.
+
+:class:`NEMModel` (``warpfree.solvers.nem.model``) is a drop-in for the EFG model in the EFG solvers
+(``warpfree.solvers.efg.solver``), with :meth:`NEMModel.integration_cells` for Gauss points on its Delaunay triangles.
+"""
+
+from .model import NEMModel, NEMSettings
+
+__all__ = ["NEMModel", "NEMSettings"]
