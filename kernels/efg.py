@@ -468,14 +468,18 @@ def corrected_gradients(
     first: int,
     rows: NeighbourRows,
     dphi: wp.array(dtype=wp.vec2d),
+    point_material: wp.array(dtype=wp.int32),
+    materials: int,
     correction: wp.array(dtype=wp.vec2d),
     out: wp.array(dtype=wp.vec2d),
 ):
-    """∇ψ_I(x_g) = ∇φ_I(x_g) + ξ_I at every entry of point g's row (variationally consistent integration)."""
+    """∇ψ_I(x_g) = ∇φ_I(x_g) + ξ_{I,m} at every entry of point g's row, m the point's material (variationally
+    consistent integration; one correction per node and material region, ``materials`` regions)."""
     g = first + wp.tid()
     start = rows.start[g]
+    m = point_material[g]
     for a in range(rows.count[g]):
-        out[start + a] = dphi[start + a] + correction[rows.index[start + a]]
+        out[start + a] = dphi[start + a] + correction[rows.index[start + a] * materials + m]
 
 
 @wp.kernel

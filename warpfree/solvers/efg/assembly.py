@@ -65,27 +65,45 @@ def _per_point(values, n: int, name: str, width: int | None = None) -> np.ndarra
     return np.ascontiguousarray(v)
 
 
-def consistent_test_gradients(model: EFGModel, shape: ShapeData, weight, boundary: list) -> tuple[wp.array, np.ndarray]:
-    """(∇ψ per entry of ``shape``, ξ (N, 2)) (module docstring); ``boundary``: (ShapeData, weights (m,), outward
-    normals (m, 2)) for every piece of the domain's boundary, the same points the boundary integrals use."""
+def consistent_test_gradients(model: EFGModel, shape: ShapeData, weight, boundary: list,
+                              point_material=None) -> tuple[wp.array, np.ndarray]:
+    """(∇ψ per entry of ``shape``, ξ (N, materials, 2)) (module docstring), one correction per node and material
+    region: ``point_material`` (n,) the Gauss points' regions 0..M-1 (None: one region); ``boundary``: (ShapeData,
+    weights (m,), outward normals (m, 2), region) for every piece that closes a region (outer boundary and both
+    sides of every interface), the same points the boundary integrals use. Per region m the discrete divergence
+    theorem Σ_{g ∈ m} w_g ∇ψ_I = Σ_{b ∈ ∂m} w_b φ_I n_b then holds, so piecewise-linear fields with flux
+    continuity are reproduced too."""
     w = np.asarray(weight, dtype=np.float64)
-    gx, gy = shape.gradient_matrices()
-    pattern = gx.copy()
-    pattern.data[:] = 1.0
-    volume = pattern.T @ w
-    target = np.zeros((model.node_count, 2))
-    for bshape, bw, normal in boundary:
-        phi = bshape.matrix()
-        target += phi.T @ (np.asarray(bw)[:, None] * np.asarray(normal))
-    integral = np.stack([gx.T @ w, gy.T @ w], axis=1)
+    n_nodes = model.node_count
+    region = np.zeros(shape.n, dtype=np.int64) if point_material is None else np.asarray(point_material, np.int64)
+    regions = int(region.max()) + 1 if region.size else 1
+    index = shape.rows.index.numpy()[: shape.n_entries].astype(np.int64)
+    entry_region = np.repeat(region, shape.counts)
+    key = index * regions + entry_region
+    size = n_nodes * regions
+    entry_weight = np.repeat(w, shape.counts)
+    d = shape.dphi.numpy()[: shape.n_entries]
+    volume = np.bincount(key, weights=entry_weight, minlength=size)
+    integral = np.stack([np.bincount(key, weights=entry_weight * d[:, k], minlength=size) for k in range(2)], axis=1)
+    target = np.zeros((size, 2))
+    for bshape, bw, normal, piece_region in boundary:
+        phi = bshape.phi.numpy()[: bshape.n_entries]
+        b_index = bshape.rows.index.numpy()[: bshape.n_entries].astype(np.int64)
+        flux = (np.asarray(bw)[:, None] * np.asarray(normal))
+        b_flux = np.repeat(flux, bshape.counts, axis=0) * phi[:, None]
+        b_key = b_index * regions + max(int(piece_region), 0)
+        for k in range(2):
+            target[:, k] += np.bincount(b_key, weights=b_flux[:, k], minlength=size)
     covered = volume > 0
-    xi = np.zeros((model.node_count, 2))
+    xi = np.zeros((size, 2))
     xi[covered] = (target[covered] - integral[covered]) / volume[covered, None]
     dev = model.launcher.device
     out = wp.zeros_like(shape.dphi)
     model.launcher.launch(ek.corrected_gradients, shape.n, [shape.rows, shape.dphi,
+                                                            wp.array(region.astype(np.int32), dtype=wp.int32,
+                                                                     device=dev), regions,
                                                             wp.array(xi, dtype=wp.vec2d, device=dev), out])
-    return out, xi
+    return out, xi.reshape(n_nodes, regions, 2)
 
 
 class NodeRows:

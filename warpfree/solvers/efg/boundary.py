@@ -23,7 +23,7 @@ from warpfree.errors import ParameterError
 
 from .quadrature import BoundaryPoints, segment_points
 
-__all__ = ["Essential", "Natural", "EssentialPoints", "essential_points"]
+__all__ = ["Essential", "Natural", "Free", "Interface", "EssentialPoints", "essential_points"]
 
 
 @dataclass
@@ -37,6 +37,7 @@ class Essential:
     constrained: tuple = (True, True)
     order: int = 3
     name: str = "essential"
+    material: int = -1  # the material whose shape functions serve this boundary (-1: every node)
 
 
 @dataclass
@@ -46,6 +47,26 @@ class Natural:
     points: BoundaryPoints
     value: Callable[[np.ndarray, np.ndarray], np.ndarray]
     name: str = "natural"
+    material: int = -1  # the material whose shape functions serve this boundary (-1: every node)
+
+
+@dataclass
+class Free:
+    """A load-free piece of the boundary (traction-free, insulated) of ``material``: no load, but part of the
+    boundary integral of consistent integration."""
+
+    points: BoundaryPoints
+    material: int = -1
+
+
+@dataclass
+class Interface:
+    """A material interface: boundary points whose ``points.normal`` points out of material ``inside`` into
+    material ``outside``; consistent integration closes each material's region with it (twice, once per side)."""
+
+    points: BoundaryPoints
+    inside: int
+    outside: int
 
 
 @dataclass

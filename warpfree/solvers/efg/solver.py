@@ -31,7 +31,7 @@ from warpfree.solver import OutputSet, StaticSolver
 from warpfree.sparse import FactorisedSystem, PrescribedValues
 
 from . import assembly
-from .boundary import Essential, Natural, essential_points, nodes_on_polyline
+from .boundary import Essential, Free, Interface, Natural, essential_points, nodes_on_polyline
 from .model import EFGModel, ShapeData
 from .plots import von_mises
 from .quadrature import BoundaryPoints, QuadraturePoints
@@ -66,8 +66,10 @@ class EFGSolver(StaticSolver):
     """What both problems share: shape functions at the Gauss points, boundary conditions, factorise, solve.
 
     model: the :class:`EFGModel`; cells: Gauss points of the domain (``cell`` indices select materials);
-    essential / natural: boundary conditions; free: boundary points of the rest of the boundary (traction-free or
-    insulated: no load, but part of the boundary integral of consistent integration); method: "lagrange",
+    essential / natural: boundary conditions; free: the rest of the boundary (:class:`Free` pieces or
+    BoundaryPoints: traction-free or insulated, no load, but part of the boundary integral of consistent
+    integration); interfaces: material interfaces (:class:`Interface`, with consistent integration and several
+    materials, which then needs every piece's ``material``); method: "lagrange",
     "penalty" or "direct" (module ``boundary``); penalty: α as a multiple of the largest diagonal entry of K per
     unit boundary weight; integration: "consistent" (test gradients corrected so that the discrete divergence
     theorem holds, ``assembly.consistent_test_gradients``: linear fields exact; needs essential + natural + free to
@@ -80,7 +82,8 @@ class EFGSolver(StaticSolver):
 
     def __init__(self, model: EFGModel, cells: QuadraturePoints, essential: list[Essential] | None = None,
                  natural: list[Natural] | None = None, method: str = "lagrange", penalty: float = 1e7,
-                 cell_material=None, free: list[BoundaryPoints] | None = None, integration: str = "consistent"):
+                 cell_material=None, free: list | None = None, interfaces: list[Interface] | None = None,
+                 integration: str = "consistent"):
         super().__init__(model, model.launcher)
         if method not in METHODS:
             raise ParameterError("method", f"must be one of {list(METHODS)}, got {method!r}")
@@ -89,11 +92,9 @@ class EFGSolver(StaticSolver):
                                            "(weight='singular'); use 'lagrange' or 'penalty'")
         if integration not in INTEGRATIONS:
             raise ParameterError("integration", f"must be one of {list(INTEGRATIONS)}, got {integration!r}")
-        if integration == "consistent" and cell_material is not None:
-            raise ParameterError("integration", "consistent integration with material truncation (interfaces inside "
-                                                "node supports) is not implemented: use integration='gauss'")
         self.integration = integration
-        self.free = list(free or [])
+        self.free = [f if isinstance(f, Free) else Free(f) for f in (free or [])]
+        self.interfaces = list(interfaces or [])
         self.method = method
         self.penalty = require_positive("penalty", penalty)
         self.cells = cells
@@ -134,17 +135,16 @@ class EFGSolver(StaticSolver):
         with self.phases("shape functions"):
             self.shape = model.shape_at(self.cells.position, self.point_material, name="Gauss point")
             essential = [] if self.method == "direct" else [self._essential_set(b) for b in self.essential]
-            natural = [(nat, model.shape_at(nat.points.position, name=f"{nat.name} point")) for nat in self.natural]
+            natural = [(nat, self._shape(nat.points.position, nat.material, f"{nat.name} point"))
+                       for nat in self.natural]
             test = None
             if self.integration == "consistent":
-                pieces = [(sh, ep.points) for ep, sh in essential] + [(sh, nat.points) for nat, sh in natural]
-                pieces += [(model.shape_at(p.position, name="free boundary point"), p) for p in self.free]
-                if self.method == "direct":
-                    pieces += [self._direct_boundary_piece(b) for b in self.essential]
-                self._check_closed([p for _, p in pieces])
-                self._check_nodes_inside([p for _, p in pieces])
+                pieces = self._boundary_pieces(essential, natural)
+                self._check_closed(pieces)
+                self._check_nodes_inside([p for _, p, _ in pieces])
                 test, self.correction = assembly.consistent_test_gradients(
-                    model, self.shape, self.cells.weight, [(sh, p.weight, p.normal) for sh, p in pieces])
+                    model, self.shape, self.cells.weight, [(sh, p.weight, p.normal, r) for sh, p, r in pieces],
+                    self.point_material)
         with self.phases("assembly"):
             K = self.stiffness(self.shape, test)
             f = self.body_load(self.shape)
@@ -162,24 +162,52 @@ class EFGSolver(StaticSolver):
         self.nodal, self.multipliers = x[:n], x[n:] * self._multiplier_scale
         self.matrix, self.load = K, f
 
+    def _shape(self, points: np.ndarray, material: int, name: str) -> ShapeData:
+        """Shape functions at boundary points that belong to ``material`` (-1: every node serves them)."""
+        m = None if material < 0 else np.full(points.shape[0], int(material))
+        return self.model.shape_at(points, m, name=name)
+
     def _essential_set(self, b: Essential):
         ep = essential_points(b, self.components)
-        shape = self.model.shape_at(ep.points.position, name=f"{b.name} point")
-        return ep, shape
+        return ep, self._shape(ep.points.position, b.material, f"{b.name} point")
 
-    def _direct_boundary_piece(self, b: Essential):
-        ep = essential_points(b, self.components)
-        return self.model.shape_at(ep.points.position, name=f"{b.name} point"), ep.points
+    def _boundary_pieces(self, essential, natural) -> list:
+        """(shape, points, region) for every piece closing a material region: essential, natural, free, and both
+        sides of every interface."""
+        several = self.point_material is not None and int(self.point_material.max()) > 0
+        named = [(b.material, b.name) for b in self.essential] + [(n.material, n.name) for n in self.natural] \
+            + [(f.material, f"free piece {i}") for i, f in enumerate(self.free)]
+        for material, name in named:
+            if several and material < 0:
+                raise ParameterError("material", f"{name}: with several materials and consistent integration every "
+                                                 f"boundary piece needs the material it bounds")
+        pieces = [(sh, ep.points, b.material) for (ep, sh), b in zip(essential, self.essential)]
+        pieces += [(sh, nat.points, nat.material) for nat, sh in natural]
+        pieces += [(self._shape(f.points.position, f.material, "free boundary point"), f.points, f.material)
+                   for f in self.free]
+        if self.method == "direct":
+            for b in self.essential:
+                ep = essential_points(b, self.components)
+                pieces.append((self._shape(ep.points.position, b.material, f"{b.name} point"), ep.points, b.material))
+        for face in self.interfaces:
+            p = face.points
+            flipped = BoundaryPoints(p.position, p.weight, -p.normal, p.segment)
+            pieces.append((self._shape(p.position, face.inside, "interface point"), p, face.inside))
+            pieces.append((self._shape(p.position, face.outside, "interface point"), flipped, face.outside))
+        return pieces
 
-    def _check_closed(self, pieces: list[BoundaryPoints]) -> None:
-        """The boundary pieces must enclose the cells: ∮ x·n dΓ = 2 · area (divergence theorem)."""
-        area = float(np.sum(self.cells.weight))
-        flux = sum(float(np.sum(p.weight * np.einsum("ij,ij->i", p.position, p.normal))) for p in pieces) \
-            if pieces else 0.0
-        if not abs(flux - 2.0 * area) <= CLOSURE_RTOL * 2.0 * area:
-            raise ParameterError("free", f"the boundary pieces (essential, natural, free) do not enclose the "
-                                         f"integration cells: ∮ x·n dΓ = {flux:.6g}, 2 · area = {2 * area:.6g}; add the "
-                                         f"load-free sides to free=, or use integration='gauss'")
+    def _check_closed(self, pieces: list) -> None:
+        """The pieces of each material region must enclose its cells: ∮ x·n dΓ = 2 · area (divergence theorem)."""
+        region = np.zeros(self.work_items, dtype=int) if self.point_material is None else self.point_material
+        for r in range(int(region.max()) + 1):
+            area = float(np.sum(self.cells.weight[region == r]))
+            flux = sum(float(np.sum(p.weight * np.einsum("ij,ij->i", p.position, p.normal)))
+                       for _, p, m in pieces if max(m, 0) == r)
+            if not abs(flux - 2.0 * area) <= CLOSURE_RTOL * 2.0 * area:
+                raise ParameterError("free", f"the boundary pieces (essential, natural, free, interfaces) do not "
+                                             f"enclose the integration cells of material {r}: ∮ x·n dΓ = {flux:.6g}, "
+                                             f"2 · area = {2 * area:.6g}; add the load-free sides to free= (and "
+                                             f"material interfaces to interfaces=), or use integration='gauss'")
 
     def _check_nodes_inside(self, pieces: list[BoundaryPoints]) -> None:
         """Every node inside or on the boundary: its winding number (1/2π) ∮ (x_b - x)·n / |x_b - x|² dΓ is 1
