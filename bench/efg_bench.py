@@ -159,7 +159,8 @@ def assembly_sweep(args) -> dict:
         gather_s = common.median([x for s in samples[t] for x in s["gather_s"]])
         trip = [x for s in samples[t] for x in s["triplets_s"]]
         g = samples[t][0]["gauss_points"]
-        rows.append(dict(threads=t, shape_s=shape_s, gather_s=gather_s, triplets_s=common.median(trip) if trip else None,
+        rows.append(dict(threads=t, shape_s=shape_s, gather_s=gather_s,
+                         triplets_s=common.median(trip) if trip else None,
                          gauss_points_per_s=g / (shape_s + gather_s), control_block_s=common.median(control[t])))
     for row in rows:
         row["speedup"] = rows[0]["gauss_points_per_s"] and row["gauss_points_per_s"] / rows[0]["gauss_points_per_s"]
@@ -170,7 +171,8 @@ def assembly_sweep(args) -> dict:
 
 
 def markdown(result: dict) -> str:
-    out = ["# EFG benchmarks", "", f"Machine: {result['machine'].get('cpu')}, {result['machine'].get('cores')} cores.", "",
+    machine = result["machine"]
+    out = ["# EFG benchmarks", "", f"Machine: {machine.get('cpu')}, {machine.get('cores')} cores.", "",
            "## Gauss point -> node search (random nodes, d_max 2, 2 x 2 Gauss points per cell)", ""]
     rows = [[r["nodes"], r["gauss_points"], r["pairs"], common.fmt(r["hashgrid_s"]), common.fmt(r.get("brute_s")),
              common.fmt(r["kdtree_s"]), r["equal_kdtree"] and r.get("equal_brute", True)] for r in result["search"]]

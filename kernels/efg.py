@@ -82,7 +82,8 @@ def weight_and_slope(kind: int, r: wp.float64) -> wp.vec2d:
                 w = wp.float64(2.0) / wp.float64(3.0) - wp.float64(4.0) * r * r + wp.float64(4.0) * r * r * r
                 dw = -wp.float64(8.0) * r + wp.float64(12.0) * r * r
             else:
-                w = wp.float64(4.0) / wp.float64(3.0) - wp.float64(4.0) * r + wp.float64(4.0) * r * r - wp.float64(4.0) / wp.float64(3.0) * r * r * r
+                third4 = wp.float64(4.0) / wp.float64(3.0)
+                w = third4 - wp.float64(4.0) * r + wp.float64(4.0) * r * r - third4 * r * r * r
                 dw = -wp.float64(4.0) + wp.float64(8.0) * r - wp.float64(4.0) * r * r
             if kind == SINGULAR:  # w / (r² + ε²): φ_I(x_I) = 1
                 q = r * r + SINGULAR_EPS2

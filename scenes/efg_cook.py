@@ -61,7 +61,8 @@ def cook_solver(cells: int, layout: str = "regular", seed: int = 0, d_max: float
                             essential=[Essential(left, lambda q: np.zeros((len(q), 2)), name="clamped_edge")],
                             natural=[Natural(polyline_points(_edge(c[1], c[2], cells), 3),
                                              lambda q, n: np.broadcast_to(traction, (len(q), 2)), name="shear")],
-                            free=[polyline_points(_edge(c[0], c[1], cells), 3), polyline_points(_edge(c[2], c[3], cells), 3)],
+                            free=[polyline_points(_edge(c[0], c[1], cells), 3),
+                                  polyline_points(_edge(c[2], c[3], cells), 3)],
                             method=method, integration=integration)
 
 

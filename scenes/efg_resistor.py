@@ -120,7 +120,8 @@ def resistor_errors(solver: PoissonSolver) -> dict:
             out["field_oscillation"] = (tv[0] + tv[1] - tv[2] - tv[3]) / float(lines[name]["E"].max())
     out["potential_lines_max_error"] = v_err
     rng = np.random.default_rng(0)          # uniformly distributed points, as the thesis's Fig. 6.3
-    pts = np.vstack([rng.uniform((0.0, 0.0), (3 * MM, MM), (3000, 2)), rng.uniform((MM, MM), (2 * MM, 2 * MM), (1000, 2))])
+    pts = np.vstack([rng.uniform((0.0, 0.0), (3 * MM, MM), (3000, 2)),
+                     rng.uniform((MM, MM), (2 * MM, 2 * MM), (1000, 2))])
     mat = (pts[:, 1] > MM).astype(int)
     v = solver.field_at(pts, mat if solver._node_point_material() is not None else None)[0][:, 0]
     err = np.abs(v - ref.potential_at(pts))

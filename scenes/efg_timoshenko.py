@@ -85,7 +85,8 @@ def beam_errors(solver: ElasticitySolver) -> dict:
 
 def build(cells_x: int = 48, cells_y: int = 12, layout: str = "regular", seed: int = 0, d_max: float = 3.5,
           weight: str = "cubic_spline", basis: str = "linear", gauss: int = 2, method: str = "lagrange",
-          integration: str | None = None, model: str = "efg", refinements: int = 0, magnify: float = 200.0, frames: bool = True,
+          integration: str | None = None, model: str = "efg", refinements: int = 0, magnify: float = 200.0,
+          frames: bool = True,
           vtk: bool = True) -> StaticRun:
     """``cells_x`` x ``cells_y`` node spacings (nodes: one more each way); ``gauss``: points per cell side;
     ``refinements``: also solve on that many layouts from 6 x 1.5 ... cells doubling (convergence study)."""

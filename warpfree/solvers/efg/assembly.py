@@ -102,7 +102,7 @@ def consistent_test_gradients(model: EFGModel, shape: ShapeData, weight, boundar
     model.launcher.launch(ek.corrected_gradients, shape.n, [shape.rows, shape.dphi,
                                                             wp.array(region.astype(np.int32), dtype=wp.int32,
                                                                      device=dev), regions,
-                                                            wp.array(xi, dtype=wp.vec2d, device=dev), out])
+                                                            wp.array(xi, dtype=wp.vec2d, device=dev), out], once=True)
     return out, xi.reshape(n_nodes, regions, 2)
 
 
@@ -158,12 +158,13 @@ def conduction_matrix(model: EFGModel, shape: ShapeData, weight, test_dphi: wp.a
         values = wp.zeros(max(nr.nnz, 1), dtype=wp.float64, device=dev)
         model.launcher.launch(ek.conduction_rows, model.node_count, [shape.rows, nr.entries, nr.entry_point, test,
                                                                      shape.dphi, w, nr.pattern_start, nr.pattern_cols,
-                                                                     values])
+                                                                     values], once=True)
         return sp.csr_matrix((values.numpy()[: nr.nnz], nr.indices, nr.indptr),
                              shape=(model.node_count, model.node_count))
     starts, total = _slot_starts(shape.counts ** 2, dev)
     slots = TripletBuffer(total, dev)
-    model.launcher.launch(ek.conduction_stiffness, n, [shape.rows, test, shape.dphi, w, starts, slots.triplets])
+    model.launcher.launch(ek.conduction_stiffness, n, [shape.rows, test, shape.dphi, w, starts, slots.triplets],
+                          once=True)
     return to_csr(slots, (model.node_count, model.node_count))
 
 
@@ -183,13 +184,14 @@ def elastic_matrix(model: EFGModel, shape: ShapeData, weight, material,
         values = wp.zeros(max(nr.nnz, 1), dtype=wp.mat22d, device=dev)
         model.launcher.launch(ek.elastic_rows, model.node_count, [shape.rows, nr.entries, nr.entry_point, test,
                                                                   shape.dphi, w, dm, nr.pattern_start, nr.pattern_cols,
-                                                                  values])
+                                                                  values], once=True)
         blocks = values.numpy()[: nr.nnz]
         return sp.bsr_matrix((blocks, nr.indices, nr.indptr),
                              shape=(2 * model.node_count, 2 * model.node_count)).tocsr()
     starts, total = _slot_starts(4 * shape.counts ** 2, dev)
     slots = TripletBuffer(total, dev)
-    model.launcher.launch(ek.elastic_stiffness, n, [shape.rows, test, shape.dphi, w, dm, starts, slots.triplets])
+    model.launcher.launch(ek.elastic_stiffness, n, [shape.rows, test, shape.dphi, w, dm, starts, slots.triplets],
+                          once=True)
     return to_csr(slots, (2 * model.node_count, 2 * model.node_count))
 
 
@@ -204,7 +206,8 @@ def load_vector(model: EFGModel, shape: ShapeData, value) -> np.ndarray:
     starts, total = _slot_starts(c * shape.counts, dev)
     slots = LoadBuffer(total, dev)
     model.launcher.launch(ek.point_loads, n, [shape.rows, shape.phi, wp.array(v.reshape(-1), dtype=wp.float64,
-                                                                             device=dev), c, starts, slots.loads])
+                                                                             device=dev), c, starts, slots.loads],
+                          once=True)
     return _sum_loads(slots, c * model.node_count)
 
 
@@ -226,9 +229,11 @@ def multiplier_matrix(model: EFGModel, shape: ShapeData, weight, multiplier, mul
     nv = _per_point(multiplier_value, n, "multiplier_value", 2)
     starts, total = _slot_starts(2 * components * shape.counts, dev)
     slots = TripletBuffer(total, dev)
-    model.launcher.launch(ek.multiplier_coupling, n, [shape.rows, shape.phi, w, wp.array(mk, dtype=wp.vec2i, device=dev),
+    model.launcher.launch(ek.multiplier_coupling, n, [shape.rows, shape.phi, w,
+                                                      wp.array(mk, dtype=wp.vec2i, device=dev),
                                                       wp.array(nv, dtype=wp.vec2d, device=dev), components,
-                                                      _mask(constrained, components), starts, slots.triplets])
+                                                      _mask(constrained, components), starts, slots.triplets],
+                          once=True)
     return to_csr(slots, (components * model.node_count, components * n_multipliers))
 
 
@@ -239,5 +244,5 @@ def boundary_mass_matrix(model: EFGModel, shape: ShapeData, weight, components: 
     starts, total = _slot_starts(components * shape.counts ** 2, dev)
     slots = TripletBuffer(total, dev)
     model.launcher.launch(ek.boundary_mass, n, [shape.rows, shape.phi, w, components, _mask(constrained, components),
-                                                starts, slots.triplets])
+                                                starts, slots.triplets], once=True)
     return to_csr(slots, (components * model.node_count, components * model.node_count))

@@ -188,7 +188,7 @@ class EFGModel:
         for _ in range(60):
             grid = NeighbourGrid(self.launcher, radius, Space.free(2), self.nodes32)
             self.launcher.launch(ek.kth_nearest, x.shape[0], [grid.id, self.nodes32, self.nodes,
-                                                              self.settings.rank, radius, distance])
+                                                              self.settings.rank, radius, distance], once=True)
             d = distance.numpy()
             if np.all(d >= 0):
                 break
@@ -217,7 +217,7 @@ class EFGModel:
         else:
             kernel, args = ek.support_rows, [self.grid.id, self.reach, _vec3(p, dev), points64, mat, self.nodes,
                                              self.support, self.node_material, self._params]
-        L.launch(kernel, n, args + [0, rows])
+        L.launch(kernel, n, args + [0, rows], once=True)
         counts = rows.count.numpy().astype(np.int64)
         starts = np.zeros(n, dtype=np.int64)
         np.cumsum(counts[:-1], out=starts[1:])
@@ -226,7 +226,7 @@ class EFGModel:
             raise ParameterError("d_max", f"{total} point-node pairs exceed the int32 index range")
         rows.start = wp.array(starts.astype(np.int32), dtype=wp.int32, device=dev)
         rows.index = wp.zeros(max(total, 1), dtype=wp.int32, device=dev)
-        L.launch(kernel, n, args + [1, rows])
+        L.launch(kernel, n, args + [1, rows], once=True)
         return p, points64, rows, counts, total
 
     def shape_at(self, points, material=None, name: str = "point") -> ShapeData:
@@ -238,7 +238,7 @@ class EFGModel:
         dphi = wp.zeros(max(total, 1), dtype=wp.vec2d, device=dev)
         rcond = wp.zeros(n, dtype=wp.float64, device=dev)
         self.launcher.launch(ek.shape_functions, n, [points64, rows, self.nodes, self.support, self._params, phi,
-                                                     dphi, rcond])
+                                                     dphi, rcond], once=True)
         self._check(p, counts, rcond.numpy(), name)
         return ShapeData(p, rows, counts, total, phi, dphi, rcond, self.node_count)
 
@@ -270,7 +270,7 @@ class EFGModel:
         grad = wp.zeros(shape.n * components, dtype=wp.vec2d, device=dev)
         self.launcher.launch(ek.evaluate_field, shape.n, [shape.rows, shape.phi, shape.dphi,
                                                           wp.array(u, dtype=wp.float64, device=dev), components,
-                                                          value, grad])
+                                                          value, grad], once=True)
         return value.numpy().reshape(shape.n, components), grad.numpy().reshape(shape.n, components, 2)
 
     def describe(self) -> dict:

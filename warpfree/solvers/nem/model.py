@@ -248,7 +248,7 @@ class NEMModel:
         status = wp.zeros(n, dtype=wp.int32, device=dev)
         phi = wp.zeros(1, dtype=wp.float64, device=dev)
         dphi = wp.zeros(1, dtype=wp.vec2d, device=dev)
-        L.launch(nk.laplace_rows, n, [self.mesh, points64, triangle, 0, rows, phi, dphi, status])
+        L.launch(nk.laplace_rows, n, [self.mesh, points64, triangle, 0, rows, phi, dphi, status], once=True)
         self._check(p, status.numpy(), name)
         counts = rows.count.numpy().astype(np.int64)
         starts = np.zeros(n, dtype=np.int64)
@@ -258,7 +258,7 @@ class NEMModel:
         rows.index = wp.zeros(max(total, 1), dtype=wp.int32, device=dev)
         phi = wp.zeros(max(total, 1), dtype=wp.float64, device=dev)
         dphi = wp.zeros(max(total, 1), dtype=wp.vec2d, device=dev)
-        L.launch(nk.laplace_rows, n, [self.mesh, points64, triangle, 1, rows, phi, dphi, status])
+        L.launch(nk.laplace_rows, n, [self.mesh, points64, triangle, 1, rows, phi, dphi, status], once=True)
         rcond = wp.array(np.ones(n), dtype=wp.float64, device=dev)
         return ShapeData(p, rows, counts, total, phi, dphi, rcond, self.node_count)
 
@@ -281,7 +281,7 @@ class NEMModel:
         grad = wp.zeros(shape.n * components, dtype=wp.vec2d, device=dev)
         self.launcher.launch(ek.evaluate_field, shape.n, [shape.rows, shape.phi, shape.dphi,
                                                           wp.array(u, dtype=wp.float64, device=dev), components,
-                                                          value, grad])
+                                                          value, grad], once=True)
         return value.numpy().reshape(shape.n, components), grad.numpy().reshape(shape.n, components, 2)
 
     def integration_cells(self, degree: int = 2) -> QuadraturePoints:
