@@ -126,6 +126,16 @@ def inside_support(params: MLSParams, d: wp.vec2d, support: wp.vec2d) -> bool:
 
 
 @wp.func
+def serves(params: MLSParams, x: wp.vec2d, material: int, node: wp.vec2d, support: wp.vec2d,
+           node_material: int) -> bool:
+    """Does the node serve the point x of ``material``: x inside its support, and the node of the point's material
+    or of every material (-1: on an interface or in a one-material model; seed 002 §3.3, domain truncation)?"""
+    if not inside_support(params, x - node, support):
+        return False
+    return node_material < 0 or material < 0 or node_material == material
+
+
+@wp.func
 def basis(d: wp.vec2d, inv_scale: wp.float64, terms: int) -> vec6d:
     """p(d/s): [1, ξ, η] or [1, ξ, η, ξ², ξη, η²] (unused terms 0)."""
     p = vec6d()
@@ -247,10 +257,7 @@ def support_rows(
     query = wp.hash_grid_query(grid, points32[i], radius)
     j = int(0)
     while wp.hash_grid_query_next(query, j):
-        if not inside_support(params, x - nodes[j], support[j]):
-            continue
-        mj = node_material[j]
-        if mj >= 0 and m >= 0 and mj != m:
+        if not serves(params, x, m, nodes[j], support[j], node_material[j]):
             continue
         if fill != 0:
             rows.index[base + n] = j
@@ -280,10 +287,7 @@ def support_rows_brute(
     n = int(0)
     base = rows.start[i]
     for j in range(n_nodes):
-        if not inside_support(params, x - nodes[j], support[j]):
-            continue
-        mj = node_material[j]
-        if mj >= 0 and m >= 0 and mj != m:
+        if not serves(params, x, m, nodes[j], support[j], node_material[j]):
             continue
         if fill != 0:
             rows.index[base + n] = j

@@ -28,7 +28,7 @@ from warpfree.kernels import neighbours as nk
 from warpfree.neighbours import NeighbourGrid
 from warpfree.space import Space
 
-__all__ = ["MLSSettings", "EFGModel", "ShapeData", "BASES", "WEIGHTS", "RCOND_LIMIT"]
+__all__ = ["MLSSettings", "EFGModel", "ShapeData", "evaluate_nodal", "BASES", "WEIGHTS", "RCOND_LIMIT"]
 
 BASES = {"linear": 3, "quadratic": 6}
 WEIGHTS = {"cubic_spline": 0, "quartic": 1, "gaussian": 2, "singular": 3}
@@ -143,6 +143,22 @@ def _materials(values, n: int, name: str, device: str) -> wp.array:
     if m.shape != (n,) or not np.issubdtype(m.dtype, np.integer) or np.any(m < -1):
         raise ParameterError(name, f"must be {n} integers >= -1 (-1: sees / is seen by every material)")
     return wp.array(m.astype(np.int32), dtype=wp.int32, device=device)
+
+
+def evaluate_nodal(launcher: Launcher, node_count: int, nodal, shape: ShapeData,
+                   components: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """u^h_k = Σ_I φ_I u_{cI+k} and its gradient at the points of ``shape`` (any model's shape data): (n,
+    components) and (n, components, 2) from ``nodal`` (node count × components, node-major)."""
+    dev = launcher.device
+    u = np.ascontiguousarray(np.asarray(nodal, dtype=np.float64).reshape(-1))
+    if u.size != components * node_count:
+        raise ParameterError("nodal", f"needs {components * node_count} values, got {u.size}")
+    value = wp.zeros(shape.n * components, dtype=wp.float64, device=dev)
+    grad = wp.zeros(shape.n * components, dtype=wp.vec2d, device=dev)
+    launcher.launch(ek.evaluate_field, shape.n, [shape.rows, shape.phi, shape.dphi,
+                                                 wp.array(u, dtype=wp.float64, device=dev), components, value, grad],
+                    once=True)
+    return value.numpy().reshape(shape.n, components), grad.numpy().reshape(shape.n, components, 2)
 
 
 class EFGModel:
@@ -262,16 +278,7 @@ class EFGModel:
     def evaluate(self, nodal, shape: ShapeData, components: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """(u^h (n, components), ∇u^h (n, components, 2)) at the points of ``shape`` from nodal parameters
         ``nodal`` (node count × components, node-major: u_{cI+k})."""
-        dev = self.launcher.device
-        u = np.ascontiguousarray(np.asarray(nodal, dtype=np.float64).reshape(-1))
-        if u.size != components * self.node_count:
-            raise ParameterError("nodal", f"needs {components * self.node_count} values, got {u.size}")
-        value = wp.zeros(shape.n * components, dtype=wp.float64, device=dev)
-        grad = wp.zeros(shape.n * components, dtype=wp.vec2d, device=dev)
-        self.launcher.launch(ek.evaluate_field, shape.n, [shape.rows, shape.phi, shape.dphi,
-                                                          wp.array(u, dtype=wp.float64, device=dev), components,
-                                                          value, grad], once=True)
-        return value.numpy().reshape(shape.n, components), grad.numpy().reshape(shape.n, components, 2)
+        return evaluate_nodal(self.launcher, self.node_count, nodal, shape, components)
 
     def describe(self) -> dict:
         s = self.settings

@@ -45,10 +45,9 @@ from scipy.spatial import Delaunay, QhullError, cKDTree
 
 from warpfree.device import Launcher, current_launcher
 from warpfree.errors import ParameterError
-from warpfree.kernels import efg as ek
 from warpfree.kernels import nem as nk
 from warpfree.kernels.neighbours import NeighbourRows
-from warpfree.solvers.efg.model import ShapeData, _materials, _points2
+from warpfree.solvers.efg.model import ShapeData, _materials, _points2, evaluate_nodal
 from warpfree.solvers.efg.quadrature import QuadraturePoints, triangle_cells
 
 __all__ = ["NEMModel", "NEMSettings"]
@@ -273,16 +272,7 @@ class NEMModel:
     def evaluate(self, nodal, shape: ShapeData, components: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """(u^h (n, components), ∇u^h (n, components, 2)) at the points of ``shape`` from nodal values ``nodal``
         (node count × components, node-major: u_{cI+k}; Laplace functions interpolate, so these are nodal values)."""
-        dev = self.launcher.device
-        u = np.ascontiguousarray(np.asarray(nodal, dtype=np.float64).reshape(-1))
-        if u.size != components * self.node_count:
-            raise ParameterError("nodal", f"needs {components * self.node_count} values, got {u.size}")
-        value = wp.zeros(shape.n * components, dtype=wp.float64, device=dev)
-        grad = wp.zeros(shape.n * components, dtype=wp.vec2d, device=dev)
-        self.launcher.launch(ek.evaluate_field, shape.n, [shape.rows, shape.phi, shape.dphi,
-                                                          wp.array(u, dtype=wp.float64, device=dev), components,
-                                                          value, grad], once=True)
-        return value.numpy().reshape(shape.n, components), grad.numpy().reshape(shape.n, components, 2)
+        return evaluate_nodal(self.launcher, self.node_count, nodal, shape, components)
 
     def integration_cells(self, degree: int = 2) -> QuadraturePoints:
         """Gauss points on the kept Delaunay triangles (``triangle_cells``): degree 2 = 3 points per triangle, the
