@@ -543,6 +543,67 @@ def multiplier_coupling(
 
 
 @wp.kernel
+def interface_terms(
+    first: int,
+    rows_a: NeighbourRows,
+    phi_a: wp.array(dtype=wp.float64),
+    dphi_a: wp.array(dtype=wp.vec2d),
+    rows_b: NeighbourRows,
+    phi_b: wp.array(dtype=wp.float64),
+    dphi_b: wp.array(dtype=wp.vec2d),
+    normal: wp.array(dtype=wp.vec2d),
+    weight: wp.array(dtype=wp.float64),
+    conductivity_a: wp.float64,
+    conductivity_b: wp.float64,
+    penalty: wp.float64,
+    slot_start: wp.array(dtype=wp.int32),
+    out: Triplets,
+):
+    """Symmetric Nitsche terms on a material interface between truncated supports (side a -> b along ``normal``):
+
+        K_IJ += w_g ( -{k ∂φ_J/∂n}[φ_I] - {k ∂φ_I/∂n}[φ_J] + α [φ_I][φ_J] ),  [φ] = φ^a - φ^b,
+        {k ∂φ/∂n} = ½ (k_a ∇φ^a + k_b ∇φ^b)·n
+
+    over the entries of both sides' rows (a node on the interface appears in both): the interface term of the weak
+    form that domain truncation drops, its symmetric partner and a penalty α = β k_max / h (``penalty``)."""
+    g = first + wp.tid()
+    sa = rows_a.start[g]
+    na = rows_a.count[g]
+    sb = rows_b.start[g]
+    nb = rows_b.count[g]
+    n = na + nb
+    s0 = slot_start[g]
+    wg = weight[g]
+    nv = normal[g]
+    half = wp.float64(0.5)
+    for e in range(n):
+        ie = int(0)
+        je = wp.float64(0.0)
+        fe = wp.float64(0.0)
+        if e < na:
+            ie = rows_a.index[sa + e]
+            je = phi_a[sa + e]
+            fe = half * conductivity_a * wp.dot(dphi_a[sa + e], nv)
+        else:
+            ie = rows_b.index[sb + e - na]
+            je = -phi_b[sb + e - na]
+            fe = half * conductivity_b * wp.dot(dphi_b[sb + e - na], nv)
+        for f in range(n):
+            jf_node = int(0)
+            jf = wp.float64(0.0)
+            ff = wp.float64(0.0)
+            if f < na:
+                jf_node = rows_a.index[sa + f]
+                jf = phi_a[sa + f]
+                ff = half * conductivity_a * wp.dot(dphi_a[sa + f], nv)
+            else:
+                jf_node = rows_b.index[sb + f - na]
+                jf = -phi_b[sb + f - na]
+                ff = half * conductivity_b * wp.dot(dphi_b[sb + f - na], nv)
+            write_triplet(out, s0 + e * n + f, ie, jf_node, wg * (-ff * je - fe * jf + penalty * je * jf))
+
+
+@wp.kernel
 def boundary_mass(
     first: int,
     rows: NeighbourRows,

@@ -9,8 +9,9 @@ finite-element solution on 16..256 elements per mm, extrapolated at the corners'
 EFG as in seed 002: nodes on a regular grid (``per_mm`` per mm), interface nodes shared by both materials; domain
 truncation (``truncation=True``): a node of one material serves only Gauss points of its own material, so the
 shape functions are discontinuous in gradient across the interface as the field is; background cells that do not
-straddle the interface (2 x 2 Gauss points). Interpolating shape functions (singular weight) with direct
-substitution of the electrode potentials (seed 002 §3.5), or any other weight with Lagrange multipliers.
+straddle the interface (2 x 2 Gauss points); the interface term truncation drops put back by symmetric Nitsche
+terms (``interface_condition="nitsche"``; "none": seed 002's truncation alone). The electrode potentials by
+Lagrange multipliers (default) or, with the interpolating (singular) weight, by direct substitution (seed 002 §3.5).
 
 Writes ``lines.png`` (V and |E| along the crossing line x = 1.5 mm against the reference), VTU, and into
 ``summary.json``: the largest potential error on the reference lines (fraction of 1 V), the mean and largest
@@ -19,13 +20,14 @@ tangential-field mismatch along the interface (x in 1.1..1.9 mm), the conductanc
 oscillation measure (the total variation of |E| along the crossing line beyond the reference's).
 
 Measured 2026-11-23 (defaults: 742 nodes, cubic spline, Lagrange multipliers, d_max 1.8, consistent integration per
-material region, ``interfaces=``): potential on the crossing line within 1.1e-3 V (of 1 V), at 4 000 uniformly
-spread points 8.0e-4 mean (2.0e-2 largest, at the re-entrant corners where the field is singular, r^-0.38); |E| on
-the crossing lines 0.30 % mean, 2.6 % largest (thesis: 7 %); conductance -0.47 %; normal current σ1E_y/σ2E_y - 1
-at the interface 5.6 % mean, 19 % largest (issue: 0.1 %, NOT met; 2835 nodes: 2.5 % / 4.7 %; quadratic basis at
-d_max 2.5: 2.0 % / 7.8 %): the one-sided MLS gradients at the interface carry an O(h) error. Without truncation
-the field jumps nowhere: |E| misses by 31 % at the interface and the normal current by 39 % = 1 - σ1/σ2; the
-thesis's interpolating variant (``weight="singular", method="direct"``): 2.3e-3 V, 3.2 %, 8.2 %.
+material region, Nitsche terms on the interface): potential on the crossing line within 1.4e-3 V (of 1 V), at 4 000
+uniformly spread points 7.4e-4 mean (1.6e-2 largest, at the re-entrant corners where the field is singular,
+r^-0.38); |E| on the crossing lines 0.31 % mean, 2.0 % largest (thesis: 7 %); conductance +0.33 %; normal current
+σ1E_y/σ2E_y - 1 at the interface 5.2 % mean, 13.5 % largest (issue: 0.1 %, NOT met; 2835 nodes: 2.5 % / 6.0 %;
+quadratic basis at d_max 2.5: 2.0 % / 5.4 %): the one-sided MLS gradients at the interface, within 0.1-0.9 mm of
+the singular corners, carry that error. Truncation alone (``interface_condition="none"``, seed 002's): 5.6 % /
+19 %. Without truncation the field jumps nowhere: |E| misses by 31 % at the interface and the normal current by
+39 % = 1 - σ1/σ2.
 """
 
 import os
@@ -61,7 +63,7 @@ def _pieces(a, b, n: int):
 
 def resistor_solver(per_mm: int = 13, d_max: float = 1.8, weight: str = "cubic_spline", method: str = "lagrange",
                     gauss: int = 2, truncation: bool = True, integration: str = "consistent",
-                    basis: str = "linear") -> PoissonSolver:
+                    basis: str = "linear", interface_condition: str = "nitsche") -> PoissonSolver:
     """The resistor's EFG solver (not yet solved): ``per_mm`` node spacings per mm."""
     n = per_mm
     lower = grid_nodes((0.0, 0.0), (3 * MM, MM), (3 * n, n)).position
@@ -89,7 +91,8 @@ def resistor_solver(per_mm: int = 13, d_max: float = 1.8, weight: str = "cubic_s
                  Free(_pieces((2 * MM, MM), (2 * MM, 2 * MM), n), 1), Free(_pieces((MM, 2 * MM), (MM, MM), n), 1)]
     interface = Interface(_pieces((2 * MM, MM), (MM, MM), n), inside=0, outside=1)    # normal +y: out of the lower bar
     return PoissonSolver(model, cells, conductivity=SIGMA, cell_material=cell_material, essential=electrodes,
-                         free=insulated, interfaces=[interface], method=method, integration=integration)
+                         free=insulated, interfaces=[interface], method=method, integration=integration,
+                         interface_condition=interface_condition if truncation else "none")
 
 
 def _line_field(solver: PoissonSolver, line: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -149,7 +152,8 @@ def resistor_errors(solver: PoissonSolver) -> dict:
 
 
 def build(per_mm: int = 13, d_max: float = 1.8, weight: str = "cubic_spline", method: str = "lagrange", gauss: int = 2,
-          truncation: bool = True, integration: str = "consistent", frames: bool = True, vtk: bool = True) -> StaticRun:
+          truncation: bool = True, integration: str = "consistent", interface_condition: str = "nitsche",
+          basis: str = "linear", frames: bool = True, vtk: bool = True) -> StaticRun:
     """``per_mm``: node spacings per mm (13: 742 nodes, the thesis's 721-node size); ``truncation``: domain
     truncation at the interface (seed 002 §3.3), else every node serves both materials."""
     params = dict(locals())
@@ -158,7 +162,7 @@ def build(per_mm: int = 13, d_max: float = 1.8, weight: str = "cubic_spline", me
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < (2 if name == "per_mm" else 1):
             raise ParameterError(name, f"must be an integer >= {2 if name == 'per_mm' else 1}, got {v!r}")
     require_positive("d_max", d_max)
-    solver = resistor_solver(per_mm, d_max, weight, method, gauss, truncation, integration)
+    solver = resistor_solver(per_mm, d_max, weight, method, gauss, truncation, integration, basis, interface_condition)
 
     def accuracy(run, out_dir):
         result = resistor_errors(run.solver)

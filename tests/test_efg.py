@@ -220,6 +220,7 @@ def test_bad_mls_input_names_the_parameter(build, name):
     (dict(young=-1.0), "young"), (dict(poisson=0.5), "poisson"), (dict(poisson=-1.0), "poisson"),
     (dict(plane="shell"), "plane"), (dict(method="nitsche"), "method"), (dict(method="direct"), "method"),
     (dict(essential=[]), "essential"), (dict(integration="exact"), "integration"),
+    (dict(interface_condition="robin"), "interface_condition"), (dict(nitsche_penalty=-1.0), "nitsche_penalty"),
 ])
 def test_bad_elasticity_input_names_the_parameter(launcher, kwargs, name):
     nodes = unit_grid(4)
@@ -301,9 +302,10 @@ def test_node_outside_the_geometry_is_refused(launcher):
 
 def test_resistor_potential_and_field_against_the_fem_reference_and_truncation_matters(tmp_path):
     """Issue: potential within 0.2 %, field within 7 % of a fine FEM reference, no spurious oscillation at the
-    interface (seed 002 §6.2). Measured 2026-11-23 at 742 nodes: crossing line 1.1e-3 V, uniform points 8.0e-4
-    mean; |E| 2.6 % largest; without domain truncation 31 % and the normal current off by 1 - σ1/σ2 = 39 %. The
-    normal-current continuity of 0.1 % is not met (5.6 % mean, 2.5 % at 2835 nodes): not asserted."""
+    interface (seed 002 §6.2). Measured 2026-11-23 at 742 nodes (Nitsche interface): crossing line 1.4e-3 V,
+    uniform points 7.4e-4 mean; |E| 2.0 % largest; without domain truncation 31 % and the normal current off by
+    1 - σ1/σ2 = 39 %. The normal-current continuity of 0.1 % is not met (5.2 % mean, 2.5 % at 2835 nodes): not
+    asserted."""
     scene = load_scene(os.path.join(ROOT, "scenes", "efg_resistor.py"))
     summary = scene.build(frames=False, vtk=False).run(str(tmp_path / "truncated"), progress=False)
     r = summary["analysis"]["resistor"]
@@ -317,7 +319,7 @@ def test_resistor_potential_and_field_against_the_fem_reference_and_truncation_m
     assert r["normal_current_mean_mismatch"] < p["normal_current_mean_mismatch"] / 5
 
 
-def _layered_error(launcher, n, integration):
+def _layered_error(launcher, n, integration, interface_condition="nitsche"):
     """Max error of EFG with domain truncation on a layered conductor whose exact V is piecewise linear in y
     (σ1 V'_1 = σ2 V'_2 at y = 0.5; V = 0 at y = 0, 1 at y = 1, insulated sides); n x n nodes spacings."""
     from warpfree.solvers.efg.boundary import Free, Interface
@@ -347,18 +349,22 @@ def _layered_error(launcher, n, integration):
                            free=[Free(line((1, 0), (1, 0.5)), 0), Free(line((1, 0.5), (1, 1)), 1),
                                  Free(line((0, 1), (0, 0.5)), 1), Free(line((0, 0.5), (0, 0)), 0)],
                            interfaces=[Interface(line((1, 0.5), (0, 0.5)), inside=0, outside=1)],
-                           integration=integration)
+                           integration=integration, interface_condition=interface_condition)
     solver.solve()
     pts = sample_points(300, seed=4)
     return float(np.abs(solver.field_at(pts, (pts[:, 1] > 0.5).astype(int))[0][:, 0] - exact(pts)[:, 0]).max())
 
 
-def test_two_material_layered_conductor_converges_at_first_order(launcher):
-    """Domain truncation (seed 002 §3.3) is non-conforming: a node's test function jumps across the interface and
-    the weak form's interface term ∫ (φ⁺ - φ⁻) σ ∂V/∂n dΓ is dropped, so even a piecewise-linear exact solution is
-    missed at O(h). Measured 2026-11-23 (max error, 10 / 20 spacings): consistent integration 9.3e-3 / 5.2e-3,
-    plain Gauss 1.03e-2 / 5.3e-3. This is what limits the resistor's normal-current continuity (5.6 %)."""
-    coarse, fine = _layered_error(launcher, 10, "consistent"), _layered_error(launcher, 20, "consistent")
+def test_two_material_layered_conductor_is_exact_with_nitsche_interface(launcher):
+    """Domain truncation alone (seed 002 §3.3) is non-conforming: a node's test function jumps across the
+    interface and the weak form's interface term ∫ [φ] σ ∂V/∂n dΓ is dropped, so even a piecewise-linear exact
+    solution is missed at O(h). With that term back (symmetric Nitsche, ``interface_condition="nitsche"``, the
+    default) and consistent integration per region, it is reproduced to round-off. Measured 2026-11-23 (max error,
+    10 / 20 spacings): Nitsche + consistent 6.0e-15 / 2.8e-15; Nitsche + plain Gauss 8.3e-4 / 4.2e-4; truncation
+    alone 9.3e-3 / 5.2e-3."""
+    assert _layered_error(launcher, 10, "consistent") < 1e-12
+    assert 1e-5 < _layered_error(launcher, 10, "gauss") < 5e-3
+    coarse, fine = (_layered_error(launcher, n, "consistent", interface_condition="none") for n in (10, 20))
     assert 1e-3 < coarse < 2e-2 and 0.6 < np.log2(coarse / fine) < 1.5
 
 

@@ -41,7 +41,7 @@ from warpfree.sparse import LoadBuffer, TripletBuffer, load_vector as _sum_loads
 from .model import EFGModel, ShapeData
 
 __all__ = ["conduction_matrix", "elastic_matrix", "load_vector", "multiplier_matrix", "boundary_mass_matrix",
-           "consistent_test_gradients"]
+           "consistent_test_gradients", "interface_matrix"]
 
 
 def _slot_starts(slots_per_point: np.ndarray, device: str) -> tuple[wp.array, int]:
@@ -235,6 +235,23 @@ def multiplier_matrix(model: EFGModel, shape: ShapeData, weight, multiplier, mul
                                                       _mask(constrained, components), starts, slots.triplets],
                           once=True)
     return to_csr(slots, (components * model.node_count, components * n_multipliers))
+
+
+def interface_matrix(model: EFGModel, side_a: ShapeData, side_b: ShapeData, normal, weight, conductivity_a: float,
+                     conductivity_b: float, penalty: float) -> sp.csr_matrix:
+    """(N, N) symmetric Nitsche terms on an interface (``kernels/efg.py: interface_terms``): ``side_a`` / ``side_b``
+    the shape functions at the interface points seen from each material, ``normal`` from a to b."""
+    dev, n = model.launcher.device, side_a.n
+    starts, total = _slot_starts((side_a.counts + side_b.counts) ** 2, dev)
+    slots = TripletBuffer(total, dev)
+    model.launcher.launch(ek.interface_terms, n, [side_a.rows, side_a.phi, side_a.dphi, side_b.rows, side_b.phi,
+                                                  side_b.dphi, wp.array(np.asarray(normal, np.float64), dtype=wp.vec2d,
+                                                                        device=dev),
+                                                  wp.array(_per_point(weight, n, "weight"), dtype=wp.float64,
+                                                           device=dev),
+                                                  float(conductivity_a), float(conductivity_b), float(penalty), starts,
+                                                  slots.triplets], once=True)
+    return to_csr(slots, (model.node_count, model.node_count))
 
 
 def boundary_mass_matrix(model: EFGModel, shape: ShapeData, weight, components: int, constrained) -> sp.csr_matrix:

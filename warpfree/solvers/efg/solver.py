@@ -73,7 +73,10 @@ class EFGSolver(StaticSolver):
     "penalty" or "direct" (module ``boundary``); penalty: α as a multiple of the largest diagonal entry of K per
     unit boundary weight; integration: "consistent" (test gradients corrected so that the discrete divergence
     theorem holds, ``assembly.consistent_test_gradients``: linear fields exact; needs essential + natural + free to
-    cover the whole boundary) or "gauss" (plain Gauss quadrature, the thesis's).
+    cover the whole boundary) or "gauss" (plain Gauss quadrature, the thesis's); interface_condition: "nitsche"
+    (the interface term of the weak form that domain truncation drops, its symmetric partner and a penalty
+    ``nitsche_penalty`` · k_max / h: a conforming interface, ``assembly.interface_matrix``) or "none" (truncation
+    alone, seed 002's).
     """
 
     name: ClassVar[str] = "efg"
@@ -83,7 +86,7 @@ class EFGSolver(StaticSolver):
     def __init__(self, model: EFGModel, cells: QuadraturePoints, essential: list[Essential] | None = None,
                  natural: list[Natural] | None = None, method: str = "lagrange", penalty: float = 1e7,
                  cell_material=None, free: list | None = None, interfaces: list[Interface] | None = None,
-                 integration: str = "consistent"):
+                 integration: str = "consistent", interface_condition: str = "nitsche", nitsche_penalty: float = 20.0):
         super().__init__(model, model.launcher)
         if method not in METHODS:
             raise ParameterError("method", f"must be one of {list(METHODS)}, got {method!r}")
@@ -95,6 +98,13 @@ class EFGSolver(StaticSolver):
         self.integration = integration
         self.free = [f if isinstance(f, Free) else Free(f) for f in (free or [])]
         self.interfaces = list(interfaces or [])
+        if interface_condition not in ("nitsche", "none"):
+            raise ParameterError("interface_condition", f"must be 'nitsche' or 'none', got {interface_condition!r}")
+        if interface_condition == "nitsche" and self.interfaces and self.components != 1:
+            raise ParameterError("interface_condition", "Nitsche interface terms are implemented for the scalar "
+                                                        "problem only; use 'none' for elasticity")
+        self.interface_condition = interface_condition
+        self.nitsche_penalty = require_positive("nitsche_penalty", nitsche_penalty)
         self.method = method
         self.penalty = require_positive("penalty", penalty)
         self.cells = cells
@@ -120,6 +130,10 @@ class EFGSolver(StaticSolver):
 
     def body_load(self, shape: ShapeData) -> np.ndarray:
         return np.zeros(self.components * self.model.node_count)
+
+    def interface_stiffness(self) -> sp.csr_matrix:
+        """The Nitsche terms of every interface (scalar problems, :class:`PoissonSolver`)."""
+        raise NotImplementedError
 
     # -- the solve ---------------------------------------------------------------------------------------------
     @property
@@ -147,6 +161,8 @@ class EFGSolver(StaticSolver):
                     self.point_material)
         with self.phases("assembly"):
             K = self.stiffness(self.shape, test)
+            if self.interfaces and self.interface_condition == "nitsche":
+                K = K + self.interface_stiffness()
             f = self.body_load(self.shape)
             for nat, sh in natural:
                 f = f + self._natural_load(nat, sh)
@@ -351,6 +367,20 @@ class PoissonSolver(EFGSolver):
             raise ParameterError("cell_material", f"Gauss point {bad} at {cells.position[bad].tolist()} has material "
                                                   f"{m[bad]}, not one of 0..{k.size - 1}")
         self.source = source
+
+    def interface_stiffness(self) -> sp.csr_matrix:
+        """Σ over ``interfaces`` of the symmetric Nitsche terms (``assembly.interface_matrix``), α = β k_max / h with
+        h the median node spacing."""
+        h = float(np.median(self.model.spacing))
+        K = sp.csr_matrix((self.model.node_count, self.model.node_count))
+        for face in self.interfaces:
+            p = face.points
+            a = self._shape(p.position, face.inside, "interface point")
+            b = self._shape(p.position, face.outside, "interface point")
+            ka, kb = self.conductivity[face.inside], self.conductivity[face.outside]
+            K = K + assembly.interface_matrix(self.model, a, b, p.normal, p.weight, ka, kb,
+                                              self.nitsche_penalty * max(ka, kb) / h)
+        return K
 
     def point_conductivity(self) -> np.ndarray:
         return self.conductivity[0] * np.ones(self.work_items) if self.point_material is None \
