@@ -245,3 +245,25 @@ def test_warp_cg_matches_direct_solve(launcher):
     np.testing.assert_allclose(u_cg, u_direct, rtol=0, atol=1e-8 * np.abs(u_direct).max())
     with pytest.raises(RuntimeError, match="did not converge"):
         wsp.solve_cg(wsp.to_warp_bsr(K_ff, "cpu"), rhs, tol=1e-12, max_iters=2)
+
+
+def test_symmetric_pattern_factorisation_solves_a_saddle_point_and_still_detects_singularity():
+    """The ordering for symmetric patterns with threshold pivoting: a KKT system [[K, G], [Gᵀ, 0]] (zero diagonal
+    block) solved as by the default COLAMD factorisation; a singular matrix is still refused."""
+    rng = np.random.default_rng(3)
+    a = sp.random(60, 60, density=0.1, random_state=4)
+    K = (a @ a.T + 60 * sp.identity(60)).tocsr()
+    G = sp.random(60, 8, density=0.3, random_state=5).tocsr() + sp.eye(60, 8)
+    kkt = sp.bmat([[K, G], [G.T, None]]).tocsr()
+    b = rng.standard_normal(68)
+    none = wsp.PrescribedValues([], [], 68)
+    x_sym = wsp.FactorisedSystem(kkt, none, symmetric_pattern=True).solve(b)
+    x_ref = wsp.FactorisedSystem(kkt, none).solve(b)
+    assert np.abs(x_sym - x_ref).max() < 1e-10 * np.abs(x_ref).max()
+    assert np.abs(kkt @ x_sym - b).max() < 1e-10 * np.abs(b).max()
+    singular = sp.bmat([[K, G], [G.T, None]]).tolil()
+    singular[:, 60] = 0.0
+    singular[60, :] = 0.0
+    with pytest.raises(ParameterError) as err:
+        wsp.FactorisedSystem(singular.tocsr(), none, symmetric_pattern=True)
+    assert err.value.name == "K"

@@ -262,10 +262,18 @@ class FactorisedSystem:
     ``counts`` the number of factorisations and solves.
 
     ``singular_rtol``: a pivot ``|U_ii| < singular_rtol * max |U_jj|`` means ``K_ff`` is singular
-    (e.g. a pure Neumann problem: no prescribed value fixes the constant).
+    (e.g. a pure Neumann problem: no prescribed value fixes the constant). ``symmetric_pattern``: ``K`` has a
+    symmetric sparsity pattern (EFG stiffness, also with multipliers or a non-symmetric consistent-integration
+    correction): order by minimum degree on Kᵀ + K and pivot on the diagonal unless it is 10x smaller than its
+    column (EFG beam, 8 514 unknowns: 1.0 s against COLAMD's 1.9 s, residual 2e-11).
     """
 
-    def __init__(self, K, prescribed: PrescribedValues, singular_rtol: float = 1e-13):
+    #: threshold partial pivoting with a symmetric-pattern ordering: a diagonal pivot is kept unless another entry of
+    #: its column is 10x larger (the saddle points of Lagrange multipliers have zero diagonals)
+    SYMMETRIC_PIVOT_THRESHOLD = 0.1
+
+    def __init__(self, K, prescribed: PrescribedValues, singular_rtol: float = 1e-13, symmetric_pattern: bool = False):
+        self.symmetric_pattern = symmetric_pattern
         self.prescribed = prescribed
         self.K_ff, self.K_fp = prescribed.split(K)
         self.timings = {"factorise": 0.0, "solve": 0.0, "last_solve": 0.0}
@@ -275,7 +283,11 @@ class FactorisedSystem:
     def _factorise(self, singular_rtol: float):
         start = time.perf_counter()
         try:
-            lu = spla.splu(self.K_ff.tocsc())
+            if self.symmetric_pattern:
+                lu = spla.splu(self.K_ff.tocsc(), permc_spec="MMD_AT_PLUS_A", options=dict(SymmetricMode=True),
+                               diag_pivot_thresh=self.SYMMETRIC_PIVOT_THRESHOLD)
+            else:
+                lu = spla.splu(self.K_ff.tocsc())
         except RuntimeError as exc:  # SuperLU: "Factor is exactly singular"
             raise ParameterError("K", self._singular_message(f"SuperLU: {exc}")) from None
         pivots = np.abs(lu.U.diagonal())

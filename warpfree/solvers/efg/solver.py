@@ -171,7 +171,7 @@ class EFGSolver(StaticSolver):
         self._condition_rhs = rhs.copy()
         self._condition_rhs[: c * model.node_count] -= f      # what the boundary conditions add
         with self.phases("factorisation"):
-            self.system = FactorisedSystem(system_matrix, prescribed)
+            self.system = FactorisedSystem(system_matrix, prescribed, symmetric_pattern=True)
         with self.phases("solve"):
             x = self.system.solve(rhs)
         n = c * model.node_count
