@@ -170,48 +170,37 @@ def laplace_at(mesh: Triangulation, x: wp.vec2d, t0: int):
                 two = wp.float64(2.0) * det
                 c = wp.vec2d((b[1] * aa - a[1] * bb) / two, (a[0] * bb - b[0] * aa) / two)  # c_e - x
                 w = wp.vec2d((b[1] - a[1]) / det, (a[0] - b[0]) / det)  # M⁻¹ (1, 1)
-                # the edge starts at u: + c_e·t_u
-                su = int(-1)
-                for j in range(count):
-                    if ids[j] == u:
-                        su = j
-                if su < 0:
-                    if count < MAX_NEIGHBOURS:
-                        su = count
-                        ids[count] = u
-                        s[count] = zero
-                        gsx[count] = zero
-                        gsy[count] = zero
-                        count += 1
-                    else:
-                        status = NEIGHBOUR_OVERFLOW
-                if su >= 0:
-                    tu = rot90(a) / wp.sqrt(aa)
-                    ku = wp.dot(tu, w)
-                    s[su] = s[su] + wp.dot(c, tu)
-                    gsx[su] = gsx[su] + ku * c[0]
-                    gsy[su] = gsy[su] + ku * c[1]
-                # ... and ends at v: - c_e·t_v
-                sv = int(-1)
-                for j in range(count):
-                    if ids[j] == v:
-                        sv = j
-                if sv < 0:
-                    if count < MAX_NEIGHBOURS:
-                        sv = count
-                        ids[count] = v
-                        s[count] = zero
-                        gsx[count] = zero
-                        gsy[count] = zero
-                        count += 1
-                    else:
-                        status = NEIGHBOUR_OVERFLOW
-                if sv >= 0:
-                    tw = rot90(b) / wp.sqrt(bb)
-                    kv = wp.dot(tw, w)
-                    s[sv] = s[sv] - wp.dot(c, tw)
-                    gsx[sv] = gsx[sv] - kv * c[0]
-                    gsy[sv] = gsy[sv] - kv * c[1]
+                # the edge starts at u (+ c_e·t_u) and ends at v (- c_e·t_v)
+                for end in range(2):
+                    node = u
+                    r = a
+                    rr = aa
+                    sign = wp.float64(1.0)
+                    if end == 1:
+                        node = v
+                        r = b
+                        rr = bb
+                        sign = wp.float64(-1.0)
+                    slot = int(-1)
+                    for j in range(count):
+                        if ids[j] == node:
+                            slot = j
+                    if slot < 0:
+                        if count < MAX_NEIGHBOURS:
+                            slot = count
+                            ids[count] = node
+                            s[count] = zero
+                            gsx[count] = zero
+                            gsy[count] = zero
+                            count += 1
+                        else:
+                            status = NEIGHBOUR_OVERFLOW
+                    if slot >= 0:
+                        tn = rot90(r) / wp.sqrt(rr)
+                        kn = wp.dot(tn, w)
+                        s[slot] = s[slot] + sign * wp.dot(c, tn)
+                        gsx[slot] = gsx[slot] + sign * kn * c[0]
+                        gsy[slot] = gsy[slot] + sign * kn * c[1]
     # α_i = s_i / h_i and its gradient (reusing s, gsx, gsy), then φ_i and ∇φ_i
     total = zero
     tgx = zero

@@ -24,7 +24,7 @@ import numpy as np
 from warpfree.errors import ParameterError, require_positive
 from warpfree.run import OutputOptions, StaticRun
 from warpfree.solvers.efg.boundary import Essential, Natural
-from warpfree.solvers.efg.layouts import grid_nodes, random_grid_nodes
+from warpfree.solvers.efg.layouts import box_sides, grid_nodes, random_grid_nodes
 from warpfree.solvers.efg.model import EFGModel, MLSSettings
 from warpfree.solvers.efg.plots import plot_deformed
 from warpfree.solvers.efg.quadrature import polyline_points, rectangle_cells
@@ -61,8 +61,7 @@ def beam_solver(cells_x: int, cells_y: int, layout: str = "regular", seed: int =
         cells = rectangle_cells(lower, upper, (cells_x, cells_y), gauss)
     else:
         raise ParameterError("model", f"must be 'efg' or 'nem', got {model!r}")
-    left = x[np.abs(x[:, 0]) <= 1e-9 * length]
-    left = left[np.argsort(-left[:, 1])]                       # counter-clockwise: top to bottom
+    left = box_sides(x, lower, upper)[3]                        # counter-clockwise: top to bottom
     right = np.c_[np.full(cells_y + 1, length), np.linspace(-depth / 2, depth / 2, cells_y + 1)]
     top = np.c_[np.linspace(length, 0.0, cells_x + 1), np.full(cells_x + 1, depth / 2)]
     bottom = np.c_[np.linspace(0.0, length, cells_x + 1), np.full(cells_x + 1, -depth / 2)]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from warpfree.errors import ParameterError
-from warpfree.solvers.efg.layouts import (annulus_nodes, grid_nodes, nodes_on, quadrilateral_nodes,
+from warpfree.solvers.efg.layouts import (annulus_nodes, box_sides, grid_nodes, nodes_on, quadrilateral_nodes,
                                           random_grid_nodes)
 
 LOWER, UPPER, CELLS = np.array([-1.0, 0.5]), np.array([3.0, 2.5]), (8, 5)
@@ -128,3 +128,17 @@ def test_bad_input():
     layout = grid_nodes(LOWER, UPPER, CELLS)
     raises_naming("tol", nodes_on, layout, lambda x, y, tol: x > 0, tol=-1)
     raises_naming("predicate", nodes_on, layout, lambda x, y, tol: x)
+
+
+def test_box_sides_are_counter_clockwise_polylines_through_the_boundary_nodes():
+    layout = random_grid_nodes((0.0, -1.0), (4.0, 1.0), (8, 4), seed=3)
+    sides = box_sides(layout.position, (0.0, -1.0), (4.0, 1.0))
+    assert sum(len(s) for s in sides) == int(layout.boundary.sum()) + 4       # the corners close two sides each
+    for s, nxt in zip(sides, sides[1:] + sides[:1]):
+        assert np.array_equal(s[-1], nxt[0])                                   # one closed loop
+    loop = np.vstack([s[:-1] for s in sides])
+    area = 0.5 * np.sum(loop[:, 0] * np.roll(loop[:, 1], -1) - np.roll(loop[:, 0], -1) * loop[:, 1])
+    assert area == pytest.approx(8.0)                                          # positive: counter-clockwise
+    with pytest.raises(ParameterError) as err:
+        box_sides(layout.position, (0.0, -1.0), (5.0, 1.0))
+    assert err.value.name == "nodes"

@@ -12,7 +12,7 @@ from warpfree.device import Launcher
 from warpfree.errors import ParameterError
 from warpfree.kernels import nem as nk
 from warpfree.solvers.efg.boundary import Essential
-from warpfree.solvers.efg.layouts import annulus_nodes, grid_nodes, random_grid_nodes
+from warpfree.solvers.efg.layouts import annulus_nodes, box_sides, grid_nodes, random_grid_nodes
 from warpfree.solvers.efg.solver import ElasticitySolver, PoissonSolver
 from warpfree.solvers.nem.model import NEMModel, _inside_polygon
 
@@ -168,12 +168,7 @@ def _linear(p):
 
 def _square_sides(nodes):
     """The unit square's four sides through its boundary nodes, counter-clockwise, one polyline per side."""
-    sides = []
-    for on, key, reverse in [(np.abs(nodes[:, 1]) < 1e-12, 0, False), (np.abs(nodes[:, 0] - 1) < 1e-12, 1, False),
-                             (np.abs(nodes[:, 1] - 1) < 1e-12, 0, True), (np.abs(nodes[:, 0]) < 1e-12, 1, True)]:
-        v = nodes[on][np.argsort(nodes[on][:, key])]
-        sides.append(v[::-1] if reverse else v)
-    return sides
+    return box_sides(nodes, (0.0, 0.0), (1.0, 1.0))
 
 
 def _patch_error(launcher, nodes, integration, degree):

@@ -20,7 +20,8 @@ from warpfree.errors import ParameterError, require_finite
 from warpfree.solvers.efg.quadrature import (_angle_range, _box, _cell_counts, _convex_ccw, _finite_array,
                                              _ring, _whole, bilinear_map)
 
-__all__ = ["NodeLayout", "annulus_nodes", "grid_nodes", "nodes_on", "quadrilateral_nodes", "random_grid_nodes"]
+__all__ = ["NodeLayout", "annulus_nodes", "box_sides", "grid_nodes", "nodes_on", "quadrilateral_nodes",
+           "random_grid_nodes"]
 
 
 class NodeLayout(NamedTuple):
@@ -143,3 +144,21 @@ def nodes_on(layout: NodeLayout, predicate: Callable, tol: float = 1e-6) -> np.n
         raise ParameterError("predicate", f"must return a bool array of shape {x.shape} (one per node), got "
                                           f"{hit.dtype} {hit.shape}")
     return np.flatnonzero(hit).astype(np.int64)
+
+
+def box_sides(nodes, lower, upper, tol: float = 1e-9) -> list[np.ndarray]:
+    """The four sides of the box [lower, upper] as polylines through the nodes on them, counter-clockwise (the
+    domain on the left, as the boundary integrals expect): bottom, right, top, left. ``tol``: relative to the box
+    size. For essential conditions whose multipliers or substituted values sit at the boundary nodes."""
+    p = np.asarray(nodes, dtype=np.float64)[:, :2]
+    lo, hi = _box(lower, upper)
+    eps = tol * float(np.max(hi - lo))
+    sides = []
+    for axis, value, along, reverse in ((1, lo[1], 0, False), (0, hi[0], 1, False), (1, hi[1], 0, True),
+                                        (0, lo[0], 1, True)):
+        on = p[np.abs(p[:, axis] - value) <= eps]
+        if on.shape[0] < 2:
+            raise ParameterError("nodes", f"fewer than two nodes lie on the side {'xy'[axis]} = {value:g} of the box")
+        on = on[np.argsort(on[:, along])]
+        sides.append(on[::-1] if reverse else on)
+    return sides

@@ -122,6 +122,7 @@ class EFGSolver(StaticSolver):
         self.multipliers = np.zeros(0)
         self.correction: np.ndarray | None = None  # ξ_I of consistent integration (N, 2)
         self._multiplier_scale = 1.0
+        self._interface_cache: dict = {}
 
     # -- what a problem defines --------------------------------------------------------------------------------
     def stiffness(self, shape: ShapeData, test_dphi) -> sp.csr_matrix:
@@ -183,6 +184,16 @@ class EFGSolver(StaticSolver):
         m = None if material < 0 else np.full(points.shape[0], int(material))
         return self.model.shape_at(points, m, name=name)
 
+    def _interface_shapes(self, face: Interface) -> tuple[ShapeData, ShapeData]:
+        """Shape functions at an interface's points seen from each side (computed once: consistent integration and
+        the Nitsche terms both use them)."""
+        key = id(face)
+        if key not in self._interface_cache:
+            p = face.points.position
+            self._interface_cache[key] = (self._shape(p, face.inside, "interface point"),
+                                          self._shape(p, face.outside, "interface point"))
+        return self._interface_cache[key]
+
     def _essential_set(self, b: Essential):
         ep = essential_points(b, self.components)
         return ep, self._shape(ep.points.position, b.material, f"{b.name} point")
@@ -208,8 +219,9 @@ class EFGSolver(StaticSolver):
         for face in self.interfaces:
             p = face.points
             flipped = BoundaryPoints(p.position, p.weight, -p.normal, p.segment)
-            pieces.append((self._shape(p.position, face.inside, "interface point"), p, face.inside))
-            pieces.append((self._shape(p.position, face.outside, "interface point"), flipped, face.outside))
+            inside, outside = self._interface_shapes(face)
+            pieces.append((inside, p, face.inside))
+            pieces.append((outside, flipped, face.outside))
         return pieces
 
     def _check_closed(self, pieces: list) -> None:
@@ -375,8 +387,7 @@ class PoissonSolver(EFGSolver):
         K = sp.csr_matrix((self.model.node_count, self.model.node_count))
         for face in self.interfaces:
             p = face.points
-            a = self._shape(p.position, face.inside, "interface point")
-            b = self._shape(p.position, face.outside, "interface point")
+            a, b = self._interface_shapes(face)
             ka, kb = self.conductivity[face.inside], self.conductivity[face.outside]
             K = K + assembly.interface_matrix(self.model, a, b, p.normal, p.weight, ka, kb,
                                               self.nitsche_penalty * max(ka, kb) / h)
