@@ -31,6 +31,7 @@ import warp as wp
 
 from .assembly import Loads, Triplets, write_load, write_triplet
 from .neighbours import NeighbourRows
+from .space import Box2d, offset2d
 
 #: largest basis (quadratic in 2D: 1, ξ, η, ξ², ξη, η²)
 MAX_TERMS = 6
@@ -126,11 +127,11 @@ def inside_support(params: MLSParams, d: wp.vec2d, support: wp.vec2d) -> bool:
 
 
 @wp.func
-def serves(params: MLSParams, x: wp.vec2d, material: int, node: wp.vec2d, support: wp.vec2d,
-           node_material: int) -> bool:
-    """Does the node serve the point x of ``material``: x inside its support, and the node of the point's material
-    or of every material (-1: on an interface or in a one-material model; seed 002 §3.3, domain truncation)?"""
-    if not inside_support(params, x - node, support):
+def serves(params: MLSParams, d: wp.vec2d, material: int, support: wp.vec2d, node_material: int) -> bool:
+    """Does the node at offset d = x - x_I serve the point x of ``material``: x inside its support, and the node of
+    the point's material or of every material (-1: on an interface or in a one-material model; seed 002 §3.3,
+    domain truncation)?"""
+    if not inside_support(params, d, support):
         return False
     return node_material < 0 or material < 0 or node_material == material
 
@@ -189,10 +190,28 @@ def cholesky_solve(lo: mat66d, b: vec6d, terms: int) -> vec6d:
     return x
 
 
+@wp.func
+def nearest_copy(box: Box2d, x32: wp.vec3, grid_points: wp.array(dtype=wp.vec3), source_id: wp.array(dtype=wp.int32),
+                 k: int, radius: float) -> int:
+    """The node behind HashGrid point k (a node or, in a periodic box, one of its images placed by
+    ``warpfree.neighbours``), or -1 when that copy lies farther than ``radius`` from x32: a periodic side >= 2 radius
+    leaves at most one copy of a node within reach, so no node enters a row twice. In free space every grid point is
+    its node (no test: rows exactly as before periodic boxes)."""
+    if box.periodic[0] + box.periodic[1] == wp.float64(0.0):
+        return source_id[k]
+    d = x32 - grid_points[k]
+    if wp.dot(d, d) >= radius * radius:
+        return -1
+    return source_id[k]
+
+
 @wp.kernel
 def kth_nearest(
     first: int,
     grid: wp.uint64,
+    grid_points: wp.array(dtype=wp.vec3),
+    source_id: wp.array(dtype=wp.int32),
+    box: Box2d,
     nodes32: wp.array(dtype=wp.vec3),
     nodes: wp.array(dtype=wp.vec2d),
     rank: int,
@@ -209,21 +228,22 @@ def kth_nearest(
     found = int(0)
     xi = nodes[i]
     query = wp.hash_grid_query(grid, nodes32[i], radius)
-    j = int(0)
-    while wp.hash_grid_query_next(query, j):
-        if j == i:
+    k = int(0)
+    while wp.hash_grid_query_next(query, k):
+        j = nearest_copy(box, nodes32[i], grid_points, source_id, k, radius)
+        if j < 0 or j == i:
             continue
-        d = nodes[j] - xi
+        d = offset2d(box, nodes[j], xi)
         dist = wp.sqrt(d[0] * d[0] + d[1] * d[1])
         if dist >= wp.float64(radius):
             continue
         found += 1
         if dist < best[rank - 1]:  # insert into the sorted ``rank`` smallest
-            k = rank - 1
-            while k > 0 and best[k - 1] > dist:
-                best[k] = best[k - 1]
-                k -= 1
-            best[k] = dist
+            s = rank - 1
+            while s > 0 and best[s - 1] > dist:
+                best[s] = best[s - 1]
+                s -= 1
+            best[s] = dist
     if found >= rank:
         distance[i] = best[rank - 1]
     else:
@@ -234,6 +254,9 @@ def kth_nearest(
 def support_rows(
     first: int,
     grid: wp.uint64,
+    grid_points: wp.array(dtype=wp.vec3),
+    source_id: wp.array(dtype=wp.int32),
+    box: Box2d,
     radius: float,
     points32: wp.array(dtype=wp.vec3),
     points: wp.array(dtype=wp.vec2d),
@@ -255,9 +278,12 @@ def support_rows(
     n = int(0)
     base = rows.start[i]
     query = wp.hash_grid_query(grid, points32[i], radius)
-    j = int(0)
-    while wp.hash_grid_query_next(query, j):
-        if not serves(params, x, m, nodes[j], support[j], node_material[j]):
+    k = int(0)
+    while wp.hash_grid_query_next(query, k):
+        j = nearest_copy(box, points32[i], grid_points, source_id, k, radius)
+        if j < 0:
+            continue
+        if not serves(params, offset2d(box, x, nodes[j]), m, support[j], node_material[j]):
             continue
         if fill != 0:
             rows.index[base + n] = j
@@ -270,6 +296,7 @@ def support_rows(
 def support_rows_brute(
     first: int,
     n_nodes: int,
+    box: Box2d,
     points: wp.array(dtype=wp.vec2d),
     point_material: wp.array(dtype=wp.int32),
     nodes: wp.array(dtype=wp.vec2d),
@@ -287,7 +314,7 @@ def support_rows_brute(
     n = int(0)
     base = rows.start[i]
     for j in range(n_nodes):
-        if not serves(params, x, m, nodes[j], support[j], node_material[j]):
+        if not serves(params, offset2d(box, x, nodes[j]), m, support[j], node_material[j]):
             continue
         if fill != 0:
             rows.index[base + n] = j
@@ -296,9 +323,88 @@ def support_rows_brute(
         rows.count[i] = n
 
 
+@wp.func
+def solve_scaled(lo: mat66d, sc: vec6d, b: vec6d, terms: int) -> vec6d:
+    """γ = A⁻¹ b from the Cholesky factor of the scaled A_s = S A S: γ = S A_s⁻¹ S b."""
+    sb = vec6d()
+    for r in range(terms):
+        sb[r] = sc[r] * b[r]
+    y = cholesky_solve(lo, sb, terms)
+    for r in range(terms):
+        y[r] = y[r] * sc[r]
+    return y
+
+
+@wp.struct
+class MLSFit:
+    """The γ-form of an MLS fit at one point (module docstring): γ = A⁻¹ p(0), its derivatives ∂γ/∂x and ∂γ/∂y,
+    and ``rcond``, the smallest pivot of the Jacobi-scaled A (0: singular, γ not computed)."""
+
+    gamma: vec6d
+    gamma_x: vec6d
+    gamma_y: vec6d
+    rcond: wp.float64
+
+
+@wp.func
+def mls_fit(a: mat66d, ax: mat66d, ay: mat66d, terms: int, inv_scale: wp.float64) -> MLSFit:
+    """γ and ∂_a γ = A⁻¹ (e_{1+a}/s - ∂_a A γ) from the moment matrix A and its derivatives ∂_x A, ∂_y A."""
+    fit = MLSFit()
+    zero = wp.float64(0.0)
+    # Jacobi scaling: A_s = S A S, S = diag(1/sqrt(A_rr)); solve A γ = b as A_s (S⁻¹γ) = S b
+    sc = vec6d()
+    scaled = mat66d()
+    for r in range(terms):
+        sc[r] = wp.float64(1.0) / wp.sqrt(a[r, r])
+    for r in range(terms):
+        for c in range(terms):
+            scaled[r, c] = a[r, c] * sc[r] * sc[c]
+    lo = cholesky(scaled, terms)
+    smallest = wp.float64(1.0)
+    for r in range(terms):
+        smallest = wp.min(smallest, lo[r, r] * lo[r, r])
+    fit.rcond = smallest
+    if smallest <= zero:
+        return fit
+    p0 = vec6d()
+    p0[0] = wp.float64(1.0)
+    gamma = solve_scaled(lo, sc, p0, terms)
+    bx = vec6d()
+    by = vec6d()
+    for r in range(terms):
+        sx = zero
+        sy = zero
+        for c in range(terms):
+            sx = sx + ax[r, c] * gamma[c]
+            sy = sy + ay[r, c] * gamma[c]
+        bx[r] = -sx
+        by[r] = -sy
+    bx[1] = bx[1] + inv_scale
+    by[2] = by[2] + inv_scale
+    fit.gamma = gamma
+    fit.gamma_x = solve_scaled(lo, sc, bx, terms)
+    fit.gamma_y = solve_scaled(lo, sc, by, terms)
+    return fit
+
+
+@wp.func
+def shape_value(fit: MLSFit, w: wp.vec3d, p: vec6d, terms: int) -> wp.vec3d:
+    """(φ_I, ∂φ_I/∂x, ∂φ_I/∂y) = (w γ·p, w ∂_xγ·p + ∂_x w γ·p, w ∂_yγ·p + ∂_y w γ·p) of a node with weight and
+    slopes ``w`` and shifted basis ``p``."""
+    gp = wp.float64(0.0)
+    gxp = wp.float64(0.0)
+    gyp = wp.float64(0.0)
+    for r in range(terms):
+        gp = gp + fit.gamma[r] * p[r]
+        gxp = gxp + fit.gamma_x[r] * p[r]
+        gyp = gyp + fit.gamma_y[r] * p[r]
+    return wp.vec3d(w[0] * gp, w[0] * gxp + w[1] * gp, w[0] * gyp + w[2] * gp)
+
+
 @wp.kernel
 def shape_functions(
     first: int,
+    box: Box2d,
     points: wp.array(dtype=wp.vec2d),
     rows: NeighbourRows,
     nodes: wp.array(dtype=wp.vec2d),
@@ -331,75 +437,28 @@ def shape_functions(
     ay = mat66d()
     for k in range(count):
         j = rows.index[start + k]
-        w = node_weight(params, x - nodes[j], support[j])
-        p = basis(nodes[j] - x, inv_scale, terms)
+        d = offset2d(box, x, nodes[j])
+        w = node_weight(params, d, support[j])
+        p = basis(-d, inv_scale, terms)
         for r in range(terms):
             for c in range(terms):
                 pp = p[r] * p[c]
                 a[r, c] = a[r, c] + w[0] * pp
                 ax[r, c] = ax[r, c] + w[1] * pp
                 ay[r, c] = ay[r, c] + w[2] * pp
-    # Jacobi scaling: A_s = S A S, S = diag(1/sqrt(A_rr)); solve A γ = b as A_s (S⁻¹γ) = S b
-    sc = vec6d()
-    scaled = mat66d()
-    for r in range(terms):
-        sc[r] = wp.float64(1.0) / wp.sqrt(a[r, r])
-    for r in range(terms):
-        for c in range(terms):
-            scaled[r, c] = a[r, c] * sc[r] * sc[c]
-    lo = cholesky(scaled, terms)
-    smallest = wp.float64(1.0)
-    for r in range(terms):
-        smallest = wp.min(smallest, lo[r, r] * lo[r, r])
-    rcond[i] = smallest
-    if smallest <= zero:
+    fit = mls_fit(a, ax, ay, terms, inv_scale)
+    rcond[i] = fit.rcond
+    if fit.rcond <= zero:
         for k in range(count):
             phi[start + k] = zero
             dphi[start + k] = wp.vec2d(zero, zero)
         return
-    p0 = vec6d()
-    p0[0] = wp.float64(1.0)
-    gamma = solve_scaled(lo, sc, p0, terms)
-    # ∂_a γ = A⁻¹ (e_{1+a}/s - ∂_a A γ)
-    bx = vec6d()
-    by = vec6d()
-    for r in range(terms):
-        sx = zero
-        sy = zero
-        for c in range(terms):
-            sx = sx + ax[r, c] * gamma[c]
-            sy = sy + ay[r, c] * gamma[c]
-        bx[r] = -sx
-        by[r] = -sy
-    bx[1] = bx[1] + inv_scale
-    by[2] = by[2] + inv_scale
-    gx = solve_scaled(lo, sc, bx, terms)
-    gy = solve_scaled(lo, sc, by, terms)
     for k in range(count):
         j = rows.index[start + k]
-        w = node_weight(params, x - nodes[j], support[j])
-        p = basis(nodes[j] - x, inv_scale, terms)
-        gp = zero
-        gxp = zero
-        gyp = zero
-        for r in range(terms):
-            gp = gp + gamma[r] * p[r]
-            gxp = gxp + gx[r] * p[r]
-            gyp = gyp + gy[r] * p[r]
-        phi[start + k] = w[0] * gp
-        dphi[start + k] = wp.vec2d(w[0] * gxp + w[1] * gp, w[0] * gyp + w[2] * gp)
-
-
-@wp.func
-def solve_scaled(lo: mat66d, sc: vec6d, b: vec6d, terms: int) -> vec6d:
-    """γ = A⁻¹ b from the Cholesky factor of the scaled A_s = S A S: γ = S A_s⁻¹ S b."""
-    sb = vec6d()
-    for r in range(terms):
-        sb[r] = sc[r] * b[r]
-    y = cholesky_solve(lo, sb, terms)
-    for r in range(terms):
-        y[r] = y[r] * sc[r]
-    return y
+        d = offset2d(box, x, nodes[j])
+        v = shape_value(fit, node_weight(params, d, support[j]), basis(-d, inv_scale, terms), terms)
+        phi[start + k] = v[0]
+        dphi[start + k] = wp.vec2d(v[1], v[2])
 
 
 # --- assembly: every Gauss point writes its own slots (race-free, bitwise for any thread count) -------------

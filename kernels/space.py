@@ -17,7 +17,9 @@ Two forms of the same function:
   in free space it is exactly ``x_i - x_j``, so the hot loops of a solver pay nothing for periodicity
   they do not use.
 
-Precision: float32 positions (``wp.vec3``), as the HashGrid. Units: the scene's length unit.
+Precision: float32 positions (``wp.vec3``), as the HashGrid. Units: the scene's length unit. The float64 2D
+form (:class:`Box2d`, :func:`offset2d`) serves the MLS kernels (EFG nodes, PIC particles), whose moment matrices
+need float64 offsets (``kernels/efg.py``).
 """
 
 import warp as wp
@@ -66,6 +68,43 @@ def wrap(box: Box, x: wp.vec3) -> wp.vec3:
             s = s - box.length[a] * wp.floor(s * box.inv_length[a])
             if s >= box.length[a]:  # float rounding of a point just below the lower face
                 s = s - box.length[a]
+            out[a] = box.lower[a] + s
+    return out
+
+
+@wp.struct
+class Box2d:
+    """The float64 2D box of the MLS kernels: ``lower`` corner, side ``length``, ``periodic`` (1.0 or 0.0 per axis)."""
+
+    lower: wp.vec2d
+    length: wp.vec2d
+    inv_length: wp.vec2d
+    periodic: wp.vec2d
+
+
+@wp.func
+def offset2d(box: Box2d, xi: wp.vec2d, xj: wp.vec2d) -> wp.vec2d:
+    """r_ij = x_i - x_j in float64, the minimum image along the periodic axes of ``box`` (exactly x_i - x_j on a
+    free axis)."""
+    d = xi - xj
+    return wp.vec2d(
+        d[0] - box.periodic[0] * box.length[0] * wp.round(d[0] * box.inv_length[0]),
+        d[1] - box.periodic[1] * box.length[1] * wp.round(d[1] * box.inv_length[1]),
+    )
+
+
+@wp.func
+def wrap2d(box: Box2d, x: wp.vec2d) -> wp.vec2d:
+    """x brought back into the box along its periodic axes (float64): lower <= x < lower + L."""
+    out = x
+    for a in range(2):
+        if box.periodic[a] != wp.float64(0.0):
+            s = x[a] - box.lower[a]
+            s = s - box.length[a] * wp.floor(s * box.inv_length[a])
+            if s >= box.length[a]:  # rounding of a point just below the lower face
+                s = s - box.length[a]
+            if s < wp.float64(0.0):
+                s = s + box.length[a]
             out[a] = box.lower[a] + s
     return out
 

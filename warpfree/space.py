@@ -12,7 +12,7 @@ import numpy as np
 import warp as wp
 
 from .errors import ParameterError, require_finite
-from warpfree.kernels.space import Box
+from warpfree.kernels.space import Box, Box2d
 
 __all__ = ["Space"]
 
@@ -64,6 +64,16 @@ class Space:
         b.length = wp.vec3(*self.length.astype(np.float32))
         b.inv_length = wp.vec3(*(1.0 / self.length).astype(np.float32))
         b.periodic = wp.vec3(*[1.0 if p else 0.0 for p in self.periodic])
+        return b
+
+    @property
+    def box2d(self) -> Box2d:
+        """The float64 2D box of the MLS kernels (``warpfree.kernels.space.Box2d``)."""
+        b = Box2d()
+        b.lower = wp.vec2d(*self.lower[:2].astype(np.float64))
+        b.length = wp.vec2d(*self.length[:2].astype(np.float64))
+        b.inv_length = wp.vec2d(*(1.0 / self.length[:2]).astype(np.float64))
+        b.periodic = wp.vec2d(*[1.0 if p else 0.0 for p in self.periodic[:2]])
         return b
 
     def require_room(self, radius: float, name: str = "radius") -> None:

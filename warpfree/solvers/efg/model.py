@@ -7,6 +7,11 @@ settings (:class:`MLSSettings`), each node's support (half-widths R_I = d_max ·
 points, plasma particles) as a :class:`ShapeData`: CSR rows of the nodes whose support holds each point, with
 φ_I and ∇φ_I per entry. Another solver (the PIC field solve) holds the model and asks it for shape data.
 
+Periodic boxes (the PIC field solve): give ``space`` a :class:`~warpfree.space.Space` with periodic axes. The node
+HashGrid then holds the nodes' periodic images (``warpfree.neighbours``), and every offset x - x_I is the minimum
+image (``kernels/space.py: offset2d``), so supports, shape functions and assembled matrices wrap around the box: a
+node near one face serves points near the opposite face, as its image would.
+
 A point whose moment matrix cannot be inverted (fewer nodes than basis terms, or nodes on a line for the linear
 basis) is refused with its position and node count, never inverted blindly (``kernels/efg.py`` has the
 algebra; float64 throughout, see there).
@@ -165,15 +170,23 @@ class EFGModel:
     """Nodes, supports and shape functions (module docstring).
 
     nodes: (n, 2) positions; settings: :class:`MLSSettings`; node_material: (n,) ints, -1 for a node that serves
-    every material (on an interface, or a one-material model: the default); launcher: the device and threads.
+    every material (on an interface, or a one-material model: the default); launcher: the device and threads;
+    space: a 2D :class:`~warpfree.space.Space` (default free; periodic axes need every node inside the box and a
+    side of at least twice the widest support).
     """
 
     def __init__(self, nodes, settings: MLSSettings | None = None, node_material=None,
-                 launcher: Launcher | None = None):
+                 launcher: Launcher | None = None, space: Space | None = None):
         self.settings = settings or MLSSettings()
         self.launcher = launcher or current_launcher()
+        self.space = space or Space.free(2)
+        if self.space.dim != 2:
+            raise ParameterError("space", f"EFG is 2D, got a {self.space.dim}D space")
+        self.box = self.space.box2d
         dev = self.launcher.device
         self.nodes_np = _points2(nodes, "nodes")
+        if self.space.is_periodic:
+            self._require_inside(self.nodes_np, "nodes", "node")
         n = self.node_count = self.nodes_np.shape[0]
         if n < self.settings.terms:
             raise ParameterError("nodes", f"{n} nodes cannot carry the {self.settings.basis} basis "
@@ -188,8 +201,25 @@ class EFGModel:
         reach = float(np.max(half)) * (math.sqrt(2.0) if self.settings.support == "rectangular" else 1.0)
         # the query radius must cover every support; float32 positions: widen by a rounding margin
         self.reach = reach * (1.0 + 1e-5)
-        self.grid = NeighbourGrid(self.launcher, self.reach, Space.free(2), self.nodes32)
+        for a in range(2):
+            if self.space.periodic[a] and self.space.length[a] < 2.0 * self.reach:
+                raise ParameterError("d_max", f"supports reach {self.reach:.6g}, more than half the periodic side "
+                                              f"along {'xy'[a]} ({self.space.length[a]:.6g}): a node would meet a "
+                                              f"point through two images; lower d_max (now {self.settings.d_max}) "
+                                              "or enlarge the box")
+        self.grid = NeighbourGrid(self.launcher, self.reach, self.space, self.nodes32)
         self._params = self.settings.params()
+
+    def _require_inside(self, p: np.ndarray, parameter: str, name: str) -> None:
+        """Refuse points outside the periodic box (lower <= x < upper along its periodic axes)."""
+        for a in range(2):
+            if self.space.periodic[a]:
+                lo, hi = self.space.lower[a], self.space.upper[a]
+                bad = np.flatnonzero((p[:, a] < lo) | (p[:, a] >= hi))
+                if bad.size:
+                    i = int(bad[0])
+                    raise ParameterError(parameter, f"{name} {i} at {p[i].tolist()} lies outside the periodic box "
+                                                    f"along {'xy'[a]} ([{lo:.6g}, {hi:.6g})); {bad.size} such")
 
     def _rank_distance(self) -> np.ndarray:
         """c_I: distance from each node to its rank-th nearest node (a Warp kernel over a HashGrid; the radius
@@ -201,14 +231,20 @@ class EFGModel:
         if not np.any(extent > 0):
             raise ParameterError("nodes", "all nodes coincide")
         distance = wp.zeros(x.shape[0], dtype=wp.float64, device=self.launcher.device)
+        room = 0.5 * min((self.space.length[a] for a in range(2) if self.space.periodic[a]), default=math.inf)
         for _ in range(60):
-            grid = NeighbourGrid(self.launcher, radius, Space.free(2), self.nodes32)
-            self.launcher.launch(ek.kth_nearest, x.shape[0], [grid.id, self.nodes32, self.nodes,
-                                                              self.settings.rank, radius, distance], once=True)
+            radius = min(radius, room)
+            grid = NeighbourGrid(self.launcher, radius, self.space, self.nodes32)
+            self.launcher.launch(ek.kth_nearest, x.shape[0], [grid.id, grid.points, grid.source_id, self.box,
+                                                              self.nodes32, self.nodes, self.settings.rank, radius,
+                                                              distance], once=True)
             d = distance.numpy()
-            if np.all(d >= 0):
+            if np.all(d >= 0) or radius >= room:
                 break
             radius *= 2.0
+        if np.any(d < 0):
+            raise ParameterError("nodes", f"fewer than rank + 1 = {self.settings.rank + 1} nodes within half the "
+                                          "periodic box: too few nodes for the MLS supports")
         if np.any(d <= 0):
             bad = int(np.flatnonzero(d <= 0)[0])
             raise ParameterError("nodes", f"node {bad} at {x[bad].tolist()} coincides with its "
@@ -220,6 +256,8 @@ class EFGModel:
         material it sees (``kernels/efg.py: support_rows``; ``brute_force``: every node tested, for checks and the
         search benchmark)."""
         p = _points2(points, name)
+        if self.space.is_periodic:
+            self._require_inside(p, "points", name)
         n, dev, L = p.shape[0], self.launcher.device, self.launcher
         points64 = wp.array(p, dtype=wp.vec2d, device=dev)
         mat = _materials(material, n, "material", dev)
@@ -228,10 +266,11 @@ class EFGModel:
         rows.count = wp.zeros(n, dtype=wp.int32, device=dev)
         rows.index = wp.zeros(1, dtype=wp.int32, device=dev)
         if brute_force:
-            kernel, args = ek.support_rows_brute, [self.node_count, points64, mat, self.nodes, self.support,
+            kernel, args = ek.support_rows_brute, [self.node_count, self.box, points64, mat, self.nodes, self.support,
                                                     self.node_material, self._params]
         else:
-            kernel, args = ek.support_rows, [self.grid.id, self.reach, _vec3(p, dev), points64, mat, self.nodes,
+            kernel, args = ek.support_rows, [self.grid.id, self.grid.points, self.grid.source_id, self.box, self.reach,
+                                             _vec3(p, dev), points64, mat, self.nodes,
                                              self.support, self.node_material, self._params]
         L.launch(kernel, n, args + [0, rows], once=True)
         counts = rows.count.numpy().astype(np.int64)
@@ -253,8 +292,8 @@ class EFGModel:
         phi = wp.zeros(max(total, 1), dtype=wp.float64, device=dev)
         dphi = wp.zeros(max(total, 1), dtype=wp.vec2d, device=dev)
         rcond = wp.zeros(n, dtype=wp.float64, device=dev)
-        self.launcher.launch(ek.shape_functions, n, [points64, rows, self.nodes, self.support, self._params, phi,
-                                                     dphi, rcond], once=True)
+        self.launcher.launch(ek.shape_functions, n, [self.box, points64, rows, self.nodes, self.support, self._params,
+                                                     phi, dphi, rcond], once=True)
         self._check(p, counts, rcond.numpy(), name)
         return ShapeData(p, rows, counts, total, phi, dphi, rcond, self.node_count)
 

@@ -1,0 +1,225 @@
+"""PIC kernels (seed 002 ch. 4, PIDC): MLS fits at the particles, charge deposit as a node gather, field gather,
+leapfrog push. Normalised units (ε0 = 1; charges in e, masses in m_e, lengths and times in the scene's units).
+
+Precision: float64 throughout (positions ``wp.vec2d``, MLS fits, charges, fields): the shape functions come from
+the same ill-conditioned moment matrices as EFG's (``kernels/efg.py``), and the deposit must keep the total
+charge to round-off. Float32 ``wp.vec3`` copies of the positions serve only the ``wp.HashGrid`` queries.
+
+Per step (seed 002 §1.2 of the reference note):
+
+1. :func:`particle_fits`: each particle p queries the node grid and stores the γ-form of its MLS fit (γ, ∂γ,
+   the basis scale) — seed 002 §5.3.2 stores φ and ∇φ per particle; γ is their compact form: φ_I(x_p) =
+   w_I(x_p) γ_p·p((x_I - x_p)/s_p).
+2. :func:`deposit`: each node I gathers the particles in its support through a HashGrid over the particles and
+   sums Q_I = Σ_p q_p φ_I(x_p) (eq 4.4) — a gather, race-free and bitwise the same for any thread count. Node and
+   particle decide membership by the same float64 test on the same offset (``offset2d``), so Σ_I Q_I = Σ_p q_p
+   Σ_I φ_I(x_p) = Σ_p q_p to round-off (partition of unity, eq 4.3).
+3. :func:`particle_field`: E(x_p) = -Σ_I u_I ∇φ_I(x_p) (eq 4.5), the same nodes and fit; or the momentum-conserving
+   form Σ_I φ_I(x_p) E_I from nodal fields (``warpfree.solvers.pic.field``).
+4. :func:`leapfrog_push`: v^{n+1/2} = v^{n-1/2} + (q/m) E^n Δt, x^{n+1} = x^n + v^{n+1/2} Δt (eqs 2.21 / 4.7),
+   positions wrapped into the periodic box; :func:`kick` gives the half-step start v^{-1/2} = v^0 - (q/m) E^0 Δt/2.
+
+Periodic boxes: the node grid holds the nodes' periodic images and the particle grid the particles' images
+(``warpfree.neighbours``); offsets are minimum images (``kernels/space.py``), never HashGrid wrap-around.
+"""
+
+import warp as wp
+
+from .efg import MLSFit, MLSParams, basis, inside_support, mat66d, mls_fit, nearest_copy, node_weight, shape_value
+from .space import Box2d, offset2d, wrap2d
+
+
+@wp.kernel
+def particle_fits(
+    first: int,
+    grid: wp.uint64,
+    grid_points: wp.array(dtype=wp.vec3),
+    source_id: wp.array(dtype=wp.int32),
+    box: Box2d,
+    reach: float,
+    position32: wp.array(dtype=wp.vec3),
+    position: wp.array(dtype=wp.vec2d),
+    nodes: wp.array(dtype=wp.vec2d),
+    support: wp.array(dtype=wp.vec2d),
+    params: MLSParams,
+    fit: wp.array(dtype=MLSFit),
+    inv_scale: wp.array(dtype=wp.float64),
+    count: wp.array(dtype=wp.int32),
+):
+    """The MLS fit of particle i over the nodes whose support holds it (``kernels/efg.py``: the same algebra as
+    ``shape_functions``); ``count[i]``: those nodes (fewer than the basis terms: fit.rcond = 0)."""
+    i = first + wp.tid()
+    x = position[i]
+    terms = params.terms
+    zero = wp.float64(0.0)
+    n = int(0)
+    scale = zero
+    query = wp.hash_grid_query(grid, position32[i], reach)
+    k = int(0)
+    while wp.hash_grid_query_next(query, k):
+        j = nearest_copy(box, position32[i], grid_points, source_id, k, reach)
+        if j < 0:
+            continue
+        if inside_support(params, offset2d(box, x, nodes[j]), support[j]):
+            n += 1
+            scale = scale + support[j][0]
+    count[i] = n
+    if n < terms:
+        empty = MLSFit()
+        fit[i] = empty
+        inv_scale[i] = zero
+        return
+    s = wp.float64(n) / scale
+    a = mat66d()
+    ax = mat66d()
+    ay = mat66d()
+    query = wp.hash_grid_query(grid, position32[i], reach)
+    while wp.hash_grid_query_next(query, k):
+        j = nearest_copy(box, position32[i], grid_points, source_id, k, reach)
+        if j < 0:
+            continue
+        d = offset2d(box, x, nodes[j])
+        if not inside_support(params, d, support[j]):
+            continue
+        w = node_weight(params, d, support[j])
+        p = basis(-d, s, terms)
+        for r in range(terms):
+            for c in range(terms):
+                pp = p[r] * p[c]
+                a[r, c] = a[r, c] + w[0] * pp
+                ax[r, c] = ax[r, c] + w[1] * pp
+                ay[r, c] = ay[r, c] + w[2] * pp
+    fit[i] = mls_fit(a, ax, ay, terms, s)
+    inv_scale[i] = s
+
+
+@wp.kernel
+def deposit(
+    first: int,
+    grid: wp.uint64,
+    grid_points: wp.array(dtype=wp.vec3),
+    source_id: wp.array(dtype=wp.int32),
+    box: Box2d,
+    reach: float,
+    nodes32: wp.array(dtype=wp.vec3),
+    nodes: wp.array(dtype=wp.vec2d),
+    support: wp.array(dtype=wp.vec2d),
+    params: MLSParams,
+    position: wp.array(dtype=wp.vec2d),
+    species: wp.array(dtype=wp.int32),
+    macro_charge: wp.array(dtype=wp.float64),
+    fit: wp.array(dtype=MLSFit),
+    inv_scale: wp.array(dtype=wp.float64),
+    charge: wp.array(dtype=wp.float64),
+):
+    """Q_I = Σ_p q_p φ_I(x_p) (seed 002 eq 4.4): node I gathers the particles in its support (``grid``: over the
+    particles and their periodic images); q_p = ``macro_charge[species[p]]``."""
+    i = first + wp.tid()
+    xi = nodes[i]
+    terms = params.terms
+    q = wp.float64(0.0)
+    query = wp.hash_grid_query(grid, nodes32[i], reach)
+    k = int(0)
+    while wp.hash_grid_query_next(query, k):
+        p = nearest_copy(box, nodes32[i], grid_points, source_id, k, reach)
+        if p < 0:
+            continue
+        d = offset2d(box, position[p], xi)
+        if not inside_support(params, d, support[i]):
+            continue
+        v = shape_value(fit[p], node_weight(params, d, support[i]), basis(-d, inv_scale[p], terms), terms)
+        q = q + macro_charge[species[p]] * v[0]
+    charge[i] = q
+
+
+@wp.kernel
+def particle_field(
+    first: int,
+    grid: wp.uint64,
+    grid_points: wp.array(dtype=wp.vec3),
+    source_id: wp.array(dtype=wp.int32),
+    box: Box2d,
+    reach: float,
+    position32: wp.array(dtype=wp.vec3),
+    position: wp.array(dtype=wp.vec2d),
+    nodes: wp.array(dtype=wp.vec2d),
+    support: wp.array(dtype=wp.vec2d),
+    params: MLSParams,
+    fit: wp.array(dtype=MLSFit),
+    inv_scale: wp.array(dtype=wp.float64),
+    potential: wp.array(dtype=wp.float64),
+    nodal_field: wp.array(dtype=wp.vec2d),
+    interpolate: int,
+    field: wp.array(dtype=wp.vec2d),
+):
+    """E at particle p with its stored fit: ``interpolate`` 0: E(x_p) = -Σ_I u_I ∇φ_I(x_p) (seed 002 eq 4.5, the
+    energy-conserving gather); 1: E(x_p) = Σ_I φ_I(x_p) E_I from nodal fields E_I (the momentum-conserving gather,
+    ``warpfree.solvers.pic.field``)."""
+    i = first + wp.tid()
+    x = position[i]
+    terms = params.terms
+    zero = wp.float64(0.0)
+    ex = zero
+    ey = zero
+    query = wp.hash_grid_query(grid, position32[i], reach)
+    k = int(0)
+    while wp.hash_grid_query_next(query, k):
+        j = nearest_copy(box, position32[i], grid_points, source_id, k, reach)
+        if j < 0:
+            continue
+        d = offset2d(box, x, nodes[j])
+        if not inside_support(params, d, support[j]):
+            continue
+        v = shape_value(fit[i], node_weight(params, d, support[j]), basis(-d, inv_scale[i], terms), terms)
+        if interpolate != 0:
+            ex = ex + v[0] * nodal_field[j][0]
+            ey = ey + v[0] * nodal_field[j][1]
+        else:
+            ex = ex - potential[j] * v[1]
+            ey = ey - potential[j] * v[2]
+    field[i] = wp.vec2d(ex, ey)
+
+
+@wp.kernel
+def kick(
+    first: int,
+    species: wp.array(dtype=wp.int32),
+    charge_over_mass: wp.array(dtype=wp.float64),
+    field: wp.array(dtype=wp.vec2d),
+    dt: wp.float64,
+    velocity: wp.array(dtype=wp.vec2d),
+):
+    """v += (q/m) E Δt (a negative Δt/2 gives the leapfrog's half-step start, seed 002 §2.2.3)."""
+    i = first + wp.tid()
+    velocity[i] = velocity[i] + charge_over_mass[species[i]] * dt * field[i]
+
+
+@wp.kernel
+def leapfrog_push(
+    first: int,
+    box: Box2d,
+    species: wp.array(dtype=wp.int32),
+    charge_over_mass: wp.array(dtype=wp.float64),
+    macro_mass: wp.array(dtype=wp.float64),
+    field: wp.array(dtype=wp.vec2d),
+    dt: wp.float64,
+    position: wp.array(dtype=wp.vec2d),
+    velocity: wp.array(dtype=wp.vec2d),
+    position32: wp.array(dtype=wp.vec3),
+    kinetic: wp.array(dtype=wp.float64),
+    momentum: wp.array(dtype=wp.vec2d),
+):
+    """v^{n+1/2} = v^{n-1/2} + (q/m) E^n Δt; x^{n+1} = x^n + v^{n+1/2} Δt, wrapped (eqs 2.21 / 4.7). Writes the
+    time-centred kinetic energy ½ M (|v^{n-1/2}|² + |v^{n+1/2}|²)/2 and momentum M (v^{n-1/2} + v^{n+1/2})/2 at
+    time n (M: the macro-particle's mass)."""
+    i = first + wp.tid()
+    s = species[i]
+    old = velocity[i]
+    new = old + charge_over_mass[s] * dt * field[i]
+    velocity[i] = new
+    x = wrap2d(box, position[i] + dt * new)
+    position[i] = x
+    position32[i] = wp.vec3(float(x[0]), float(x[1]), 0.0)
+    m = macro_mass[s]
+    kinetic[i] = wp.float64(0.25) * m * (wp.dot(old, old) + wp.dot(new, new))
+    momentum[i] = wp.float64(0.5) * m * (old + new)

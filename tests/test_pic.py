@@ -1,0 +1,245 @@
+"""PIC (issue 10): periodic EFG shape functions, deposit, gathers, push, conservation, scenes, bad input."""
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from warpfree.device import Launcher
+from warpfree.errors import ParameterError
+from warpfree.solvers.efg.model import EFGModel, MLSSettings
+from warpfree.solvers.pic import PeriodicPoisson, PICSolver, Species, lattice_positions, load_species, random_positions
+from warpfree.solvers.pic.scene_tools import lattice_nodes, periodic_box
+from warpfree.space import Space
+from warpfree.validation.pic_plasma_oscillation import frequency_from_crossings, leapfrog_frequency
+from warpfree.validation.pic_two_stream import GAMMA_MAX, K_V0_FASTEST, growth_rate
+
+
+def _random_nodes(space, per_axis, rng):
+    """One random node per sub-cell (seed 003's random layout), inside the periodic box."""
+    lat = lattice_nodes(space, space.length[0] / per_axis)
+    h = space.length[:2] / np.array([per_axis, round(space.length[1] / (space.length[0] / per_axis))])
+    return lat + (rng.random(lat.shape) * 0.8 + 0.1) * h
+
+
+def _thermal(space, model, rng, per_node=4, gather="momentum"):
+    field = PeriodicPoisson(model)
+    n = per_node * model.node_count
+    loads = [load_species(Species("electron", -1.0, 1.0, 1.0, 1.0), space, random_positions(space, n, rng), rng),
+             load_species(Species("ion", 1.0, 100.0, 1.0, 0.1), space, random_positions(space, n, rng), rng)]
+    return PICSolver(field, loads, 0.1, modes=[(1, 0)], gather=gather)
+
+
+def test_periodic_shape_functions_equal_the_tiled_free_model():
+    """A node near one face serves points near the opposite face as its image would: the periodic model's φ and ∇φ
+    equal a free model's over the nodes tiled 3 x 3, summed over each node's copies."""
+    rng = np.random.default_rng(3)
+    space = periodic_box(4.0, 3.0)
+    nodes = _random_nodes(space, 8, rng)
+    periodic = EFGModel(nodes, MLSSettings(d_max=2.0), space=space)
+    shifts = [(sx * 4.0, sy * 3.0) for sx in (-1, 0, 1) for sy in (-1, 0, 1)]
+    tiled = np.concatenate([nodes + s for s in shifts])
+    free = EFGModel(tiled, MLSSettings(d_max=2.0))
+    free.spacing[:] = np.tile(periodic.spacing, len(shifts))  # the tiled copies' own c_I (outer copies have
+    free.support_np[:] = np.tile(periodic.support_np, (len(shifts), 1))  # no neighbours beyond the tiling)
+    free.support.assign(free.support_np)
+    points = np.c_[rng.random(300) * 4.0, rng.random(300) * 3.0]
+    points[:100, 0] = rng.random(100) * 0.3           # near the faces
+    points[100:200, 1] = 3.0 - rng.random(100) * 0.3
+    ps = periodic.shape_at(points)
+    fs = free.shape_at(points)
+    fold = np.zeros((len(tiled), nodes.shape[0]))
+    fold[np.arange(len(tiled)), np.tile(np.arange(nodes.shape[0]), len(shifts))] = 1.0
+    np.testing.assert_allclose(ps.matrix().toarray(), fs.matrix().toarray() @ fold, atol=1e-13)
+    for a, b in zip(ps.gradient_matrices(), fs.gradient_matrices()):
+        np.testing.assert_allclose(a.toarray(), b.toarray() @ fold, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(ps.matrix().sum(axis=1)).ravel(), 1.0, atol=1e-13)
+
+
+def test_deposit_conserves_charge_and_equals_the_shape_matrix():
+    """Q_I = Σ_p q_p φ_I(x_p) (eq 4.4) from the node gather equals Φᵀ q from the EFG shape functions, and Σ_I Q_I =
+    Σ_p q_p to round-off (partition of unity)."""
+    rng = np.random.default_rng(5)
+    space = periodic_box(6.0, 4.0)
+    model = EFGModel(_random_nodes(space, 12, rng), MLSSettings(d_max=2.2), space=space)
+    solver = _thermal(space, model, rng)
+    q = np.repeat(solver.macro_charge_np, [ld.count for ld in solver.loads])
+    phi = model.shape_at(solver.state.position.numpy()).matrix()
+    deposited = solver.charge.numpy()
+    np.testing.assert_allclose(deposited, phi.T @ q, rtol=0, atol=1e-12 * np.abs(q).sum())
+    assert abs(deposited.sum() - q.sum()) < 1e-12 * np.abs(q).sum()
+    for _ in range(5):
+        solver.step(solver.dt)
+    assert np.max(np.abs(solver.history["deposited_charge"])) < 1e-11 * np.abs(q).sum()  # neutral: Σ q = 0
+
+
+def test_energy_gather_equals_minus_the_potential_gradient():
+    """gather='energy': E_p = -Σ_I u_I ∇φ_I(x_p) (eq 4.5), checked against the EFG gradient matrices."""
+    rng = np.random.default_rng(7)
+    space = periodic_box(5.0, 5.0)
+    model = EFGModel(lattice_nodes(space, 0.5), MLSSettings(d_max=2.0), space=space)
+    solver = _thermal(space, model, rng, gather="energy")
+    gx, gy = model.shape_at(solver.state.position.numpy()).gradient_matrices()
+    expected = -np.c_[gx @ solver.potential, gy @ solver.potential]
+    np.testing.assert_allclose(solver.e_field.numpy(), expected, atol=1e-12 * np.abs(expected).max())
+
+
+def test_poisson_solve_reproduces_a_sine_potential():
+    """-∇²u = ρ with ρ = sin(kx) in the periodic box: u = sin(kx)/k² (the field solve alone, through Q = ∫ φ ρ)."""
+    space = periodic_box(2 * math.pi, 2.0)
+    model = EFGModel(lattice_nodes(space, 2 * math.pi / 40), MLSSettings(d_max=2.0), space=space)
+    field = PeriodicPoisson(model)
+    g = field.gauss
+    rho = np.sin(g.position[:, 0])
+    u = field.solve(field.gauss_shape.T @ (g.weight * rho))
+    uh = field.gauss_shape @ u
+    assert np.max(np.abs(uh - rho)) < 2e-3          # u = sin(x)/k², k = 1
+    assert abs(field.net_charge_density) < 1e-12
+
+
+@pytest.mark.parametrize("spacing", [0.5, 0.25])
+def test_self_force_vanishes_with_the_momentum_gather(spacing):
+    """A single particle at rest in a periodic box feels < 1e-3 of the force of a neighbour one Debye length away
+    (the issue); the momentum gather makes it vanish to round-off on node lattices. The energy gather (eq 4.5) has
+    a self-force of the neighbour's order (documented in ``warpfree.solvers.pic.field``)."""
+    side = 8.0
+    space = periodic_box(side, side)
+    model = EFGModel(lattice_nodes(space, spacing), MLSSettings(d_max=2.0), space=space)
+    field = PeriodicPoisson(model)
+    area = side * side
+    neighbour = 1.0 / (2.0 * math.pi)     # q²/(2π ε0 r) at r = 1 (line charges)
+    worst = {"momentum": 0.0, "energy": 0.0}
+    for fx, fy in [(0.13, 0.41), (0.5, 0.5), (0.77, 0.21), (0.31, 0.93)]:
+        p = np.array([[3.0 + fx * spacing, 3.0 + fy * spacing]])
+        for gather in worst:
+            s = PICSolver(field, [load_species(Species("e", -1.0, 1.0, 1.0 / area), space, p)], 0.1, modes=[],
+                          gather=gather)
+            worst[gather] = max(worst[gather], float(np.linalg.norm(s.e_field.numpy()[0])))
+    assert worst["momentum"] < 1e-3 * neighbour
+    assert worst["energy"] > 0.1 * neighbour
+    pair = load_species(Species("e", -1.0, 1.0, 2.0 / area), space, np.array([[3.0, 3.0], [4.0, 3.0]]))
+    force = PICSolver(field, [pair], 0.1, modes=[]).e_field.numpy()[0]
+    assert 0.85 * neighbour < abs(force[0]) < 1.05 * neighbour    # smoothed at r = 2-4 spacings
+
+
+def test_momentum_is_conserved_with_the_momentum_gather():
+    """Σ_p F_p = 0 on a node lattice (M⁻¹ G K⁻¹ antisymmetric): the total momentum of a warm two-species plasma stays
+    at its initial value to round-off."""
+    rng = np.random.default_rng(11)
+    space = periodic_box(8.0, 6.0)
+    model = EFGModel(lattice_nodes(space, 0.5), MLSSettings(d_max=2.0), space=space)
+    solver = _thermal(space, model, rng)
+    for _ in range(20):
+        solver.step(solver.dt)
+    p = np.c_[solver.history["momentum_x"], solver.history["momentum_y"]]
+    scale = math.sqrt(solver.n) * solver.macro_mass_np[0]          # thermal momentum of the electrons
+    assert np.max(np.abs(p - p[0])) < 1e-10 * scale
+
+
+def test_threads_give_bitwise_identical_runs():
+    rng_state = 13
+    out = []
+    for threads in (1, 2, 3):
+        rng = np.random.default_rng(rng_state)
+        space = periodic_box(6.0, 4.0)
+        launcher = Launcher("cpu", threads)
+        model = EFGModel(lattice_nodes(space, 0.5), MLSSettings(d_max=2.0), space=space, launcher=launcher)
+        solver = _thermal(space, model, rng)
+        for _ in range(5):
+            solver.step(solver.dt)
+        out.append((solver.state.position.numpy().copy(), solver.state.velocity.numpy().copy(),
+                    solver.charge.numpy().copy()))
+    for other in out[1:]:
+        for a, b in zip(out[0], other):
+            assert np.array_equal(a, b)
+
+
+def test_plasma_oscillation_frequency_within_one_percent_of_the_leapfrog(tmp_path):
+    from warpfree.cli import load_scene
+
+    run = load_scene("scenes/pic_plasma_oscillation.py").build(frames=False, vtk=False)
+    result = run.run(str(tmp_path), progress=False)["analysis"]["oscillation"]
+    assert abs(result["frequency_rel_error"]) < 0.01
+    assert result["charge_rel_error"] < 1e-12
+    assert result["momentum_change"] < 1e-12
+    assert (tmp_path / "history.csv").exists() and (tmp_path / "energy.png").exists()
+
+
+def test_two_stream_growth_rate_within_ten_percent(tmp_path):
+    from warpfree.cli import load_scene
+
+    run = load_scene("scenes/pic_two_stream.py").build(frames=False, vtk=False)
+    result = run.run(str(tmp_path), progress=False)["analysis"]["two_stream"]
+    assert abs(result["growth_rate_rel_error"]) < 0.10
+    assert result["fit_to"] - result["fit_from"] > 5.0
+    assert (tmp_path / "phase_space.png").exists()
+
+
+def test_thermal_plasma_conserves_energy_on_a_small_box(tmp_path):
+    from warpfree.cli import load_scene
+
+    run = load_scene("scenes/pic_thermal_plasma.py").build(box=(8.0, 16.0), periods=10.0, frames=False, vtk=False)
+    result = run.run(str(tmp_path), progress=False)["analysis"]["thermal"]
+    assert result["total_energy_drift"] < 0.01
+    assert result["momentum_change"] < 1e-10 * result["thermal_momentum"]
+
+
+def test_validation_references():
+    assert leapfrog_frequency(1.0, 0.2) == pytest.approx(1.0 + 0.2 ** 2 / 24, rel=1e-4)
+    t = np.linspace(0, 30, 3001)
+    assert frequency_from_crossings(t, np.cos(1.3 * t)) == pytest.approx(1.3, rel=1e-5)
+    k = np.linspace(0.05, 1.4, 4000)
+    g = np.array([growth_rate(v) for v in k])
+    assert k[np.argmax(g)] == pytest.approx(K_V0_FASTEST, abs=1e-3)
+    assert g.max() == pytest.approx(GAMMA_MAX, rel=1e-6)
+    assert growth_rate(1.5) == 0.0
+
+
+def test_warnings_name_the_heating_causes():
+    space = periodic_box(8.0, 8.0)
+    model = EFGModel(lattice_nodes(space, 1.0), MLSSettings(d_max=2.0), space=space)
+    field = PeriodicPoisson(model)
+    pos = lattice_positions(space, (16, 16))
+    rng = np.random.default_rng(0)
+    with pytest.warns(UserWarning, match=r"dt: ω_pe Δt = 0.5 is 2.5x"):
+        PICSolver(field, [load_species(Species("e", -1.0, 1.0, 1.0, 1.0), space, pos, rng)], 0.5)
+    with pytest.warns(UserWarning, match=r"node spacing 1 is 4 Debye lengths"):
+        PICSolver(field, [load_species(Species("e", -1.0, 1.0, 1.0, 1.0 / 16), space, pos, rng)], 0.1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        PICSolver(field, [load_species(Species("e", -1.0, 1.0, 1.0, 1.0), space, pos, rng)], 0.2)
+
+
+@pytest.mark.parametrize("make, name", [
+    (lambda s, f, p: Species("e", -1.0, 1.0, 0.0), "density"),
+    (lambda s, f, p: Species("e", -1.0, 1.0, -1.0), "density"),
+    (lambda s, f, p: Species("e", -1.0, 0.0, 1.0), "mass"),
+    (lambda s, f, p: Species("e", -1.0, 1.0, 1.0, -1.0), "temperature"),
+    (lambda s, f, p: Species("e", 0.0, 1.0, 1.0), "charge"),
+    (lambda s, f, p: load_species(Species("e", -1.0, 1.0, 1.0), s, p + [8.0, 0.0]), "position"),
+    (lambda s, f, p: PICSolver(f, [load_species(Species("e", -1.0, 1.0, 1.0), s, p)], 2.0), "dt"),
+    (lambda s, f, p: PICSolver(f, [load_species(Species("e", -1.0, 1.0, 1.0), s, p)], 0.1, gather="x"), "gather"),
+    (lambda s, f, p: EFGModel(lattice_nodes(s, 1.0), MLSSettings(d_max=4.5), space=s), "d_max"),
+    (lambda s, f, p: EFGModel(lattice_nodes(s, 1.0) + [8.5, 0.0], MLSSettings(), space=s), "nodes"),
+    (lambda s, f, p: PeriodicPoisson(EFGModel(lattice_nodes(s, 1.0), MLSSettings(), space=Space(
+        2, (0, 0, 0), (8, 8, 1), periodic=(True, False, False)))), "space"),
+])
+def test_bad_input_names_the_parameter(make, name):
+    space = periodic_box(8.0, 8.0)
+    field = PeriodicPoisson(EFGModel(lattice_nodes(space, 1.0), MLSSettings(d_max=2.0), space=space))
+    pos = lattice_positions(space, (16, 16))
+    with pytest.raises(ParameterError) as err:
+        make(space, field, pos)
+    assert err.value.name == name
+
+
+def test_a_hole_in_the_nodes_is_refused():
+    """Supports that hold fewer nodes than the basis needs: refused at set-up, naming the point and its node count
+    (the solver checks every particle's fit each step the same way)."""
+    space = periodic_box(8.0, 8.0)
+    nodes = np.array([[x, y] for x in np.arange(0.0, 8.0, 1.0) for y in np.arange(0.0, 8.0, 1.0)
+                      if not (3.0 <= x <= 5.0 and 3.0 <= y <= 5.0)])           # a hole in the node lattice
+    with pytest.raises(ParameterError, match=r"lies in the support of \d node") as err:
+        PeriodicPoisson(EFGModel(nodes, MLSSettings(d_max=1.2), space=space), cells=(8, 8))
+    assert err.value.name == "support"

@@ -1,0 +1,75 @@
+"""What the PIC scenes share: the periodic box, lattice nodes, the per-step history as CSV and its plots."""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+
+import numpy as np
+
+from warpfree.errors import ParameterError, require_positive
+from warpfree.space import Space
+
+__all__ = ["periodic_box", "lattice_nodes", "write_history", "plot_history", "relative_drift",
+           "momentum_change"]
+
+
+def periodic_box(length_x: float, length_y: float) -> Space:
+    """The 2D box [0, Lx) × [0, Ly), periodic along x and y."""
+    require_positive("length_x", length_x)
+    require_positive("length_y", length_y)
+    return Space(2, (0.0, 0.0, 0.0), (length_x, length_y, 1.0), periodic=(True, True, False))
+
+
+def lattice_nodes(space: Space, spacing: float) -> np.ndarray:
+    """Nodes on a regular lattice of about ``spacing`` (exactly Lx/nx, Ly/ny with n = round(L/spacing)), the first at
+    the box's lower corner."""
+    require_positive("node_spacing", spacing)
+    counts = [int(round(space.length[a] / spacing)) for a in range(2)]
+    if min(counts) < 2:
+        raise ParameterError("node_spacing", f"{spacing} leaves fewer than 2 nodes along an axis of the box "
+                                             f"{space.length[:2].tolist()}")
+    axes = [space.lower[a] + np.arange(counts[a]) * space.length[a] / counts[a] for a in range(2)]
+    gx, gy = np.meshgrid(*axes, indexing="ij")
+    return np.stack([gx.ravel(), gy.ravel()], axis=1)
+
+
+def write_history(path: str, history: dict[str, list[float]]) -> str:
+    """The solver's per-step diagnostics as CSV (one row per step, columns as in ``history``)."""
+    keys = list(history)
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(keys)
+        for row in zip(*(history[k] for k in keys)):
+            w.writerow([f"{v:.12g}" for v in row])
+    return path
+
+
+def plot_history(out_dir: str, history: dict[str, list[float]], mode_key: str | None = None) -> list[str]:
+    """energy.png (kinetic, field, total) and, with ``mode_key``, mode.png (that mode's field energy, log scale)."""
+    from warpfree.io.frames import plot_series
+
+    t = np.asarray(history["time"])
+    paths = [str(plot_series(os.path.join(out_dir, "energy.png"), t,
+                             {k.replace("_", " "): np.asarray(history[k]) for k in
+                              ("kinetic_energy", "field_energy", "total_energy")},
+                             xlabel="t (1/ω_pe)", ylabel="energy (normalised)", title="PIC energies"))]
+    if mode_key is not None:
+        e = np.asarray(history[mode_key])
+        paths.append(str(plot_series(os.path.join(out_dir, "mode.png"), t, {mode_key.replace("_", " "): e},
+                                     xlabel="t (1/ω_pe)", ylabel="field energy", logy=bool(np.all(e > 0)),
+                                     title="Fourier mode")))
+    return paths
+
+
+def relative_drift(values) -> float:
+    """max |E - E_0| / E_0 of a series."""
+    v = np.asarray(values, np.float64)
+    return float(np.max(np.abs(v - v[0])) / abs(v[0])) if v[0] != 0 else math.inf
+
+
+def momentum_change(history: dict[str, list[float]]) -> float:
+    """max_t |P(t) - P(0)|: the total momentum's largest change (normalised units)."""
+    p = np.c_[history["momentum_x"], history["momentum_y"]]
+    return float(np.max(np.linalg.norm(p - p[0], axis=1)))
