@@ -93,6 +93,6 @@ def _phase_space(path, solver):
 
     x = solver.state.position.numpy()[:, 0]
     vx = solver.state.velocity.numpy()[:, 0]
-    s = solver.species_index.numpy()
+    s = solver.state.species.numpy()
     plot_series(path, None, {f"beam {'+-'[b]}": (x[s == b], vx[s == b]) for b in (0, 1)}, xlabel="x (λ_D)",
                 ylabel="v_x", title=f"phase space at t = {solver.t:.3g}")

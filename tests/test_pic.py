@@ -64,7 +64,7 @@ def test_deposit_conserves_charge_and_equals_the_shape_matrix():
     space = periodic_box(6.0, 4.0)
     model = EFGModel(_random_nodes(space, 12, rng), MLSSettings(d_max=2.2), space=space)
     solver = _thermal(space, model, rng)
-    q = np.repeat(solver.macro_charge_np, [ld.count for ld in solver.loads])
+    q = solver.macro_charge_np[solver.state.species.numpy()]
     phi = model.shape_at(solver.state.position.numpy()).matrix()
     deposited = solver.charge.numpy()
     np.testing.assert_allclose(deposited, phi.T @ q, rtol=0, atol=1e-12 * np.abs(q).sum())
@@ -119,7 +119,8 @@ def test_self_force_vanishes_with_the_momentum_gather(spacing):
     assert worst["momentum"] < 1e-3 * neighbour
     assert worst["energy"] > 0.1 * neighbour
     pair = load_species(Species("e", -1.0, 1.0, 2.0 / area), space, np.array([[3.0, 3.0], [4.0, 3.0]]))
-    force = PICSolver(field, [pair], 0.1, modes=[]).e_field.numpy()[0]
+    s = PICSolver(field, [pair], 0.1, modes=[])
+    force = s.e_field.numpy()[np.flatnonzero(s.state.particle_id.numpy() == 0)[0]]
     assert 0.85 * neighbour < abs(force[0]) < 1.05 * neighbour    # smoothed at r = 2-4 spacings
 
 
@@ -220,6 +221,8 @@ def test_warnings_name_the_heating_causes():
     (lambda s, f, p: load_species(Species("e", -1.0, 1.0, 1.0), s, p + [8.0, 0.0]), "position"),
     (lambda s, f, p: PICSolver(f, [load_species(Species("e", -1.0, 1.0, 1.0), s, p)], 2.0), "dt"),
     (lambda s, f, p: PICSolver(f, [load_species(Species("e", -1.0, 1.0, 1.0), s, p)], 0.1, gather="x"), "gather"),
+    (lambda s, f, p: PICSolver(f, [load_species(Species("e", -1.0, 1.0, 1.0), s, p)], 0.1,
+                               magnetic_field=math.nan), "magnetic_field"),
     (lambda s, f, p: EFGModel(lattice_nodes(s, 1.0), MLSSettings(d_max=4.5), space=s), "d_max"),
     (lambda s, f, p: EFGModel(lattice_nodes(s, 1.0) + [8.5, 0.0], MLSSettings(), space=s), "nodes"),
     (lambda s, f, p: PeriodicPoisson(EFGModel(lattice_nodes(s, 1.0), MLSSettings(), space=Space(
@@ -243,3 +246,33 @@ def test_a_hole_in_the_nodes_is_refused():
     with pytest.raises(ParameterError, match=r"lies in the support of \d node") as err:
         PeriodicPoisson(EFGModel(nodes, MLSSettings(d_max=1.2), space=space), cells=(8, 8))
     assert err.value.name == "support"
+
+
+def test_boris_push_gyrates_at_the_discrete_cyclotron_frequency():
+    """A lone electron in a uniform B_z (no field: the momentum gather has no self-force) turns by exactly
+    θ = 2 atan(ω_c Δt / 2) per step and keeps its speed (Boris 1970): its positions are the vertices of a regular
+    polygon of side v Δt, circumradius v Δt / (2 sin(θ/2)) = v/ω_c (1 + O(Δt²))."""
+    space = periodic_box(8.0, 8.0)
+    field = PeriodicPoisson(EFGModel(lattice_nodes(space, 0.5), MLSSettings(d_max=2.0), space=space))
+    bz, dt = 2.0, 0.1
+    load = load_species(Species("e", -1.0, 1.0, 1.0 / 64.0), space, np.array([[4.0, 4.0]]),
+                        velocity=np.array([[0.5, 0.0]]))
+    s = PICSolver(field, [load], dt, modes=[], magnetic_field=bz)
+    angles, speeds, positions = [], [], []
+    for _ in range(40):
+        v = s.state.velocity.numpy()[0]
+        angles.append(math.atan2(v[1], v[0]))
+        speeds.append(math.hypot(*v))
+        positions.append(s.state.position.numpy()[0].copy())
+        s.step(dt)
+    turn = np.diff(np.unwrap(angles))
+    np.testing.assert_allclose(np.abs(turn), 2.0 * math.atan(bz * dt / 2.0), rtol=1e-12)
+    assert np.all(turn > 0)                          # an electron turns counter-clockwise in +B_z
+    np.testing.assert_allclose(speeds, 0.5, rtol=1e-13)
+    p = np.array(positions)
+    # circle through the positions (algebraic fit: x² + y² = 2 a x + 2 b y + c)
+    sol = np.linalg.lstsq(np.c_[2 * p, np.ones(len(p))], (p ** 2).sum(axis=1), rcond=None)[0]
+    radius = math.sqrt(sol[2] + sol[0] ** 2 + sol[1] ** 2)
+    theta = 2.0 * math.atan(bz * dt / 2.0)
+    assert radius == pytest.approx(0.5 * dt / (2.0 * math.sin(theta / 2.0)), rel=1e-9)
+    assert radius == pytest.approx(0.5 / bz, rel=1e-2)
