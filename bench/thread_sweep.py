@@ -23,6 +23,8 @@ What it measures
       the thesis's other load distributions (§3.2.2, ``warpfree/distribution.py``); ``jittered_pml_<kind>``
       for the four kinds: 30 %-jittered particles with a PML all round (``scenes/em_plane_wave_2d.py`` on a
       0.2 m square: 14 161 E + 14 400 H particles);
+    * ``pic_thermal`` (on request): PIDC's thermal plasma (``scenes/pic_thermal_plasma.py`` on 64 x 64 λ_D: 4 096
+      nodes, 131 072 particles; work unit particle pushes);
     * any other scene: ``--scene PATH --set name=value ...`` (a ``custom`` case).
 
 How
@@ -55,6 +57,11 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402
 
+def _plural(unit: str) -> str:
+    """'particle' -> 'particles'; 'particle pushes' stays."""
+    return unit if unit.endswith("s") else unit + "s"
+
+
 CASES = {
     # name: (scene, full parameters, quick parameters)
     "control": ("control", {}, {}),
@@ -64,6 +71,8 @@ CASES = {
     "3d": ("dam_break_3d", {"dx": 0.035}, {"dx": 0.07}),
     "heat": ("heat_conduction_2d", {"n": 400}, {"n": 100}),
     "waveguide": ("em_waveguide_2d", {"particles_per_wavelength": 375}, {"particles_per_wavelength": 60}),
+    # PIDC: the thermal plasma on 64 x 64 Debye lengths (4 096 nodes, 131 072 particles, both species moving)
+    "pic_thermal": ("pic_thermal_plasma", {"box": (64.0, 64.0)}, {"box": (16.0, 16.0)}),
 }
 # SPEM's load distributions (seed 000 §3.2.2; ``warpfree/distribution.py``): the waveguide ("waveguide" above is
 # "blocks") and a jittered layout with a PML all round (the plane-wave scene on a 0.2 m square, conservative pair)
@@ -213,7 +222,7 @@ def markdown(cases: list[dict]) -> str:
         reb = (f"a neighbour-table rebuild forced every {c['rebuild_every']} steps (developed-flow rate)"
                if c.get("rebuild_every") else "no forced rebuilds")
         size = (f"{c['n_fluid']} fluid + {c['n_boundary']} boundary = {c['n_particles']} particles"
-                if "n_fluid" in c else f"{c['work_items']} {c['work_unit'].split('-')[0]}s per step")
+                if "n_fluid" in c else f"{c['work_items']} {_plural(c['work_unit'].split('-')[0])} per step")
         params = ", ".join(f"{k} = {v}" for k, v in c["params"].items())
         out.append(f"**{c['case']}** (`{c['scene']}`, {params}: {size}; dt = {c['dt']:.4g} s; median of "
                    f"{c['rounds'] * c['repeats']} blocks of {c['steps_per_block']} steps; {reb})\n")

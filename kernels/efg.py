@@ -205,6 +205,19 @@ def nearest_copy(box: Box2d, x32: wp.vec3, grid_points: wp.array(dtype=wp.vec3),
     return source_id[k]
 
 
+@wp.func
+def serving_node(box: Box2d, params: MLSParams, x32: wp.vec3, x: wp.vec2d, grid_points: wp.array(dtype=wp.vec3),
+                 source_id: wp.array(dtype=wp.int32), k: int, radius: float, nodes: wp.array(dtype=wp.vec2d),
+                 support: wp.array(dtype=wp.vec2d)) -> int:
+    """The node behind HashGrid point k (:func:`nearest_copy`) when x lies inside its support, else -1."""
+    j = nearest_copy(box, x32, grid_points, source_id, k, radius)
+    if j < 0:
+        return -1
+    if not inside_support(params, offset2d(box, x, nodes[j]), support[j]):
+        return -1
+    return j
+
+
 @wp.kernel
 def kth_nearest(
     first: int,

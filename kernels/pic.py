@@ -26,7 +26,8 @@ Periodic boxes: the node grid holds the nodes' periodic images and the particle 
 
 import warp as wp
 
-from .efg import MLSFit, MLSParams, basis, inside_support, mat66d, mls_fit, nearest_copy, node_weight, shape_value
+from .efg import (MLSFit, MLSParams, basis, inside_support, mat66d, mls_fit, nearest_copy, node_weight, serving_node,
+                  shape_value)
 from .space import Box2d, offset2d, wrap2d
 
 
@@ -80,12 +81,10 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
         query = wp.hash_grid_query(grid, position32[i], reach)
         k = int(0)
         while wp.hash_grid_query_next(query, k):
-            j = nearest_copy(box, position32[i], grid_points, source_id, k, reach)
+            j = serving_node(box, params, position32[i], x, grid_points, source_id, k, reach, nodes, support)
             if j < 0:
                 continue
             d = offset2d(box, x, nodes[j])
-            if not inside_support(params, d, support[j]):
-                continue
             n += 1
             w = node_weight(params, d, support[j])
             p = basis(-d, inv_scale, terms)
@@ -101,7 +100,6 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
             fit[i] = empty
             return
         fit[i] = mls_fit(a, ax, ay, terms, inv_scale)
-
 
     @wp.kernel
     def deposit(
@@ -141,7 +139,6 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
             q = q + macro_charge[species[p]] * phi
         charge[i] = q
 
-
     @wp.kernel
     def particle_field(
         first: int,
@@ -174,12 +171,10 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
         query = wp.hash_grid_query(grid, position32[i], reach)
         k = int(0)
         while wp.hash_grid_query_next(query, k):
-            j = nearest_copy(box, position32[i], grid_points, source_id, k, reach)
+            j = serving_node(box, params, position32[i], x, grid_points, source_id, k, reach, nodes, support)
             if j < 0:
                 continue
             d = offset2d(box, x, nodes[j])
-            if not inside_support(params, d, support[j]):
-                continue
             w = node_weight(params, d, support[j])
             p = basis(-d, inv_scale, terms)
             if interpolate != 0:

@@ -57,7 +57,7 @@ def build(wavenumber: float = 0.5, length_y: float = 4.0, node_spacing: float = 
         omega = frequency_from_crossings(h["time"], h["mode_1_0_potential_re"])
         reference = leapfrog_frequency(run.solver.plasma_frequency, dt)
         write_history(os.path.join(out_dir, "history.csv"), h)
-        plot_history(out_dir, h, "mode_1_0_energy")
+        plot_history(out_dir, h, "mode_1_0_energy", run.solver)
         return {"oscillation": {
             "frequency": omega, "leapfrog_frequency": reference, "frequency_rel_error": omega / reference - 1.0,
             "total_energy_drift": relative_drift(h["total_energy"]),

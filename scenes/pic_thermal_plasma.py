@@ -58,7 +58,7 @@ def build(box: tuple = (64.0, 128.0), node_spacing: float = 1.0, d_max: float = 
         kinetic0 = h["kinetic_energy"][0]
         slope = float(np.polyfit(t, total, 1)[0]) if t.size > 2 else 0.0
         write_history(os.path.join(out_dir, "history.csv"), h)
-        plot_history(out_dir, h)
+        plot_history(out_dir, h, solver=run.solver)
         return {"thermal": {
             "total_energy_drift": relative_drift(total),
             "end_drift": float((total[-1] - total[0]) / total[0]),

@@ -79,7 +79,7 @@ def build(beam_speed: float = 1.0, length_y: float = 4.0, node_spacing: float = 
             result["growth_rate_error"] = (f"the mode's energy spent {idx.size} steps inside the fit window "
                                            f"{fit_window}: run longer or widen it")
         write_history(os.path.join(out_dir, "history.csv"), h)
-        plot_history(out_dir, h, "mode_1_0_energy")
+        plot_history(out_dir, h, "mode_1_0_energy", run.solver)
         _phase_space(os.path.join(out_dir, "phase_space.png"), run.solver)
         return {"two_stream": result}
 
@@ -94,5 +94,5 @@ def _phase_space(path, solver):
     x = solver.state.position.numpy()[:, 0]
     vx = solver.state.velocity.numpy()[:, 0]
     s = solver.state.species.numpy()
-    plot_series(path, None, {f"beam {'+-'[b]}": (x[s == b], vx[s == b]) for b in (0, 1)}, xlabel="x (λ_D)",
-                ylabel="v_x", title=f"phase space at t = {solver.t:.3g}")
+    plot_series(path, None, {}, reference={f"beam {'+-'[b]}": (x[s == b], vx[s == b]) for b in (0, 1)},
+                xlabel="x (λ_D)", ylabel="v_x", title=f"phase space at t = {solver.t:.3g} / ω_pe")

@@ -276,3 +276,18 @@ def test_boris_push_gyrates_at_the_discrete_cyclotron_frequency():
     theta = 2.0 * math.atan(bz * dt / 2.0)
     assert radius == pytest.approx(0.5 * dt / (2.0 * math.sin(theta / 2.0)), rel=1e-9)
     assert radius == pytest.approx(0.5 / bz, rel=1e-2)
+
+
+def test_cli_takes_tuples_and_names_a_bad_one():
+    """`--set box=8,16` (or "(8, 16)") types each item like the default's; a wrong count names the parameter."""
+    from warpfree.cli import parse_overrides
+
+    defaults = {"box": (64.0, 128.0), "fit_window": (1e-6, 1e-3)}
+    assert parse_overrides(["box=(8, 16)", "fit_window=1e-5,1e-2"], defaults) == {"box": (8.0, 16.0),
+                                                                                  "fit_window": (1e-5, 1e-2)}
+    with pytest.raises(ParameterError) as err:
+        parse_overrides(["box=8"], defaults)
+    assert err.value.name == "box"
+    with pytest.raises(ParameterError) as err:
+        parse_overrides(["box=8,x"], defaults)
+    assert err.value.name == "box"

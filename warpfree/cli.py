@@ -72,6 +72,12 @@ def convert(name: str, text: str, default):
         if text.lower() in ("0", "false", "no", "off"):
             return False
         raise ParameterError(name, f"must be true or false, got {text!r}")
+    if isinstance(default, tuple):
+        # a sequence of numbers: "8,16", "(8, 16)" or "8 16", each typed like the default's items
+        parts = [p for p in text.strip("()[] ").replace(",", " ").split() if p]
+        if len(parts) != len(default):
+            raise ParameterError(name, f"must be {len(default)} values like {default}, got {text!r}")
+        return tuple(convert(name, p, d) for p, d in zip(parts, default))
     try:
         if isinstance(default, int):
             return int(text)

@@ -46,9 +46,11 @@ def write_history(path: str, history: dict[str, list[float]]) -> str:
     return path
 
 
-def plot_history(out_dir: str, history: dict[str, list[float]], mode_key: str | None = None) -> list[str]:
-    """energy.png (kinetic, field, total) and, with ``mode_key``, mode.png (that mode's field energy, log scale)."""
-    from warpfree.io.frames import plot_series
+def plot_history(out_dir: str, history: dict[str, list[float]], mode_key: str | None = None,
+                 solver=None) -> list[str]:
+    """energy.png (kinetic, field, total), with ``mode_key`` mode.png (that mode's field energy, log scale), with
+    ``solver`` potential.png (the nodal potential at the end, nodes coloured)."""
+    from warpfree.io.frames import plot_series, render_frame
 
     t = np.asarray(history["time"])
     paths = [str(plot_series(os.path.join(out_dir, "energy.png"), t,
@@ -60,6 +62,12 @@ def plot_history(out_dir: str, history: dict[str, list[float]], mode_key: str | 
         paths.append(str(plot_series(os.path.join(out_dir, "mode.png"), t, {mode_key.replace("_", " "): e},
                                      xlabel="t (1/ω_pe)", ylabel="field energy", logy=bool(np.all(e > 0)),
                                      title="Fourier mode")))
+    if solver is not None:
+        model = solver.model
+        lo, length = model.space.lower[:2], model.space.length[:2]
+        paths.append(str(render_frame(os.path.join(out_dir, "potential.png"), model.nodes_np, solver.potential, 2,
+                                      "potential", ((lo[0], lo[0] + length[0]), (lo[1], lo[1] + length[1])),
+                                      title=f"potential at t = {solver.t:.4g} / ω_pe")))
     return paths
 
 
