@@ -16,8 +16,9 @@ What it measures
     ratios PIDC/mesh are interpolated log-log between the mesh runs (``common.equal_error_ratio``).
 
 Usage
-    python bench/pic_vs_mesh.py [--quick] [--threads N] [--cases oscillation two_stream drift]
-Writes bench/results/pic_vs_mesh[_quick].{json,md,png}.
+    python bench/pic_vs_mesh.py [--quick] [--threads N] [--cases oscillation two_stream drift] [--name STEM]
+    python bench/pic_vs_mesh.py --cases drift --name pic_drift     # ~5 min
+Writes bench/results/<name>[_quick].{json,md,png} (name: pic_vs_mesh by default).
 """
 
 from __future__ import annotations
@@ -145,6 +146,7 @@ def main(argv=None) -> int:
     p.add_argument("--quick", action="store_true")
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--cases", nargs="+", default=["oscillation", "two_stream"])
+    p.add_argument("--name", default="pic_vs_mesh", help="results file stem")
     args = p.parse_args(argv)
     from warpfree import device
 
@@ -154,7 +156,8 @@ def main(argv=None) -> int:
     result = {"machine": common.machine_info(), "threads": device.current_launcher().threads}
     for case in args.cases:
         result[case] = {"oscillation": oscillation, "two_stream": two_stream, "drift": drift}[case](args.quick)
-    common.write_results("pic_vs_mesh", result, markdown(result), plot(result), quick=args.quick)
+    fig = plot(result) if {"oscillation", "two_stream"} & set(result) else None
+    common.write_results(args.name, result, markdown(result), fig, quick=args.quick)
     return 0
 
 

@@ -26,6 +26,7 @@ SCENES = {
     "em_cavity_2d": dict(cells_per_radius=8, frames=False),
     "em_waveguide_2d": dict(particles_per_wavelength=20, frames=False),
     "em_plane_wave_2d": dict(particles_per_wavelength=20, size=0.2, margin=0.03, frames=False),
+    "pic_two_stream": dict(node_spacing=1.0, length_y=4.0, particles_per_node=2, d_max=1.8, frames=False),
 }
 
 
@@ -34,7 +35,8 @@ RESUME = {"heat_conduction_2d": dict(t_end=2.0, output_interval=0.25),
           "em_line_1d": dict(t_end=1.0e-9, output_interval=0.25e-9),
           "em_cavity_2d": dict(t_end=1.0e-9, output_interval=0.25e-9),
           "em_waveguide_2d": dict(t_end=1.64e-9, output_interval=0.41e-9),
-          "em_plane_wave_2d": dict(t_end=1.0e-9, output_interval=0.25e-9)}
+          "em_plane_wave_2d": dict(t_end=1.0e-9, output_interval=0.25e-9),
+          "pic_two_stream": dict(t_end=2.4, output_every=4)}
 
 
 def build(name, **extra):

@@ -50,13 +50,15 @@ GATHERS = ("momentum", "energy")
 
 class PICState(State):
     """position x^n (vec2d), velocity v^{n-1/2} (vec2d), species (index into the solver's loads), particle_id (the
-    particle's index at load time: the arrays are re-sorted by cell every step); ``time`` is kept by the time loop."""
+    particle's index at load time: the arrays are re-sorted by cell every step), steps (the step count n, one int64:
+    t = n Δt survives a resume)."""
 
     def __init__(self, position: np.ndarray, velocity: np.ndarray, species: np.ndarray, device: str):
         self.position = wp.array(position, dtype=wp.vec2d, device=device)
         self.velocity = wp.array(velocity, dtype=wp.vec2d, device=device)
         self.species = wp.array(species, dtype=wp.int32, device=device)
         self.particle_id = wp.array(np.arange(len(species), dtype=np.int32), dtype=wp.int32, device=device)
+        self.steps = wp.zeros(1, dtype=wp.int64, device=device)
 
 
 class PICSolver(TimeDependentSolver):
@@ -135,8 +137,10 @@ class PICSolver(TimeDependentSolver):
         self.modes = [tuple(int(v) for v in m) for m in modes]
         self.mode_matrix = field.mode_coefficients(self.modes) if self.modes else np.zeros((0, model.node_count))
         self.mode_k2 = np.sum(field.wavevectors(self.modes) ** 2, axis=1) if self.modes else np.zeros(0)
+        #: per-step diagnostics since this solver was built (a resumed run's start at the resume: the time loop's
+        #: output-time series, which checkpoints keep, hold the whole run)
         self.history: dict[str, list[float]] = {}
-        self.t = 0.0
+        self._steps = 0
         self._fields_at_current_positions()
         bad = self._bad_fit()
         if bad:
@@ -237,7 +241,8 @@ class PICSolver(TimeDependentSolver):
                                                             self.state.position, self.state.velocity, self.position32,
                                                             self.kinetic, self.momentum])
         self._record()
-        self.t += self.dt
+        self._steps += 1
+        self.state.steps.assign(np.array([self._steps], dtype=np.int64))
         self._fields_at_current_positions()
         self._pending_field = self._field_terms()
 
@@ -303,7 +308,13 @@ class PICSolver(TimeDependentSolver):
             return "non-finite particle velocities"
         return self._bad_fit()
 
+    @property
+    def t(self) -> float:
+        """The time of x^n, n Δt (ω_pe⁻¹)."""
+        return self._steps * self.dt
+
     def after_load(self) -> None:
+        self._steps = int(self.state.steps.numpy()[0])
         self._sync_position32()
         self._fields_at_current_positions()
         self._pending_field = self._field_terms()
