@@ -205,15 +205,30 @@ def nearest_copy(box: Box2d, x32: wp.vec3, grid_points: wp.array(dtype=wp.vec3),
     return source_id[k]
 
 
+@wp.struct
+class NodeSet:
+    """An MLS model's nodes as kernels read them (``EFGModel.node_set``): the HashGrid (``grid``, its ``grid_points``
+    and the node behind each, ``source_id``: periodic images included), the ``box``, the query radius ``reach``,
+    positions in float64 (``nodes``) and float32 (``nodes32``), support half-widths and the MLS parameters."""
+
+    grid: wp.uint64
+    grid_points: wp.array(dtype=wp.vec3)
+    source_id: wp.array(dtype=wp.int32)
+    box: Box2d
+    reach: float
+    nodes: wp.array(dtype=wp.vec2d)
+    nodes32: wp.array(dtype=wp.vec3)
+    support: wp.array(dtype=wp.vec2d)
+    params: MLSParams
+
+
 @wp.func
-def serving_node(box: Box2d, params: MLSParams, x32: wp.vec3, x: wp.vec2d, grid_points: wp.array(dtype=wp.vec3),
-                 source_id: wp.array(dtype=wp.int32), k: int, radius: float, nodes: wp.array(dtype=wp.vec2d),
-                 support: wp.array(dtype=wp.vec2d)) -> int:
-    """The node behind HashGrid point k (:func:`nearest_copy`) when x lies inside its support, else -1."""
-    j = nearest_copy(box, x32, grid_points, source_id, k, radius)
+def serving_node(ns: NodeSet, x32: wp.vec3, x: wp.vec2d, k: int) -> int:
+    """The node behind HashGrid point k of ``ns`` (:func:`nearest_copy`) when x lies inside its support, else -1."""
+    j = nearest_copy(ns.box, x32, ns.grid_points, ns.source_id, k, ns.reach)
     if j < 0:
         return -1
-    if not inside_support(params, offset2d(box, x, nodes[j]), support[j]):
+    if not inside_support(ns.params, offset2d(ns.box, x, ns.nodes[j]), ns.support[j]):
         return -1
     return j
 

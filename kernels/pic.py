@@ -26,7 +26,7 @@ Periodic boxes: the node grid holds the nodes' periodic images and the particle 
 
 import warp as wp
 
-from .efg import (MLSFit, MLSParams, basis, inside_support, mat66d, mls_fit, nearest_copy, node_weight, serving_node,
+from .efg import (MLSFit, NodeSet, basis, inside_support, mat66d, mls_fit, nearest_copy, node_weight, serving_node,
                   shape_value)
 from .space import Box2d, offset2d, wrap2d
 
@@ -53,16 +53,9 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
     @wp.kernel
     def particle_fits(
         first: int,
-        grid: wp.uint64,
-        grid_points: wp.array(dtype=wp.vec3),
-        source_id: wp.array(dtype=wp.int32),
-        box: Box2d,
-        reach: float,
+        ns: NodeSet,
         position32: wp.array(dtype=wp.vec3),
         position: wp.array(dtype=wp.vec2d),
-        nodes: wp.array(dtype=wp.vec2d),
-        support: wp.array(dtype=wp.vec2d),
-        params: MLSParams,
         inv_scale: wp.float64,
         fit: wp.array(dtype=MLSFit),
         count: wp.array(dtype=wp.int32),
@@ -78,15 +71,15 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
         a = mat66d()
         ax = mat66d()
         ay = mat66d()
-        query = wp.hash_grid_query(grid, position32[i], reach)
+        query = wp.hash_grid_query(ns.grid, position32[i], ns.reach)
         k = int(0)
         while wp.hash_grid_query_next(query, k):
-            j = serving_node(box, params, position32[i], x, grid_points, source_id, k, reach, nodes, support)
+            j = serving_node(ns, position32[i], x, k)
             if j < 0:
                 continue
-            d = offset2d(box, x, nodes[j])
+            d = offset2d(ns.box, x, ns.nodes[j])
             n += 1
-            w = node_weight(params, d, support[j])
+            w = node_weight(ns.params, d, ns.support[j])
             p = basis(-d, inv_scale, terms)
             for r in range(terms):
                 for c in range(terms):
@@ -104,15 +97,10 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
     @wp.kernel
     def deposit(
         first: int,
+        ns: NodeSet,
         grid: wp.uint64,
         grid_points: wp.array(dtype=wp.vec3),
         source_id: wp.array(dtype=wp.int32),
-        box: Box2d,
-        reach: float,
-        nodes32: wp.array(dtype=wp.vec3),
-        nodes: wp.array(dtype=wp.vec2d),
-        support: wp.array(dtype=wp.vec2d),
-        params: MLSParams,
         position: wp.array(dtype=wp.vec2d),
         species: wp.array(dtype=wp.int32),
         macro_charge: wp.array(dtype=wp.float64),
@@ -120,38 +108,31 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
         fit: wp.array(dtype=MLSFit),
         charge: wp.array(dtype=wp.float64),
     ):
-        """Q_I = Σ_p q_p φ_I(x_p) (seed 002 eq 4.4): node I gathers the particles in its support (``grid``: over the
-        particles and their periodic images); q_p = ``macro_charge[species[p]]``."""
+        """Q_I = Σ_p q_p φ_I(x_p) (seed 002 eq 4.4): node I gathers the particles in its support (``grid``: a HashGrid
+        over the particles and their periodic images, cell = ``ns.reach``); q_p = ``macro_charge[species[p]]``."""
         i = first + wp.tid()
-        xi = nodes[i]
+        xi = ns.nodes[i]
         terms = wp.static(basis_terms)
         q = wp.float64(0.0)
-        query = wp.hash_grid_query(grid, nodes32[i], reach)
+        query = wp.hash_grid_query(grid, ns.nodes32[i], ns.reach)
         k = int(0)
         while wp.hash_grid_query_next(query, k):
-            p = nearest_copy(box, nodes32[i], grid_points, source_id, k, reach)
+            p = nearest_copy(ns.box, ns.nodes32[i], grid_points, source_id, k, ns.reach)
             if p < 0:
                 continue
-            d = offset2d(box, position[p], xi)
-            if not inside_support(params, d, support[i]):
+            d = offset2d(ns.box, position[p], xi)
+            if not inside_support(ns.params, d, ns.support[i]):
                 continue
-            phi = node_weight(params, d, support[i])[0] * wp.dot(fit[p].gamma, basis(-d, inv_scale, terms))
+            phi = node_weight(ns.params, d, ns.support[i])[0] * wp.dot(fit[p].gamma, basis(-d, inv_scale, terms))
             q = q + macro_charge[species[p]] * phi
         charge[i] = q
 
     @wp.kernel
     def particle_field(
         first: int,
-        grid: wp.uint64,
-        grid_points: wp.array(dtype=wp.vec3),
-        source_id: wp.array(dtype=wp.int32),
-        box: Box2d,
-        reach: float,
+        ns: NodeSet,
         position32: wp.array(dtype=wp.vec3),
         position: wp.array(dtype=wp.vec2d),
-        nodes: wp.array(dtype=wp.vec2d),
-        support: wp.array(dtype=wp.vec2d),
-        params: MLSParams,
         inv_scale: wp.float64,
         fit: wp.array(dtype=MLSFit),
         potential: wp.array(dtype=wp.float64),
@@ -168,14 +149,14 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
         zero = wp.float64(0.0)
         ex = zero
         ey = zero
-        query = wp.hash_grid_query(grid, position32[i], reach)
+        query = wp.hash_grid_query(ns.grid, position32[i], ns.reach)
         k = int(0)
         while wp.hash_grid_query_next(query, k):
-            j = serving_node(box, params, position32[i], x, grid_points, source_id, k, reach, nodes, support)
+            j = serving_node(ns, position32[i], x, k)
             if j < 0:
                 continue
-            d = offset2d(box, x, nodes[j])
-            w = node_weight(params, d, support[j])
+            d = offset2d(ns.box, x, ns.nodes[j])
+            w = node_weight(ns.params, d, ns.support[j])
             p = basis(-d, inv_scale, terms)
             if interpolate != 0:
                 phi = w[0] * wp.dot(fit[i].gamma, p)

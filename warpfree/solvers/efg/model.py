@@ -210,6 +210,20 @@ class EFGModel:
         self.grid = NeighbourGrid(self.launcher, self.reach, self.space, self.nodes32)
         self._params = self.settings.params()
 
+    def node_set(self) -> ek.NodeSet:
+        """The nodes as kernels read them (``kernels/efg.py: NodeSet``)."""
+        ns = ek.NodeSet()
+        ns.grid = self.grid.id
+        ns.grid_points = self.grid.points
+        ns.source_id = self.grid.source_id
+        ns.box = self.box
+        ns.reach = self.reach
+        ns.nodes = self.nodes
+        ns.nodes32 = self.nodes32
+        ns.support = self.support
+        ns.params = self._params
+        return ns
+
     def _require_inside(self, p: np.ndarray, parameter: str, name: str) -> None:
         """Refuse points outside the periodic box (lower <= x < upper along its periodic axes)."""
         for a in range(2):

@@ -118,6 +118,7 @@ class PICSolver(TimeDependentSolver):
         self._sort_order = wp.zeros(2 * self.n, dtype=wp.int32, device=dev)
         self._scratch = PICState(position, velocity, index, dev)
         self.kernels = pk.mls_kernels(model.settings.terms)
+        self.node_set = model.node_set()
         self._sort_cell = model.reach
         #: re-sort the particles by cell every step (off: for measuring what sorting buys; 1.1x at 65 k particles)
         self.sort_particles = True
@@ -208,27 +209,25 @@ class PICSolver(TimeDependentSolver):
         with self.phases("neighbours"):
             self.particle_grid.build(self.position32)
         with self.phases("fits"):
-            L.launch(self.kernels.particle_fits, self.n, [m.grid.id, m.grid.points, m.grid.source_id, m.box, m.reach,
-                                                self.position32, self.state.position, m.nodes, m.support, m._params,
-                                                self.inv_scale, self.fit, self.node_count_of])
+            L.launch(self.kernels.particle_fits, self.n, [self.node_set, self.position32, self.state.position,
+                                                           self.inv_scale, self.fit, self.node_count_of])
         with self.phases("deposit"):
             g = self.particle_grid
             # the particle grid's image arrays are new at every build, so no launch timing could serve the next
             # step: split over every thread (``once``)
             L.launch(self.kernels.deposit, m.node_count,
-                     [g.id, g.points, g.source_id, m.box, m.reach, m.nodes32, m.nodes, m.support, m._params,
-                      self.state.position, self.state.species, self.macro_charge, self.inv_scale, self.fit,
-                      self.charge], once=True)
+                     [self.node_set, g.id, g.points, g.source_id, self.state.position, self.state.species,
+                      self.macro_charge, self.inv_scale, self.fit, self.charge], once=True)
         with self.phases("solve"):
             self.potential = self.field.solve(self.charge.numpy(), self.background_density)
             self.potential_wp.assign(self.potential)
             if self.gather == "momentum":
                 self.nodal_field.assign(self.field.nodal_field(self.potential))
         with self.phases("gather"):
-            L.launch(self.kernels.particle_field, self.n, [m.grid.id, m.grid.points, m.grid.source_id, m.box, m.reach,
-                                                 self.position32, self.state.position, m.nodes, m.support, m._params,
-                                                 self.inv_scale, self.fit, self.potential_wp, self.nodal_field,
-                                                 int(self.gather == "momentum"), self.e_field])
+            L.launch(self.kernels.particle_field, self.n, [self.node_set, self.position32, self.state.position,
+                                                            self.inv_scale, self.fit, self.potential_wp,
+                                                            self.nodal_field, int(self.gather == "momentum"),
+                                                            self.e_field])
 
     def step(self, dt: float) -> None:
         if abs(dt - self.dt) > 1e-9 * self.dt:
