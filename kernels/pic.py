@@ -17,7 +17,7 @@ Per step (seed 002 §1.2 of the reference note):
 3. :func:`particle_field`: E(x_p) = -Σ_I u_I ∇φ_I(x_p) (eq 4.5), the same nodes and fit; or the momentum-conserving
    form Σ_I φ_I(x_p) E_I from nodal fields (``warpfree.solvers.pic.field``).
 4. :func:`leapfrog_push`: v^{n+1/2} = v^{n-1/2} + (q/m) E^n Δt, x^{n+1} = x^n + v^{n+1/2} Δt (eqs 2.21 / 4.7),
-   positions wrapped into the periodic box; with a static magnetic field B = bz ẑ the velocity step is Boris's
+   positions wrapped along periodic axes and reflected at walls; with a static magnetic field B = bz ẑ the velocity step is Boris's
    (:func:`boris_velocity`); :func:`kick` gives the half-step start v^{-1/2} = v^0 - (q/m) E^0 Δt/2.
 
 Periodic boxes: the node grid holds the nodes' periodic images and the particle grid the particles' images
@@ -221,20 +221,31 @@ def leapfrog_push(
     momentum: wp.array(dtype=wp.vec2d),
 ):
     """v^{n+1/2} = v^{n-1/2} + (q/m) E^n Δt (Boris with a magnetic field bz); x^{n+1} = x^n + v^{n+1/2} Δt, wrapped
-    (eqs 2.21 / 4.7). Writes the
+    along periodic axes, reflected (position and velocity) at the walls of the others (eqs 2.21 / 4.7). Writes the
     time-centred kinetic energy ½ M (|v^{n-1/2}|² + |v^{n+1/2}|²)/2 and momentum M (v^{n-1/2} + v^{n+1/2})/2 at
     time n (M: the macro-particle's mass)."""
     i = first + wp.tid()
     s = species[i]
     old = velocity[i]
     new = boris_velocity(old, charge_over_mass[s], field[i], bz, dt)
-    velocity[i] = new
-    x = wrap2d(box, position[i] + dt * new)
-    position[i] = x
-    position32[i] = wp.vec3(float(x[0]), float(x[1]), 0.0)
+    x = position[i] + dt * new
     m = macro_mass[s]
     kinetic[i] = wp.float64(0.25) * m * (wp.dot(old, old) + wp.dot(new, new))
     momentum[i] = wp.float64(0.5) * m * (old + new)
+    for a in range(2):  # a wall (an axis that is not periodic) reflects the particle
+        if box.periodic[a] == wp.float64(0.0):
+            lo = box.lower[a]
+            hi = lo + box.length[a]
+            if x[a] < lo:
+                x[a] = wp.float64(2.0) * lo - x[a]
+                new[a] = -new[a]
+            elif x[a] >= hi:
+                x[a] = wp.float64(2.0) * hi - x[a]
+                new[a] = -new[a]
+    x = wrap2d(box, x)
+    velocity[i] = new
+    position[i] = x
+    position32[i] = wp.vec3(float(x[0]), float(x[1]), 0.0)
 
 
 @wp.kernel

@@ -18,7 +18,7 @@ import numpy as np
 from warpfree.errors import ParameterError, require_positive
 from warpfree.run import OutputOptions
 from warpfree.solvers.efg.model import EFGModel, MLSSettings
-from warpfree.solvers.pic import PeriodicPoisson, PICSolver, Species, load_species, random_positions
+from warpfree.solvers.pic import PlasmaPoisson, PICSolver, Species, load_species, random_positions
 from warpfree.solvers.pic.scene_tools import (lattice_nodes, momentum_change, periodic_box, plot_history,
                                               relative_drift, write_history)
 from warpfree.time_loop import TimeLoop
@@ -41,7 +41,7 @@ def build(box: tuple = (64.0, 128.0), node_spacing: float = 1.0, d_max: float = 
     space = periodic_box(lx, ly)
     nodes = lattice_nodes(space, node_spacing)
     model = EFGModel(nodes, MLSSettings(d_max=d_max), space=space)
-    field = PeriodicPoisson(model)
+    field = PlasmaPoisson(model)
     rng = np.random.default_rng(seed)
     count = int(particles_per_node) * nodes.shape[0]
     loads = [load_species(Species("electron", -1.0, 1.0, 1.0, 1.0), space, random_positions(space, count, rng), rng),

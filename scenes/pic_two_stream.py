@@ -18,7 +18,7 @@ import numpy as np
 from warpfree.errors import ParameterError, require_positive
 from warpfree.run import OutputOptions
 from warpfree.solvers.efg.model import EFGModel, MLSSettings
-from warpfree.solvers.pic import PeriodicPoisson, PICSolver, Species, lattice_positions, load_species
+from warpfree.solvers.pic import PlasmaPoisson, PICSolver, Species, lattice_positions, load_species
 from warpfree.solvers.pic.scene_tools import (lattice_nodes, momentum_change, periodic_box, plot_history,
                                               relative_drift, write_history)
 from warpfree.time_loop import TimeLoop
@@ -44,7 +44,7 @@ def build(beam_speed: float = 1.0, length_y: float = 4.0, node_spacing: float = 
     length = 2.0 * math.pi / k
     space = periodic_box(length, length_y)
     model = EFGModel(lattice_nodes(space, node_spacing), MLSSettings(d_max=d_max), space=space)
-    field = PeriodicPoisson(model)
+    field = PlasmaPoisson(model)
     counts = [int(round(space.length[a] / node_spacing)) * int(particles_per_node) for a in range(2)]
     loads = []
     for name, sign in (("beam+", 1.0), ("beam-", -1.0)):

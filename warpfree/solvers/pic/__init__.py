@@ -2,9 +2,9 @@
 (:mod:`.species`), the periodic EFG Poisson solve (:mod:`.field`), the solver (:mod:`.solver`). Kernels:
 ``warpfree.kernels.pic``. Normalised units: ε0 = 1, charges in e, masses in m_e, ω_pe = 1 for n_ref."""
 
-from .field import PeriodicPoisson
+from .field import PlasmaPoisson
 from .solver import PICSolver, PICState
 from .species import ParticleLoad, Species, lattice_positions, load_species, random_positions
 
-__all__ = ["PeriodicPoisson", "PICSolver", "PICState", "ParticleLoad", "Species", "lattice_positions",
+__all__ = ["PlasmaPoisson", "PICSolver", "PICState", "ParticleLoad", "Species", "lattice_positions",
            "load_species", "random_positions"]

@@ -1,4 +1,5 @@
-"""The PIC field solve in a periodic box: EFG Galerkin Poisson (seed 002 eqs 3.8-3.9, 4.4-4.5), factorised once.
+"""The PIC field solve: EFG Galerkin Poisson (seed 002 eqs 3.8-3.9, 4.4-4.5) in a box periodic along x and either
+periodic along y or closed by two walls of given potential (grounded walls, electrodes), factorised once.
 
 -∇²u = ρ (ε0 = 1; the reference note's sign convention, E = -∇u). With the EFG shape functions φ_I of an
 :class:`~warpfree.solvers.efg.EFGModel` over a periodic :class:`~warpfree.space.Space`:
@@ -8,6 +9,10 @@
 where Q_I = Σ_p q_p φ_I(x_p) is the deposited charge (eq 4.4) and ρ_bg a uniform background. K is singular (the
 constant mode: Σ_J K_IJ = 0 exactly by the partition of unity); the constraint fixes the gauge ∫u = 0 and the
 multiplier λ = Σ_I b_I / Σ_I m_I is the net charge per area (0 for a neutral plasma, to round-off).
+
+Walls (y not periodic, ``walls=(V_lower, V_upper)``): the MLS shape functions do not interpolate, so the wall
+potentials are imposed by Lagrange multipliers at collocation points, u^h(x_c) = V at one point under each wall
+node (K u + Cᵀλ = b, C u = V with C_cI = φ_I(x_c)); λ_c approximates the wall's surface charge at x_c.
 
 K is integrated with plain Gauss quadrature on rectangular cells, not the consistent integration of the static
 scenes: a symmetric K with the deposit's own φ_I makes the scheme energy-conserving in the time-continuous limit
@@ -38,27 +43,32 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
-from warpfree.errors import ParameterError
+from warpfree.errors import ParameterError, require_finite
 from warpfree.solvers.efg.assembly import conduction_matrix
 from warpfree.solvers.efg.model import EFGModel
 from warpfree.solvers.efg.quadrature import rectangle_cells
 from warpfree.sparse import FactorisedSystem, PrescribedValues
 
-__all__ = ["PeriodicPoisson"]
+__all__ = ["PlasmaPoisson"]
 
 
-class PeriodicPoisson:
-    """K, m and their factorisation for ``model`` (nodes in a box periodic along x and y).
+class PlasmaPoisson:
+    """K, m and their factorisation for ``model`` (nodes in a box periodic along x; along y periodic, or walls).
 
     cells: (nx, ny) background cells (default: one per node spacing along each axis); order: Gauss points per
-    axis and cell (default 4: the MLS integrands are rational, not polynomials).
+    axis and cell (default 4: the MLS integrands are rational, not polynomials); walls: (V at y = lower, V at y =
+    upper) when y is not periodic (the model's nodes must then include both wall rows).
     """
 
-    def __init__(self, model: EFGModel, cells: tuple[int, int] | None = None, order: int = 4):
+    def __init__(self, model: EFGModel, cells: tuple[int, int] | None = None, order: int = 4,
+                 walls: tuple[float, float] | None = None):
         space = model.space
-        if not (space.periodic[0] and space.periodic[1]):
-            raise ParameterError("space", "the PIC field solve needs a box periodic along x and y (walls and "
-                                          f"electrodes are not built yet), got periodic = {space.periodic[:2]}")
+        if not space.periodic[0]:
+            raise ParameterError("space", f"the PIC field solve needs x periodic, got periodic = {space.periodic[:2]}")
+        self.walled = not space.periodic[1]
+        if self.walled != (walls is not None):
+            raise ParameterError("walls", "give the two wall potentials exactly when y is not periodic (got "
+                                          f"walls = {walls!r}, periodic = {space.periodic[:2]})")
         self.model = model
         self.lower = space.lower[:2].copy()
         self.length = space.length[:2].copy()
@@ -73,24 +83,45 @@ class PeriodicPoisson:
         self.stiffness = conduction_matrix(model, shape, self.gauss.weight)
         self.stiffness = 0.5 * (self.stiffness + self.stiffness.T)  # symmetric by construction; drop the rounding
         self.node_integral = np.asarray(self.gauss_shape.T @ self.gauss.weight).ravel()   # m_I = ∫ φ_I
-        n = model.node_count
-        m = sp.csr_matrix(self.node_integral.reshape(-1, 1))
-        system = sp.bmat([[self.stiffness, m], [m.T, None]], format="csr")
-        self.system = FactorisedSystem(system, PrescribedValues(np.zeros(0, np.int64), np.zeros(0), n + 1),
-                                       symmetric_pattern=True)
+        if self.walled:
+            self.wall_potentials = np.array([require_finite("walls", v) for v in walls])
+            constraint, self.constraint_values = self._wall_rows(model)
+        else:
+            constraint = sp.csr_matrix(self.node_integral.reshape(1, -1))
+            self.constraint_values = np.zeros(1)
+        system = sp.bmat([[self.stiffness, constraint.T], [constraint, None]], format="csr")
+        self.system = FactorisedSystem(system, PrescribedValues(np.zeros(0, np.int64), np.zeros(0),
+                                                                system.shape[0]), symmetric_pattern=True)
         self.net_charge_density = 0.0
         gx, gy = shape.gradient_matrices()
         weighted = sp.diags(self.gauss.weight) @ self.gauss_shape
-        # G = ∫ φ_I ∇φ_J: antisymmetric exactly; the quadrature's asymmetry (it does not integrate ∇(φ_I φ_J) to 0
-        # exactly) is removed
-        self.gradient = [0.5 * (g - g.T) for g in ((weighted.T @ gx).tocsr(), (weighted.T @ gy).tocsr())]
+        gradient = [(weighted.T @ gx).tocsr(), (weighted.T @ gy).tocsr()]
+        # G = ∫ φ_I ∇φ_J: antisymmetric exactly in a periodic box (the quadrature's asymmetry, which does not
+        # integrate ∇(φ_I φ_J) to 0 exactly, is removed); walls add their boundary term, kept as assembled
+        self.gradient = gradient if self.walled else [0.5 * (g - g.T) for g in gradient]
+
+    def _wall_rows(self, model: EFGModel) -> tuple[sp.csr_matrix, np.ndarray]:
+        """C (collocation points × N) and the wall potentials at them: one point on each wall under every node of
+        the lower wall's row."""
+        lo, hi = self.lower[1], self.lower[1] + self.length[1]
+        x = model.nodes_np
+        tol = 1e-9 * self.length[1]
+        xs = np.unique(x[np.abs(x[:, 1] - lo) <= tol, 0])
+        if xs.size < 2 or np.count_nonzero(np.abs(x[:, 1] - hi) <= tol) < 2:
+            raise ParameterError("nodes", f"walls need a row of nodes on each wall (y = {lo:.6g} and y = {hi:.6g})")
+        points = np.r_[np.c_[xs, np.full(xs.size, lo)], np.c_[xs, np.full(xs.size, hi - tol)]]
+        c = model.shape_at(points, name="wall point").matrix()
+        values = np.r_[np.full(xs.size, self.wall_potentials[0]), np.full(xs.size, self.wall_potentials[1])]
+        return c, values
 
     def solve(self, charge: np.ndarray, background_density: float = 0.0) -> np.ndarray:
         """The nodal potential u (N,) for the deposited charges Q (N,) and a uniform background charge density."""
-        b = np.append(charge + background_density * self.node_integral, 0.0)
+        n = self.model.node_count
+        b = np.r_[charge + background_density * self.node_integral, self.constraint_values]
         sol = self.system.solve(b)
-        self.net_charge_density = float(sol[-1])
-        return sol[:-1]
+        if not self.walled:
+            self.net_charge_density = float(sol[-1])
+        return sol[:n]
 
     def nodal_field(self, potential: np.ndarray) -> np.ndarray:
         """E_I = -(1/m_I) Σ_J G_IJ u_J (N, 2): the lumped L2 projection of -∇u^h onto the shape functions."""
@@ -112,5 +143,6 @@ class PeriodicPoisson:
         return 2.0 * math.pi * m / self.length
 
     def describe(self) -> dict:
-        return {"cells": list(self.cells), "gauss_points": int(self.gauss.weight.size),
+        return {"walls": self.wall_potentials.tolist() if self.walled else None, "cells": list(self.cells),
+                "gauss_points": int(self.gauss.weight.size),
                 "stiffness_nnz": int(self.stiffness.nnz), "factorise_s": self.system.timings["factorise"]}

@@ -24,13 +24,14 @@ def periodic_box(length_x: float, length_y: float) -> Space:
 
 def lattice_nodes(space: Space, spacing: float) -> np.ndarray:
     """Nodes on a regular lattice of about ``spacing`` (exactly Lx/nx, Ly/ny with n = round(L/spacing)), the first at
-    the box's lower corner."""
+    the box's lower corner; along an axis that is not periodic (walls) the last row lies on the upper wall."""
     require_positive("node_spacing", spacing)
     counts = [int(round(space.length[a] / spacing)) for a in range(2)]
     if min(counts) < 2:
         raise ParameterError("node_spacing", f"{spacing} leaves fewer than 2 nodes along an axis of the box "
                                              f"{space.length[:2].tolist()}")
-    axes = [space.lower[a] + np.arange(counts[a]) * space.length[a] / counts[a] for a in range(2)]
+    axes = [space.lower[a] + np.arange(counts[a] + (0 if space.periodic[a] else 1)) * space.length[a] / counts[a]
+            for a in range(2)]
     gx, gy = np.meshgrid(*axes, indexing="ij")
     return np.stack([gx.ravel(), gy.ravel()], axis=1)
 

@@ -5,7 +5,7 @@ One step (``kernels/pic.py``; the order of seed 002 §5.2):
     neighbours:  rebuild the HashGrid over the particles (and their periodic images)
     fits:        the MLS fit of every particle over the nodes (γ, ∂γ: φ_I and ∇φ_I, stored once per step)
     deposit:     Q_I = Σ_p q_p φ_I(x_p), a node gather (eq 4.4)
-    solve:       K u = Q + ρ_bg m on the kept factorisation (:class:`~.field.PeriodicPoisson`)
+    solve:       K u = Q + ρ_bg m on the kept factorisation (:class:`~.field.PlasmaPoisson`)
     gather:      E_p = -Σ_I u_I ∇φ_I(x_p) (eq 4.5)
     push:        leapfrog (eqs 2.21 / 4.7), positions wrapped into the box
 
@@ -35,7 +35,7 @@ from warpfree.neighbours import NeighbourGrid
 from warpfree.solver import OutputSet, State, TimeDependentSolver
 from warpfree.solvers.efg.model import RCOND_LIMIT, EFGModel
 
-from .field import PeriodicPoisson
+from .field import PlasmaPoisson
 from .species import ParticleLoad
 
 __all__ = ["PICSolver", "PICState", "HEATING_DT", "HEATING_SPACING"]
@@ -62,11 +62,11 @@ class PICState(State):
 
 
 class PICSolver(TimeDependentSolver):
-    """Electrostatic PIC on an EFG field solve in a periodic box.
+    """Electrostatic PIC on an EFG field solve, in a periodic box or between walls along y (reflecting particles).
 
     Parameters
     ----------
-    field: :class:`~.field.PeriodicPoisson` (holds the :class:`~warpfree.solvers.efg.EFGModel`).
+    field: :class:`~.field.PlasmaPoisson` (holds the :class:`~warpfree.solvers.efg.EFGModel`).
     loads: the species and their macro-particles (:func:`~.species.load_species`).
     dt: the time step (ω_pe⁻¹ units); ω_pe Δt must be < 2.
     background_density: uniform immobile charge density (e n_ref); default: the one that makes the plasma neutral.
@@ -79,7 +79,7 @@ class PICSolver(TimeDependentSolver):
     name = "pic"
     work_unit = "particle pushes"
 
-    def __init__(self, field: PeriodicPoisson, loads: list[ParticleLoad], dt: float,
+    def __init__(self, field: PlasmaPoisson, loads: list[ParticleLoad], dt: float,
                  background_density: float | None = None, modes=((1, 0),), gather: str = "momentum",
                  magnetic_field: float = 0.0, launcher: Launcher | None = None):
         model: EFGModel = field.model
