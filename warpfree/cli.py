@@ -168,7 +168,8 @@ def run_command(args) -> int:
     if args.resume:
         _write_meta(out_dir, meta)
     rate = summary["throughput"]
-    done = (f"{summary['steps']} steps to t = {summary['time']:.4g} s" if "steps" in summary else "solved")
+    done = (f"{summary['steps']} steps to t = {summary['time']:.4g} {summary.get('time_unit', 's')}"
+            if "steps" in summary else "solved")
     print(f"{summary['scene']}: {done} in {summary['wall_s']:.1f} s"
           + (f", {rate['value']:,.0f} {rate['unit']}" if rate["value"] else "")
           + f" on {summary['device']} x{summary['threads']}")

@@ -168,6 +168,9 @@ class TimeDependentSolver(Solver):
     """
 
     work_unit: ClassVar[str] = "particle-steps"
+    #: the unit of the solver's time, as frames, messages and the CLI print it (SI seconds unless the solver works in
+    #: normalised units, e.g. PIC's 1/ω_pe)
+    time_unit: ClassVar[str] = "s"
     state: State
     #: the :class:`~warpfree.neighbours.MovingNeighbours` of a solver whose particles move (None otherwise),
     #: rebuilt inside the phase "neighbours": the benchmark harness forces its rebuilds at a developed flow's

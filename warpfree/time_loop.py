@@ -74,7 +74,8 @@ class TimeLoop(Run):
         if self.dt_fixed is None and not math.isfinite(limit):
             raise ParameterError("dt", "this solver has no stable-step limit: give a fixed dt")
         if self.dt_fixed is not None and self.dt_fixed > limit:
-            raise ParameterError("dt", f"{self.dt_fixed:.4g} s exceeds the stable (CFL) limit {limit:.4g} s")
+            unit = solver.time_unit
+            raise ParameterError("dt", f"{self.dt_fixed:.4g} {unit} exceeds the stable (CFL) limit {limit:.4g} {unit}")
 
     @property
     def checkpoint_every(self) -> int:
@@ -98,7 +99,8 @@ class TimeLoop(Run):
             raise RunError(f"non-finite or broken state: the stable time step is {limit}", self.step_count)
         if self.dt_fixed is not None:
             if self.dt_fixed > limit * (1 + 1e-6):
-                raise RunError(f"dt = {self.dt_fixed:.4g} s exceeds the stable (CFL) limit {limit:.4g} s",
+                unit = self.solver.time_unit
+                raise RunError(f"dt = {self.dt_fixed:.4g} {unit} exceeds the stable (CFL) limit {limit:.4g} {unit}",
                                self.step_count)
             dt = self.dt_fixed
         else:
@@ -128,7 +130,8 @@ class TimeLoop(Run):
             if directory is not None:
                 self._good = (self._loop_scalars(), self.solver.state.numpy(), self._series_lengths())
         if directory is not None:
-            self.write_outputs(directory, index, self.step_count, self.time, f"{self.name}  t = {self.time:.4g} s")
+            self.write_outputs(directory, index, self.step_count, self.time,
+                               f"{self.name}  t = {self.time:.4g} {self.solver.time_unit}")
 
     def _loop_scalars(self) -> dict:
         return {"time": self.time, "step": self.step_count, "n_outputs": self.n_outputs}
@@ -250,7 +253,7 @@ class TimeLoop(Run):
         return {"unit": f"{self.solver.work_unit}/s", "value": rate, "work_items": n}
 
     def _summary_fields(self, error: str | None) -> dict:
-        out = {"time": self.time, "t_end": self.t_end, "steps": self.step_count,
+        out = {"time": self.time, "time_unit": self.solver.time_unit, "t_end": self.t_end, "steps": self.step_count,
                "steps_this_run": self.steps_this_run, "probes": self.series, "diagnostic_series": self.diag_series}
         if self.last_checkpoint:
             out["last_good_checkpoint" if error else "last_checkpoint"] = self.last_checkpoint

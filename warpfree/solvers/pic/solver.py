@@ -78,6 +78,7 @@ class PICSolver(TimeDependentSolver):
 
     name = "pic"
     work_unit = "particle pushes"
+    time_unit = "/ω_pe"
 
     def __init__(self, field: PlasmaPoisson, loads: list[ParticleLoad], dt: float,
                  background_density: float | None = None, modes=((1, 0),), gather: str = "momentum",
