@@ -629,6 +629,35 @@ def multiplier_coupling(
                     write_triplet(out, s, components * ia + k, components * mk[e] + k, -wg * phi[start + a] * nv[e])
 
 
+@wp.struct
+class InterfaceEntry:
+    """One entry of an interface point's two rows: its ``node``, its share of the jump [φ] (+φ^a on side a, -φ^b on
+    side b) and of the mean flux ½ k ∇φ·n."""
+
+    node: int
+    jump: wp.float64
+    flux: wp.float64
+
+
+@wp.func
+def interface_entry(e: int, na: int, sa: int, sb: int, rows_a: NeighbourRows, phi_a: wp.array(dtype=wp.float64),
+                    dphi_a: wp.array(dtype=wp.vec2d), rows_b: NeighbourRows, phi_b: wp.array(dtype=wp.float64),
+                    dphi_b: wp.array(dtype=wp.vec2d), conductivity_a: wp.float64, conductivity_b: wp.float64,
+                    nv: wp.vec2d) -> InterfaceEntry:
+    """Entry e of the concatenated rows (side a's ``na`` entries from ``sa``, then side b's from ``sb``)."""
+    out = InterfaceEntry()
+    half = wp.float64(0.5)
+    if e < na:
+        out.node = rows_a.index[sa + e]
+        out.jump = phi_a[sa + e]
+        out.flux = half * conductivity_a * wp.dot(dphi_a[sa + e], nv)
+    else:
+        out.node = rows_b.index[sb + e - na]
+        out.jump = -phi_b[sb + e - na]
+        out.flux = half * conductivity_b * wp.dot(dphi_b[sb + e - na], nv)
+    return out
+
+
 @wp.kernel
 def interface_terms(
     first: int,
@@ -662,32 +691,14 @@ def interface_terms(
     s0 = slot_start[g]
     wg = weight[g]
     nv = normal[g]
-    half = wp.float64(0.5)
     for e in range(n):
-        ie = int(0)
-        je = wp.float64(0.0)
-        fe = wp.float64(0.0)
-        if e < na:
-            ie = rows_a.index[sa + e]
-            je = phi_a[sa + e]
-            fe = half * conductivity_a * wp.dot(dphi_a[sa + e], nv)
-        else:
-            ie = rows_b.index[sb + e - na]
-            je = -phi_b[sb + e - na]
-            fe = half * conductivity_b * wp.dot(dphi_b[sb + e - na], nv)
+        a = interface_entry(e, na, sa, sb, rows_a, phi_a, dphi_a, rows_b, phi_b, dphi_b, conductivity_a,
+                            conductivity_b, nv)
         for f in range(n):
-            jf_node = int(0)
-            jf = wp.float64(0.0)
-            ff = wp.float64(0.0)
-            if f < na:
-                jf_node = rows_a.index[sa + f]
-                jf = phi_a[sa + f]
-                ff = half * conductivity_a * wp.dot(dphi_a[sa + f], nv)
-            else:
-                jf_node = rows_b.index[sb + f - na]
-                jf = -phi_b[sb + f - na]
-                ff = half * conductivity_b * wp.dot(dphi_b[sb + f - na], nv)
-            write_triplet(out, s0 + e * n + f, ie, jf_node, wg * (-ff * je - fe * jf + penalty * je * jf))
+            b = interface_entry(f, na, sa, sb, rows_a, phi_a, dphi_a, rows_b, phi_b, dphi_b, conductivity_a,
+                                conductivity_b, nv)
+            write_triplet(out, s0 + e * n + f, a.node, b.node,
+                          wg * (-b.flux * a.jump - a.flux * b.jump + penalty * a.jump * b.jump))
 
 
 @wp.kernel

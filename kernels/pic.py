@@ -17,8 +17,9 @@ Per step (seed 002 §1.2 of the reference note):
 3. :func:`particle_field`: E(x_p) = -Σ_I u_I ∇φ_I(x_p) (eq 4.5), the same nodes and fit; or the momentum-conserving
    form Σ_I φ_I(x_p) E_I from nodal fields (``warpfree.solvers.pic.field``).
 4. :func:`leapfrog_push`: v^{n+1/2} = v^{n-1/2} + (q/m) E^n Δt, x^{n+1} = x^n + v^{n+1/2} Δt (eqs 2.21 / 4.7),
-   positions wrapped along periodic axes and reflected at walls; with a static magnetic field B = bz ẑ the velocity step is Boris's
-   (:func:`boris_velocity`); :func:`kick` gives the half-step start v^{-1/2} = v^0 - (q/m) E^0 Δt/2.
+   positions wrapped along periodic axes and reflected at walls; with a static magnetic field B = bz ẑ the
+   velocity step is Boris's (:func:`boris_velocity`); :func:`kick` gives the half-step start
+   v^{-1/2} = v^0 - (q/m) E^0 Δt/2.
 
 Periodic boxes: the node grid holds the nodes' periodic images and the particle grid the particles' images
 (``warpfree.neighbours``); offsets are minimum images (``kernels/space.py``), never HashGrid wrap-around.
@@ -291,3 +292,23 @@ def permute_particles(
     out_species[i] = species[j]
     out_id[i] = particle_id[j]
     out_position32[i] = wp.vec3(float(x[0]), float(x[1]), 0.0)
+
+
+@wp.kernel
+def flag_bad_particles(
+    first: int,
+    terms: int,
+    rcond_limit: wp.float64,
+    count: wp.array(dtype=wp.int32),
+    fit: wp.array(dtype=MLSFit),
+    velocity: wp.array(dtype=wp.vec2d),
+    flags: wp.array(dtype=wp.int32),
+):
+    """flags[i] = 1 when particle i's MLS fit is ill-posed (fewer nodes than basis terms, or a scaled pivot below
+    ``rcond_limit``) or its velocity is not finite: the step's check reduces these on the device (one read)."""
+    i = first + wp.tid()
+    v = velocity[i]
+    bad = count[i] < terms or not (fit[i].rcond >= rcond_limit)
+    if not (wp.isfinite(v[0]) and wp.isfinite(v[1])):
+        bad = True
+    flags[i] = int(bad)

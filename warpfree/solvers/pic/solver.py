@@ -32,6 +32,7 @@ from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.kernels import efg as ek
 from warpfree.kernels import pic as pk
 from warpfree.neighbours import NeighbourGrid
+from warpfree.reduce import Reduction
 from warpfree.solver import OutputSet, State, TimeDependentSolver
 from warpfree.solvers.efg.model import RCOND_LIMIT, EFGModel
 
@@ -129,6 +130,8 @@ class PICSolver(TimeDependentSolver):
         self.fit = wp.zeros(self.n, dtype=ek.MLSFit, device=dev)
         self.inv_scale = wp.float64(1.0 / float(np.mean(model.support_np[:, 0])))
         self.node_count_of = wp.zeros(self.n, dtype=wp.int32, device=dev)
+        self._flags = wp.zeros(self.n, dtype=wp.int32, device=dev)
+        self._flag_max = Reduction(self.launcher, wp.int32, "max")
         self.charge = wp.zeros(model.node_count, dtype=wp.float64, device=dev)
         self.e_field = wp.zeros(self.n, dtype=wp.vec2d, device=dev)
         self.kinetic = wp.zeros(self.n, dtype=wp.float64, device=dev)
@@ -289,23 +292,27 @@ class PICSolver(TimeDependentSolver):
 
     def _bad_fit(self) -> str | None:
         """A message naming the first particle whose MLS fit is ill-posed (too few nodes in reach, or a singular
-        moment matrix), else None."""
+        moment matrix) or whose velocity is not finite, else None. Flags and their maximum on the device: one read
+        per step; the arrays come to the host only when something is wrong."""
         terms = self.model.settings.terms
-        count = self.node_count_of.numpy()
-        rcond = self.fit.numpy()["rcond"]
-        bad = np.flatnonzero((count < terms) | ~(rcond >= RCOND_LIMIT))
-        if not bad.size:
+        self.launcher.launch(pk.flag_bad_particles, self.n, [terms, wp.float64(RCOND_LIMIT), self.node_count_of,
+                                                             self.fit, self.state.velocity, self._flags])
+        self._flag_max.launch(self._flags)
+        if not self._flag_max.value():
             return None
+        bad = np.flatnonzero(self._flags.numpy())
         i = int(bad[0])
         x = self.state.position.numpy()[i]
-        return (f"particle {i} at ({x[0]:.6g}, {x[1]:.6g}) lies in the support of {count[i]} node(s) (scaled pivot "
-                f"{rcond[i]:.1e}); the {self.model.settings.basis} basis needs {terms} nodes around it: raise d_max "
+        v = self.state.velocity.numpy()[i]
+        if not np.all(np.isfinite(v)):
+            return f"particle {i} at ({x[0]:.6g}, {x[1]:.6g}) has a non-finite velocity {v.tolist()}"
+        count = int(self.node_count_of.numpy()[i])
+        rcond = float(self.fit.numpy()["rcond"][i])
+        return (f"particle {i} at ({x[0]:.6g}, {x[1]:.6g}) lies in the support of {count} node(s) (scaled pivot "
+                f"{rcond:.1e}); the {self.model.settings.basis} basis needs {terms} nodes around it: raise d_max "
                 f"(now {self.model.settings.d_max}) or add nodes ({bad.size} such particles)")
 
     def problem(self) -> str | None:
-        v = self.state.velocity.numpy()
-        if not np.all(np.isfinite(v)):
-            return "non-finite particle velocities"
         return self._bad_fit()
 
     @property
