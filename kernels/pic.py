@@ -17,7 +17,9 @@ Per step (seed 002 §1.2 of the reference note):
 3. :func:`particle_field`: E(x_p) = -Σ_I u_I ∇φ_I(x_p) (eq 4.5), the same nodes and fit; or the momentum-conserving
    form Σ_I φ_I(x_p) E_I from nodal fields (``warpfree.solvers.pic.field``).
 4. :func:`leapfrog_push`: v^{n+1/2} = v^{n-1/2} + (q/m) E^n Δt, x^{n+1} = x^n + v^{n+1/2} Δt (eqs 2.21 / 4.7),
-   positions wrapped along periodic axes and reflected at walls; with a static magnetic field B = bz ẑ the
+   positions wrapped along periodic axes, reflected at walls or absorbed by them (the next sort's
+   :func:`cell_keys` moves absorbed particles past the live ones; :func:`count_live` counts those left);
+   :func:`inject_particles` adds a wall source's particles; with a static magnetic field B = bz ẑ the
    velocity step is Boris's (:func:`boris_velocity`); :func:`kick` gives the half-step start
    v^{-1/2} = v^0 - (q/m) E^0 Δt/2.
 
@@ -215,16 +217,20 @@ def leapfrog_push(
     field: wp.array(dtype=wp.vec2d),
     bz: wp.float64,
     dt: wp.float64,
+    absorb: wp.array(dtype=wp.int32),
     position: wp.array(dtype=wp.vec2d),
     velocity: wp.array(dtype=wp.vec2d),
     position32: wp.array(dtype=wp.vec3),
     kinetic: wp.array(dtype=wp.float64),
     momentum: wp.array(dtype=wp.vec2d),
+    exit_wall: wp.array(dtype=wp.int32),
 ):
     """v^{n+1/2} = v^{n-1/2} + (q/m) E^n Δt (Boris with a magnetic field bz); x^{n+1} = x^n + v^{n+1/2} Δt, wrapped
-    along periodic axes, reflected (position and velocity) at the walls of the others (eqs 2.21 / 4.7). Writes the
-    time-centred kinetic energy ½ M (|v^{n-1/2}|² + |v^{n+1/2}|²)/2 and momentum M (v^{n-1/2} + v^{n+1/2})/2 at
-    time n (M: the macro-particle's mass)."""
+    along periodic axes (eqs 2.21 / 4.7). At the walls of the other axes: ``absorb[w]`` 0 reflects the particle
+    (position and velocity), 1 absorbs it: ``exit_wall[i]`` = w + 1 (w = 2 axis + side, side 0 lower, 1 upper;
+    0: still inside) and the particle is left where it landed, for the next sort to drop. Writes the time-centred
+    kinetic energy ½ M (|v^{n-1/2}|² + |v^{n+1/2}|²)/2 and momentum M (v^{n-1/2} + v^{n+1/2})/2 at time n (M: the
+    macro-particle's mass)."""
     i = first + wp.tid()
     s = species[i]
     old = velocity[i]
@@ -233,20 +239,90 @@ def leapfrog_push(
     m = macro_mass[s]
     kinetic[i] = wp.float64(0.25) * m * (wp.dot(old, old) + wp.dot(new, new))
     momentum[i] = wp.float64(0.5) * m * (old + new)
-    for a in range(2):  # a wall (an axis that is not periodic) reflects the particle
+    left = int(0)
+    for a in range(2):
         if box.periodic[a] == wp.float64(0.0):
             lo = box.lower[a]
             hi = lo + box.length[a]
+            side = int(-1)
             if x[a] < lo:
-                x[a] = wp.float64(2.0) * lo - x[a]
-                new[a] = -new[a]
+                side = 0
             elif x[a] >= hi:
-                x[a] = wp.float64(2.0) * hi - x[a]
-                new[a] = -new[a]
-    x = wrap2d(box, x)
+                side = 1
+            if side >= 0:
+                w = 2 * a + side
+                if absorb[w] != 0:
+                    if left == 0:
+                        left = w + 1
+                elif side == 0:
+                    x[a] = wp.float64(2.0) * lo - x[a]
+                    new[a] = -new[a]
+                else:
+                    x[a] = wp.float64(2.0) * hi - x[a]
+                    new[a] = -new[a]
+    if left == 0:
+        x = wrap2d(box, x)
+    exit_wall[i] = left
     velocity[i] = new
     position[i] = x
     position32[i] = wp.vec3(float(x[0]), float(x[1]), 0.0)
+
+
+@wp.kernel
+def inject_particles(
+    first: int,
+    box: Box2d,
+    slot0: int,
+    id0: int,
+    seed: int,
+    species_index: int,
+    inward: wp.float64,
+    normal_speed: wp.float64,
+    thermal_speed: wp.float64,
+    drift_x: wp.float64,
+    dt: wp.float64,
+    position: wp.array(dtype=wp.vec2d),
+    velocity: wp.array(dtype=wp.vec2d),
+    species: wp.array(dtype=wp.int32),
+    particle_id: wp.array(dtype=wp.int32),
+    position32: wp.array(dtype=wp.vec3),
+    exit_wall: wp.array(dtype=wp.int32),
+):
+    """New particle i of a wall source (``warpfree.solvers.pic.injection``) into slot ``slot0`` + i with id ``id0`` +
+    i: x uniform along the wall, v_n = ``normal_speed`` (cold) or v_th sqrt(-2 ln U) (thermal: ``thermal_speed`` >
+    0, the flux-weighted half-Maxwellian), v_x = ``drift_x`` (+ v_th N(0, 1) when thermal), a depth v_n Δt U inside
+    the wall at y = lower (``inward`` +1) or upper (-1). Counter-based random numbers (``seed``, the id): the same
+    particles for any thread count. One that would land beyond the opposite wall is marked absorbed there."""
+    i = first + wp.tid()
+    slot = slot0 + i
+    pid = id0 + i
+    rng = wp.rand_init(seed, pid)
+    along = wp.float64(wp.randf(rng))
+    depth = wp.float64(wp.randf(rng))
+    vn = normal_speed
+    vx = drift_x
+    if thermal_speed > wp.float64(0.0):
+        u = wp.float64(1.0) - wp.float64(wp.randf(rng))   # (0, 1]
+        vn = thermal_speed * wp.sqrt(wp.float64(-2.0) * wp.log(u))
+        vx = vx + thermal_speed * wp.float64(wp.randn(rng))
+    lo = box.lower[1]
+    hi = lo + box.length[1]
+    wall = lo
+    far = 4  # exit code of the upper wall (w = 2·1 + 1, + 1)
+    if inward < wp.float64(0.0):
+        wall = hi
+        far = 3
+    y = wall + inward * vn * dt * depth
+    x = wp.vec2d(box.lower[0] + box.length[0] * along, y)
+    left = int(0)
+    if y < lo or y >= hi:
+        left = far
+    position[slot] = x
+    velocity[slot] = wp.vec2d(vx, inward * vn)
+    species[slot] = species_index
+    particle_id[slot] = pid
+    position32[slot] = wp.vec3(float(x[0]), float(x[1]), 0.0)
+    exit_wall[slot] = left
 
 
 @wp.kernel
@@ -255,18 +331,43 @@ def cell_keys(
     box: Box2d,
     inv_cell: wp.float64,
     cells_x: int,
+    dead_key: int,
+    exit_wall: wp.array(dtype=wp.int32),
     position: wp.array(dtype=wp.vec2d),
     keys: wp.array(dtype=wp.int32),
     values: wp.array(dtype=wp.int32),
 ):
     """Sort key of particle i: its cell (side 1/``inv_cell``) in row-major order, so that particles sharing nodes sit
-    together in memory (the deposit's node gather reads them: 1.5x faster sorted at 65 k particles)."""
+    together in memory (the deposit's node gather reads them: 1.5x faster sorted at 65 k particles); an absorbed
+    particle (``exit_wall`` w + 1 > 0) gets ``dead_key`` + w, past every cell: the sort moves it to the end, grouped
+    by wall."""
     i = first + wp.tid()
+    values[i] = i
+    if exit_wall[i] > 0:
+        keys[i] = dead_key + exit_wall[i] - 1
+        return
     d = position[i] - box.lower
     cx = int(wp.floor(d[0] * inv_cell))
     cy = int(wp.floor(d[1] * inv_cell))
     keys[i] = cy * cells_x + cx
-    values[i] = i
+
+
+@wp.kernel
+def count_live(
+    first: int,
+    total: int,
+    dead_key: int,
+    keys: wp.array(dtype=wp.int32),
+    live: wp.array(dtype=wp.int32),
+):
+    """After the sort: live[0] = the number of keys below ``dead_key`` (the one slot where live ends writes it;
+    ``live`` must hold 0 beforehand for the case of none)."""
+    i = first + wp.tid()
+    if keys[i] < dead_key:
+        if i + 1 == total:
+            live[0] = total
+        elif keys[i + 1] >= dead_key:
+            live[0] = i + 1
 
 
 @wp.kernel

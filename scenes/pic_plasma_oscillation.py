@@ -63,7 +63,7 @@ def build(wavenumber: float = 0.5, length_y: float = 4.0, node_spacing: float = 
             "total_energy_drift": relative_drift(h["total_energy"]),
             "momentum_change": momentum_change(h),
             "charge_rel_error": float(np.max(np.abs(np.asarray(h["deposited_charge"])
-                                                    / run.solver.total_particle_charge - 1.0))),
+                                                    / run.solver.initial_particle_charge - 1.0))),
             "particles": run.solver.n, "nodes": model.node_count, "steps": len(h["time"])}}
 
     return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, dt=dt, name="pic_plasma_oscillation",

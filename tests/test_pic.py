@@ -10,7 +10,7 @@ from warpfree.device import Launcher
 from warpfree.errors import ParameterError
 from warpfree.solvers.efg.model import EFGModel, MLSSettings
 from warpfree.solvers.pic import PlasmaPoisson, PICSolver, Species, lattice_positions, load_species, random_positions
-from warpfree.solvers.pic.scene_tools import lattice_nodes, periodic_box
+from warpfree.solvers.pic.scene_tools import lattice_nodes, periodic_box, walled_box
 from warpfree.space import Space
 from warpfree.validation.pic_plasma_oscillation import frequency_from_crossings, leapfrog_frequency
 from warpfree.validation.pic_two_stream import GAMMA_MAX, K_V0_FASTEST, growth_rate
@@ -294,7 +294,7 @@ def test_cli_takes_tuples_and_names_a_bad_one():
 
 
 def _walled(spacing, side=4.0):
-    space = Space(2, (0.0, 0.0, 0.0), (side, side, 1.0), periodic=(True, False, False))
+    space = walled_box(side, side)
     return space, EFGModel(lattice_nodes(space, spacing), MLSSettings(d_max=2.0), space=space)
 
 

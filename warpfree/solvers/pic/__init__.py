@@ -1,10 +1,12 @@
 """PIDC (seed 002): electrostatic particle-in-cell whose field solve is EFG. Species and loading
-(:mod:`.species`), the periodic EFG Poisson solve (:mod:`.field`), the solver (:mod:`.solver`). Kernels:
-``warpfree.kernels.pic``. Normalised units: ε0 = 1, charges in e, masses in m_e, ω_pe = 1 for n_ref."""
+(:mod:`.species`), wall sources (:mod:`.injection`), the periodic EFG Poisson solve (:mod:`.field`), the solver
+(:mod:`.solver`). Kernels: ``warpfree.kernels.pic``. Normalised units: ε0 = 1, charges in e, masses in m_e,
+ω_pe = 1 for n_ref."""
 
 from .field import PlasmaPoisson
+from .injection import Injection
 from .solver import PICSolver, PICState
 from .species import ParticleLoad, Species, lattice_positions, load_species, random_positions
 
-__all__ = ["PlasmaPoisson", "PICSolver", "PICState", "ParticleLoad", "Species", "lattice_positions",
+__all__ = ["Injection", "PlasmaPoisson", "PICSolver", "PICState", "ParticleLoad", "Species", "lattice_positions",
            "load_species", "random_positions"]

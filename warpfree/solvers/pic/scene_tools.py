@@ -1,4 +1,4 @@
-"""What the PIC scenes share: the periodic box, lattice nodes, the per-step history as CSV and its plots."""
+"""What the PIC scenes share: the periodic or walled box, lattice nodes, the per-step history as CSV and its plots."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import numpy as np
 from warpfree.errors import ParameterError, require_positive
 from warpfree.space import Space
 
-__all__ = ["periodic_box", "lattice_nodes", "write_history", "plot_history", "relative_drift",
+__all__ = ["periodic_box", "walled_box", "lattice_nodes", "write_history", "plot_history", "relative_drift",
            "momentum_change"]
 
 
@@ -20,6 +20,13 @@ def periodic_box(length_x: float, length_y: float) -> Space:
     require_positive("length_x", length_x)
     require_positive("length_y", length_y)
     return Space(2, (0.0, 0.0, 0.0), (length_x, length_y, 1.0), periodic=(True, True, False))
+
+
+def walled_box(length_x: float, length_y: float) -> Space:
+    """The 2D box [0, Lx) × [0, Ly], periodic along x, with walls at y = 0 and y = Ly."""
+    require_positive("length_x", length_x)
+    require_positive("length_y", length_y)
+    return Space(2, (0.0, 0.0, 0.0), (length_x, length_y, 1.0), periodic=(True, False, False))
 
 
 def lattice_nodes(space: Space, spacing: float) -> np.ndarray:

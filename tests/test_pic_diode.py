@@ -1,0 +1,164 @@
+"""PIC open boundaries (issue 10): absorbing walls, wall sources and the planar diode against the steady beam
+equations (``warpfree.validation.pic_diode``)."""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+import pytest
+
+from warpfree import device
+from warpfree.cli import load_scene
+from warpfree.errors import ParameterError
+from warpfree.solvers.efg.model import EFGModel, MLSSettings
+from warpfree.solvers.pic import Injection, PICSolver, PlasmaPoisson, Species, load_species, random_positions
+from warpfree.solvers.pic.scene_tools import lattice_nodes, periodic_box, walled_box
+from warpfree.validation.pic_diode import cathode_gradient, child_langmuir_flux, steady_potential
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _diode(**kw):
+    return load_scene(os.path.join(ROOT, "scenes", "pic_diode.py")).build(**{"frames": False, "vtk": False, **kw})
+
+
+def _walled_field(width=1.0, gap=1.0, spacing=1.0 / 16.0, walls=(0.0, 0.0)):
+    space = walled_box(width, gap)
+    model = EFGModel(lattice_nodes(space, spacing), MLSSettings(d_max=2.0), space=space)
+    return space, PlasmaPoisson(model, walls=walls)
+
+
+# -- the reference ---------------------------------------------------------------------------------------------
+def test_reference_reduces_to_child_langmuir_and_to_the_vacuum_line():
+    y = np.linspace(0.0, 2.0, 9)
+    limit = child_langmuir_flux(3.0, 2.0)
+    assert limit == pytest.approx(4.0 / 9.0 * math.sqrt(2.0) * 3.0 ** 1.5 / 4.0, rel=1e-15)
+    # v0 -> 0 at the limit: φ = V (y/d)^{4/3}, E0 -> 0
+    child = steady_potential(y, limit * (1.0 - 1e-9), 1e-10, 3.0, 2.0)
+    assert np.max(np.abs(child - 3.0 * (y / 2.0) ** (4.0 / 3.0))) < 1e-5 * 3.0
+    # no space charge: the vacuum line
+    vacuum = steady_potential(y, 1e-12, 0.5, 3.0, 2.0)
+    assert np.max(np.abs(vacuum - 3.0 * y / 2.0)) < 1e-9
+    with pytest.raises(ValueError, match="space-charge limit"):
+        cathode_gradient(1.1 * limit, 1e-6, 3.0, 2.0)
+
+
+# -- the diode ---------------------------------------------------------------------------------------------------
+def test_diode_below_the_limit_matches_the_steady_beam(tmp_path):
+    """Default scene (Γ = Γ_CL / 2, v0 = 0.1, 32 node spacings across the gap): the mean potential within 2e-4 V of
+    the steady profile (measured 5.9e-5; 2.4e-4 at 16 spacings, 1.7e-5 at 64), every injected electron reaches the
+    anode, and the charge in the box equals injected - absorbed to round-off."""
+    device.use("cpu", 2)
+    run = _diode()
+    summary = run.run(str(tmp_path), progress=False)
+    d = summary["analysis"]["diode"]
+    assert d["potential_max_error"] < 2e-4
+    assert d["anode_over_injected"] == pytest.approx(1.0, abs=1e-6)
+    assert d["returned_flux"] == 0.0
+    assert d["charge_balance_error"] < 1e-11
+    assert (tmp_path / "profile.png").exists() and (tmp_path / "history.csv").exists()
+
+
+def test_diode_above_the_limit_turns_part_of_the_beam_back(tmp_path):
+    """Γ = 2 Γ_CL: a virtual cathode forms; the anode receives less than is injected, at least the Child–Langmuir
+    flux of the gap from a virtual cathode at φ = -v0²/2 (measured 1.055 Γ_CL at 1.5x and 3x alike), the rest
+    returns to the cathode; charge balance to round-off."""
+    device.use("cpu", 2)
+    v0 = 0.1
+    run = _diode(injected_fraction=2.0, injection_speed=v0, t_end=30.0)
+    d = run.run(str(tmp_path), progress=False)["analysis"]["diode"]
+    assert "potential_max_error" not in d and "space-charge limit" in d["reference"]
+    floor = child_langmuir_flux(1.0 + 0.5 * v0 ** 2, 1.0)
+    assert floor <= d["anode_flux"] < d["injected_flux"]
+    assert d["returned_flux"] > 0.0
+    assert d["anode_flux"] + d["returned_flux"] == pytest.approx(d["injected_flux"], rel=0.05)
+    assert d["charge_balance_error"] < 1e-11
+
+
+# -- sources and absorbing walls -------------------------------------------------------------------------------
+def test_thermal_source_emits_the_flux_weighted_half_maxwellian():
+    """One step of a warm source (20 000 particles, a dilute plasma: no field to speak of): the count per step is
+    exact, the normal speeds have the flux distribution's mean v_th sqrt(π/2) and the tangential ones the
+    Maxwellian's spread, every particle lies within v_n Δt of the upper wall, moving down."""
+    device.use("cpu", 2)
+    _, field = _walled_field()
+    vth = 0.3
+    source = Injection(Species("e", -1.0, 1.0, 1e-8, temperature=vth ** 2), "upper", 20000, seed=7)
+    assert source.flux == pytest.approx(1e-8 * vth / math.sqrt(2.0 * math.pi), rel=1e-15)
+    s = PICSolver(field, [], 0.05, modes=(), particle_walls="absorb", injections=[source])
+    s.step(0.05)
+    assert s.count == 20000
+    v = s.state.velocity.numpy()[:s.count]
+    y = s.state.position.numpy()[:s.count, 1]
+    n = s.count
+    assert np.all(v[:, 1] < 0) and np.all(1.0 - y <= -v[:, 1] * 0.05 + 1e-12)
+    mean_normal = vth * math.sqrt(math.pi / 2.0)
+    std_normal = vth * math.sqrt(2.0 - math.pi / 2.0)
+    assert abs(-v[:, 1].mean() - mean_normal) < 4 * std_normal / math.sqrt(n)
+    assert abs(v[:, 0].mean()) < 4 * vth / math.sqrt(n)
+    assert np.var(v[:, 0]) == pytest.approx(vth ** 2, rel=4 * math.sqrt(2.0 / n))
+    ids = s.state.particle_id.numpy()[:n]
+    assert np.array_equal(np.sort(ids), np.arange(n))
+
+
+def test_absorbing_walls_drain_a_warm_plasma_and_keep_the_charge_tally():
+    """Warm electrons and protons between grounded absorbing walls: particles leave, the live count falls, and the
+    deposited charge equals the loaded charge minus what the walls absorbed, to round-off, at every step."""
+    device.use("cpu", 2)
+    space, field = _walled_field(width=1.0, gap=1.0, spacing=1.0 / 8.0)
+    rng = np.random.default_rng(3)
+    loads = [load_species(Species(name, q, m, 1.0, temperature=0.01), space, random_positions(space, 2000, rng),
+                          rng=rng) for name, q, m in (("e", -1.0, 1.0), ("p", 1.0, 100.0))]
+    s = PICSolver(field, loads, 0.1, particle_walls="absorb", modes=())
+    for _ in range(40):
+        s.step(0.1)
+    h = s.history
+    assert h["particles"][-1] < 4000 and h["wall_charge_lower"][-1] < 0 and h["wall_charge_upper"][-1] < 0
+    balance = (np.asarray(h["deposited_charge"]) - s.initial_particle_charge + np.asarray(h["wall_charge_lower"])
+               + np.asarray(h["wall_charge_upper"]))
+    assert np.max(np.abs(balance)) < 1e-12 * s.macro_charge_np[1] * 4000
+    assert np.all(np.diff(h["particles"]) <= 0)
+    ids = s.state.particle_id.numpy()[:s.count]
+    assert np.unique(ids).size == s.count
+
+
+def test_one_absorbing_wall_and_one_reflecting_wall():
+    """particle_walls=("reflect", "absorb"): only the upper wall takes particles."""
+    device.use("cpu", 1)
+    space, field = _walled_field(width=1.0, gap=1.0, spacing=1.0 / 8.0)
+    rng = np.random.default_rng(4)
+    e = load_species(Species("e", -1.0, 1.0, 1.0, temperature=0.01), space, random_positions(space, 1000, rng),
+                     rng=rng)
+    s = PICSolver(field, [e], 0.1, particle_walls=("reflect", "absorb"), background_density=1.0, modes=())
+    for _ in range(30):
+        s.step(0.1)
+    assert s.history["wall_charge_lower"][-1] == 0.0 and s.history["wall_charge_upper"][-1] < 0.0
+
+
+def test_open_boundary_input_is_refused_with_the_parameter_named():
+    device.use("cpu", 1)
+    beam = Species("e", -1.0, 1.0, 1.0, drift=(0.0, 0.5))
+    with pytest.raises(ParameterError, match="wall"):
+        Injection(beam, "left")
+    with pytest.raises(ParameterError, match="drift"):
+        Injection(beam, "upper")          # a cold beam on the upper wall must move down
+    with pytest.raises(ParameterError, match="drift"):
+        Injection(Species("e", -1.0, 1.0, 1.0, temperature=1.0, drift=(0.0, 0.5)), "lower")
+    with pytest.raises(ParameterError, match="particles_per_step"):
+        Injection(beam, "lower", 0.0)
+    box = periodic_box(1.0, 1.0)
+    periodic = PlasmaPoisson(EFGModel(lattice_nodes(box, 0.125), MLSSettings(d_max=2.0), space=box))
+    with pytest.raises(ParameterError, match="injections"):
+        PICSolver(periodic, [], 0.1, injections=[Injection(beam, "lower")])
+    with pytest.raises(ParameterError, match="particle_walls"):
+        PICSolver(periodic, [], 0.1, particle_walls="absorb", injections=[Injection(beam, "lower")])
+    _, walled = _walled_field()
+    with pytest.raises(ParameterError, match="particle_walls"):
+        PICSolver(walled, [], 0.1, particle_walls="sticky", injections=[Injection(beam, "lower")])
+    with pytest.raises(ParameterError, match="loads"):
+        PICSolver(walled, [], 0.1)
+    s = PICSolver(walled, [], 0.1, particle_walls="absorb", injections=[Injection(beam, "lower")])
+    with pytest.raises(ParameterError, match="average_from"):
+        s.mean_potential()
