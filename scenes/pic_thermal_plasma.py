@@ -67,7 +67,7 @@ def build(box: tuple = (64.0, 128.0), node_spacing: float = 1.0, d_max: float = 
             "thermal_momentum": float(math.sqrt(count) * run.solver.macro_mass_np[0]),
             "charge_error": float(np.max(np.abs(np.asarray(h["deposited_charge"])))),
             "particles": run.solver.n, "nodes": model.node_count, "steps": int(t.size),
-            # a resumed run's per-step history starts at the resume: the drift above covers t >= history_from
+            # the first time in the per-step history: 0, also after a resume (checkpoints keep the history)
             "history_from": float(t[0]),
             "particles_per_support": float(count / nodes.shape[0] * math.pi * (d_max * node_spacing) ** 2
                                            / node_spacing ** 2)}}

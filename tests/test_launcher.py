@@ -245,7 +245,7 @@ def test_split_from_measured_time():
         assert launcher._timings[key].whole > 0  # then timed: the warm whole launches
         timing = _Timing()
         launcher._timings[key] = timing
-        mid = 5.0 * launcher.handover_s
+        mid = 5.0 * launcher.handover_s / n     # times are kept per item
         timing.add(mid, split=False)             # long against the hand-over: try a split ...
         assert launcher.split_count(kt.eval_w_dwdr, n, args) == 2
         assert timing.trial_split and timing.trial_left == Launcher.TRIAL  # ... over a burst of launches
@@ -258,18 +258,21 @@ def test_split_from_measured_time():
         assert launcher.split_count(kt.eval_w_dwdr, n, args) == 2
         timing.trial_left, timing.split, timing.launches = 0, 0.4 * mid, 7
         assert launcher.split_count(kt.eval_w_dwdr, n, args) == 2
-        timing.split, timing.whole = 2.0, 1.0     # a launch of many hand-overs is split whatever was measured
-        assert timing.whole > Launcher.ALWAYS_SPLIT * launcher.handover_s
+        timing.split, timing.whole = 2.0 / n, 1.0 / n   # a launch of many hand-overs is split whatever was measured
+        assert timing.whole * n > Launcher.ALWAYS_SPLIT * launcher.handover_s
         assert launcher.split_count(kt.eval_w_dwdr, n, args) == 2
         timing.split, timing.whole = 0.4 * mid, mid
         short = _Timing()
-        short.add(0.5 * launcher.handover_s, split=False)  # too short to be worth a try
+        short.add(0.5 * launcher.handover_s / n, split=False)  # too short to be worth a try
         launcher._timings[key] = short
         assert launcher.split_count(kt.eval_w_dwdr, n, args) == 1
-        # a kernel is timed per item count and per arrays: another n or another output array starts untimed
+        # a kernel is timed per size class of the item count and per arrays: another power of two or another
+        # output array starts untimed; a count in the same class (an open system's, changing every step) shares it
         assert launcher.split_count(kt.eval_w_dwdr, n // 2, args) == 1
         launcher._timings[key] = timing
         assert launcher.split_count(kt.eval_w_dwdr, n, args) == 2
+        assert Launcher.site(kt.eval_w_dwdr, n - 1000, args) == key
+        assert launcher.split_count(kt.eval_w_dwdr, n - 1000, args) == 2
         assert launcher.split_count(kt.eval_w_dwdr, n, [*args[:4], wp.zeros_like(w), dw]) == 1
     finally:
         launcher.close()

@@ -66,7 +66,8 @@ class PICState(State):
     every step), steps (the step count n, one int64: t = n Δt survives a resume), particle_count (the live particles:
     slots [0, particle_count) of the per-particle arrays, whose length is the capacity), injected (particles injected
     so far: ids and random streams), injection_carry (each source's fraction of a particle owed), wall_charge (charge
-    absorbed by each wall: index 2·axis + side), injected_charge."""
+    absorbed by each wall: index 2·axis + side), injected_charge. Its checkpoint also holds the solver's per-step
+    history (``history``: steps × columns), so a resumed run's ``history.csv`` covers the whole run."""
 
     def __init__(self, position: np.ndarray, velocity: np.ndarray, species: np.ndarray, capacity: int, sources: int,
                  device: str):
@@ -87,6 +88,15 @@ class PICState(State):
         self.injection_carry = wp.zeros(max(sources, 1), dtype=wp.float64, device=device)
         self.wall_charge = wp.zeros(4, dtype=wp.float64, device=device)
         self.injected_charge = wp.zeros(1, dtype=wp.float64, device=device)
+        #: the solver's per-step history as a table and its restorer (set by :class:`PICSolver`)
+        self.history_table = None
+        self.restore_history = None
+
+    def numpy(self) -> dict[str, np.ndarray]:
+        out = super().numpy()
+        if self.history_table is not None:
+            out["history"] = self.history_table()
+        return out
 
     @property
     def capacity(self) -> int:
@@ -107,6 +117,8 @@ class PICState(State):
         if saved is not None and np.ndim(saved) == 2 and saved.shape[0] != self.capacity:
             self.resize(int(saved.shape[0]))
         super().assign(values, source)
+        if self.restore_history is not None and "history" in values:
+            self.restore_history(np.asarray(values["history"]), source)
 
 
 class PICSolver(TimeDependentSolver):
@@ -208,6 +220,8 @@ class PICSolver(TimeDependentSolver):
         #: per-step diagnostics since this solver was built (a resumed run's start at the resume: the time loop's
         #: output-time series, which checkpoints keep, hold the whole run)
         self.history: dict[str, list[float]] = {}
+        self.state.history_table = self._history_table
+        self.state.restore_history = self._restore_history
         self._steps = 0
         self._sort(self.count)
         self._fields_at_current_positions()
@@ -461,6 +475,23 @@ class PICSolver(TimeDependentSolver):
                        momentum_y=float(mom[1]))
             for k, v in row.items():
                 self.history.setdefault(k, []).append(v)
+
+    def _history_keys(self) -> list[str]:
+        return ["time", *self._pending_field, "kinetic_energy", "total_energy", "momentum_x", "momentum_y"]
+
+    def _history_table(self) -> np.ndarray:
+        """The per-step history as a (steps, columns) float64 table, columns in :meth:`_history_keys` order."""
+        keys = self._history_keys()
+        if not self.history:
+            return np.zeros((0, len(keys)))
+        return np.array([self.history[k] for k in keys], dtype=np.float64).T.copy()
+
+    def _restore_history(self, table: np.ndarray, source: str) -> None:
+        keys = self._history_keys()
+        if table.ndim != 2 or table.shape[1] != len(keys):
+            raise ParameterError("resume", f"{source} does not match this scene: its history has shape {table.shape}, "
+                                           f"this scene records {len(keys)} columns")
+        self.history = {k: table[:, j].tolist() for j, k in enumerate(keys)}
 
     # -- the contract ----------------------------------------------------------------------------------------
     def stable_dt(self) -> float:
