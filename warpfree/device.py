@@ -78,8 +78,9 @@ class Launcher:
     longer than ``ALWAYS_SPLIT`` hand-overs is always split: on this VM the second core reaches full speed
     only after about 0.1 s of continuous work (the SPEM waveguide split on 2 threads: 2.6 ms a step for its
     first ~50 steps, then 1.4 ms; 2.4 ms on 1 thread), so trial splits between whole launches, with that
-    core idle, ran as slowly as the whole launch; the measurement chose whole and the step stayed at 1.0x. On the default 2D dam break the rates kernel (3 ms a step) runs split, a drift over
-    the same particles (50 µs) whole. Since every chunked kernel is a gather, the split never changes a
+    core idle, ran as slowly as the whole launch; the measurement chose whole and the step stayed at 1.0x. On
+    the default 2D dam break the rates kernel (3 ms a step) runs split, a drift over the same particles (50 µs)
+    whole. Since every chunked kernel is a gather, the split never changes a
     result: they are bitwise the same for any thread count and any split (tested). ``min_items_per_thread``
     = m instead splits every launch with at least m items per chunk (tests use 1 to exercise the chunking on
     small sets).
