@@ -156,7 +156,8 @@ def worker(cfg: dict) -> dict:
     solver = run.solver
     dt = cfg.get("dt") or solver.stable_dt()
     res = common.time_solver(solver, dt, cfg["steps"], cfg["warmup"], cfg["repeats"])
-    res.update(threads=solver.launcher.threads, scene=cfg["scene"], loadavg=common.loadavg())
+    res.update(threads=solver.launcher.threads, scene=cfg["scene"], loadavg=common.loadavg(),
+               time_unit=getattr(solver, "time_unit", "s"))
     return res
 
 
@@ -180,7 +181,8 @@ def sweep_case(name: str, scene: str, params: dict, threads: list[int], args) ->
             print(f"  {name} threads={t} round={r}: {common.fmt_rate(res['work_per_s'])} {res['unit']} "
                   f"(blocks {[round(b, 3) for b in res['block_s']]} s, load {res['loadavg']})", flush=True)
     first = runs[threads[0]][0]
-    counts = {k: first[k] for k in ("work_items", "work_unit", "n_fluid", "n_boundary", "n_particles") if k in first}
+    counts = {k: first[k] for k in ("work_items", "work_unit", "n_fluid", "n_boundary", "n_particles", "time_unit")
+              if k in first}
     rows = []
     for t in threads:
         med = common.median(blocks[t])
@@ -224,7 +226,8 @@ def markdown(cases: list[dict]) -> str:
         size = (f"{c['n_fluid']} fluid + {c['n_boundary']} boundary = {c['n_particles']} particles"
                 if "n_fluid" in c else f"{c['work_items']} {_plural(c['work_unit'].split('-')[0])} per step")
         params = ", ".join(f"{k} = {v}" for k, v in c["params"].items())
-        out.append(f"**{c['case']}** (`{c['scene']}`, {params}: {size}; dt = {c['dt']:.4g} s; median of "
+        unit = c.get("time_unit", "s")
+        out.append(f"**{c['case']}** (`{c['scene']}`, {params}: {size}; dt = {c['dt']:.4g} {unit}; median of "
                    f"{c['rounds'] * c['repeats']} blocks of {c['steps_per_block']} steps; {reb})\n")
         phase_names = sorted(c["rows"][0]["phase_s_per_step"])
         rows = []
