@@ -248,7 +248,11 @@ class Launcher:
         return f"Launcher(device={self.device!r}, threads={self.threads})"
 
 
-_SCALARS = (int, float, bool)
+#: argument types passed by value: a launch site is not keyed by them, and a recorded command re-packs them when
+#: they change (Warp's own scalars among them: a fresh ``wp.float64(dt)`` each step made every PIC push a new site,
+#: so it never split)
+_SCALARS = (int, float, bool, wp.int8, wp.int16, wp.int32, wp.int64, wp.uint8, wp.uint16, wp.uint32, wp.uint64,
+            wp.float16, wp.float32, wp.float64)
 
 
 class _Timing:

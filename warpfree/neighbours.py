@@ -93,13 +93,14 @@ class NeighbourGrid:
         L, n, dev = self.launcher, positions.shape[0], self.launcher.device
         box = self.space.box
         counts = wp.zeros(n, dtype=wp.int32, device=dev)
-        L.launch(nk.count_images, n, [positions, box, self.radius, counts])
+        # new arrays every build, so no launch timing could serve the next build: split over every thread (``once``)
+        L.launch(nk.count_images, n, [positions, box, self.radius, counts], once=True)
         offsets = wp.zeros(n, dtype=wp.int32, device=dev)
         wp.utils.array_scan(counts, offsets, inclusive=False)
         total = int(offsets.numpy()[-1] + counts.numpy()[-1]) if n else 0  # one read per build
         extended = wp.zeros(n + total, dtype=wp.vec3, device=dev)
         source_id = wp.zeros(n + total, dtype=wp.int32, device=dev)
-        L.launch(nk.place_images, n, [positions, box, self.radius, offsets, n, extended, source_id])
+        L.launch(nk.place_images, n, [positions, box, self.radius, offsets, n, extended, source_id], once=True)
         return extended, source_id
 
     @property
