@@ -29,11 +29,13 @@ Two gathers (:class:`~.solver.PICSolver` ``gather=``):
 - "momentum": nodal fields E_I = -(1/m_I) Σ_J G_IJ u_J with G_IJ = ∫ φ_I ∇φ_J dΩ (antisymmetric on a periodic
   domain: ∫ ∇(φ_I φ_J) = 0) and the lumped mass m_I = ∫ φ_I, interpolated back with the deposit's shape
   functions, E(x_p) = Σ_I φ_I(x_p) E_I. On a node lattice M⁻¹ G K⁻¹ is a product of commuting circulants and
-  antisymmetric, so the self-force and the total force Σ_p F_p vanish to round-off (momentum conservation); energy is
-  then conserved only approximately (finite-grid heating, small while the node spacing is below λ_D). The consistent
-  mass matrix instead of the lumped one was tried (2026-11-23): it sharpens long waves (cold plasma frequency error
-  -1.0 % -> 2e-6 at k h = 0.25) but its inverse amplifies the short-range field of a point charge (force of a
-  neighbour two spacings away 0.040 against 0.143 lumped and ~0.151 exact), not kept.
+  antisymmetric, so the self-force and the total force Σ_p F_p vanish to round-off (momentum conservation); on other
+  node layouts :meth:`PlasmaPoisson.nodal_field` takes its antisymmetric part (two more back-substitutions a step),
+  with the same result. Energy is then conserved only approximately (finite-grid heating, small while the node
+  spacing is below λ_D). The consistent mass matrix instead of the lumped one was tried (2026-11-23): it sharpens
+  long waves (cold plasma frequency error -1.0 % -> 2e-6 at k h = 0.25) but its inverse amplifies the short-range
+  field of a point charge (force of a neighbour two spacings away 0.040 against 0.143 lumped and ~0.151 exact), not
+  kept.
 """
 
 from __future__ import annotations
@@ -49,7 +51,10 @@ from warpfree.solvers.efg.model import EFGModel
 from warpfree.solvers.efg.quadrature import rectangle_cells
 from warpfree.sparse import FactorisedSystem, PrescribedValues
 
-__all__ = ["PlasmaPoisson"]
+__all__ = ["PlasmaPoisson", "ANTISYMMETRY_TOLERANCE"]
+
+#: |rᵀ M⁻¹ G S r| relative to |r| |M⁻¹ G S r| above which the momentum gather adds the transposed term
+ANTISYMMETRY_TOLERANCE = 1e-10
 
 
 class PlasmaPoisson:
@@ -99,6 +104,19 @@ class PlasmaPoisson:
         # G = ∫ φ_I ∇φ_J: antisymmetric exactly in a periodic box (the quadrature's asymmetry, which does not
         # integrate ∇(φ_I φ_J) to 0 exactly, is removed); walls add their boundary term, kept as assembled
         self.gradient = gradient if self.walled else [0.5 * (g - g.T) for g in gradient]
+        #: whether the momentum gather needs the second, transposed term (:meth:`nodal_field`): not on a node lattice
+        self.antisymmetrise = not self.walled and self._projection_asymmetry() > ANTISYMMETRY_TOLERANCE
+
+    def _projection_asymmetry(self) -> float:
+        """|rᵀ M⁻¹ G S r| / (|r| |M⁻¹ G S r|) for a random r, the larger over x and y: ~1e-16 when M⁻¹ G S is
+        antisymmetric (node lattices: commuting circulants); 3e-4 and 7e-3 on lattice nodes jittered by 1 % and 20 %."""
+        r = np.random.default_rng(12345).standard_normal(self.model.node_count)
+        u = self.solve_gauged(r)
+        worst = 0.0
+        for g in self.gradient:
+            v = (g @ u) / self.node_integral
+            worst = max(worst, abs(float(r @ v)) / max(np.linalg.norm(r) * np.linalg.norm(v), 1e-300))
+        return worst
 
     def _wall_rows(self, model: EFGModel) -> tuple[sp.csr_matrix, np.ndarray]:
         """C (collocation points × N) and the wall potentials at them: one point on each wall under every node of
@@ -123,9 +141,35 @@ class PlasmaPoisson:
             self.net_charge_density = float(sol[-1])
         return sol[:n]
 
-    def nodal_field(self, potential: np.ndarray) -> np.ndarray:
-        """E_I = -(1/m_I) Σ_J G_IJ u_J (N, 2): the lumped L2 projection of -∇u^h onto the shape functions."""
-        return -np.stack([g @ potential for g in self.gradient], axis=1) / self.node_integral[:, None]
+    def nodal_field(self, potential: np.ndarray, charge: np.ndarray | None = None) -> np.ndarray:
+        """Nodal fields E_I (N, 2) for the momentum-conserving gather.
+
+        Walls, a node layout where M⁻¹ G S is antisymmetric already (lattices; :attr:`antisymmetrise` False), or no
+        ``charge``: E = -M⁻¹ G u, the lumped L2 projection of -∇u^h onto the shape functions.
+        In a periodic box with the deposited ``charge`` Q: E = -½ (M⁻¹ G S + S G M⁻¹) Q, the antisymmetric part of
+        the map Q -> -M⁻¹ G S Q (S: the gauged solve, u = S Q), so that the self-force q φᵀ E and the total force
+        Qᵀ E vanish on any node layout. The second term S G M⁻¹ Q (≈ ∇S ρ = ∇u: two more back-substitutions)
+        equals the first on a node lattice, where M⁻¹, G and S are commuting circulants (so it is skipped there:
+        two back-substitutions a step, serial, would cost 1.5x the solve phase at 4 096 nodes). A uniform background
+        adds nothing (S m = 0 in the first term; in the second it would enter as S G 1, which the quadrature
+        leaves at ~1e-5 instead of 0, so it is left out). Measured on lattice nodes jittered by 20 % of the
+        spacing (2026-11-24): the first term alone left a self-force of 6 % of a neighbour's force at one λ_D
+        and a net force of 5e-4 of Σ|F|; with the background in the second term, 7e-6 and 6e-6; as written, 4e-16
+        and 6e-16. Energy: a warm plasma (16 x 32 λ_D, 10 periods) drifts 0.45 % (first term alone 0.42 %, lattice
+        0.43 %) while its momentum stays at round-off (first term alone: 4 % of the electrons' thermal momentum);
+        the cold plasma oscillation drifts 5.2 % (first term alone 1.1 %, lattice 1.0 %) at the same frequency."""
+        m = self.node_integral[:, None]
+        projected = -np.stack([g @ potential for g in self.gradient], axis=1) / m
+        if not self.antisymmetrise or charge is None:
+            return projected
+        density = charge / self.node_integral
+        transposed = -np.stack([self.solve_gauged(g @ density) for g in self.gradient], axis=1)
+        return 0.5 * (projected + transposed)
+
+    def solve_gauged(self, load: np.ndarray) -> np.ndarray:
+        """S b: the potential for a nodal load b with the gauge ∫u = 0 (periodic box), without touching the net
+        charge density that :meth:`solve` records."""
+        return self.system.solve(np.r_[load, np.zeros(1)])[:self.model.node_count]
 
     def field_energy(self, potential: np.ndarray) -> float:
         """W = ½ uᵀ K u = ½ ∫ |∇u^h|² dΩ (per unit depth)."""

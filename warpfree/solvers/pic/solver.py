@@ -399,10 +399,11 @@ class PICSolver(TimeDependentSolver):
             else:
                 self.charge.zero_()
         with self.phases("solve"):
-            self.potential = self.field.solve(self.charge.numpy(), self.background_density)
+            charge = self.charge.numpy()
+            self.potential = self.field.solve(charge, self.background_density)
             self.potential_wp.assign(self.potential)
             if self.gather == "momentum":
-                self.nodal_field.assign(self.field.nodal_field(self.potential))
+                self.nodal_field.assign(self.field.nodal_field(self.potential, charge))
         with self.phases("gather"):
             L.launch(self.kernels.particle_field, n, [self.node_set, self.position32, self.state.position,
                                                        self.inv_scale, self.fit, self.potential_wp,
