@@ -148,6 +148,8 @@ def test_open_boundary_input_is_refused_with_the_parameter_named():
         Injection(Species("e", -1.0, 1.0, 1.0, temperature=1.0, drift=(0.0, 0.5)), "lower")
     with pytest.raises(ParameterError, match="particles_per_step"):
         Injection(beam, "lower", 0.0)
+    with pytest.raises(ParameterError, match="seed"):
+        Injection(beam, "lower", 10.0, seed=2 ** 31)
     box = periodic_box(1.0, 1.0)
     periodic = PlasmaPoisson(EFGModel(lattice_nodes(box, 0.125), MLSSettings(d_max=2.0), space=box))
     with pytest.raises(ParameterError, match="injections"):

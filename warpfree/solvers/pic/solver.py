@@ -34,7 +34,7 @@ import numpy as np
 import warp as wp
 
 from warpfree.device import Launcher
-from warpfree.errors import ParameterError, require_finite, require_positive
+from warpfree.errors import ParameterError, RunError, require_finite, require_positive
 from warpfree.kernels import efg as ek
 from warpfree.kernels import pic as pk
 from warpfree.neighbours import NeighbourGrid
@@ -359,6 +359,9 @@ class PICSolver(TimeDependentSolver):
             owed = carry[k] + source.particles_per_step
             new_counts.append(int(math.floor(owed)))
             carry[k] = owed - new_counts[-1]
+        if self.loaded_count + injected + sum(new_counts) >= 2 ** 31:
+            raise RunError(f"{self.loaded_count + injected} particles loaded and injected so far: the next step's "
+                           "would take particle ids past the int32 range", self._steps)
         self._ensure_capacity(self.count + sum(new_counts))
         slot = self.count
         charge = 0.0
