@@ -25,7 +25,7 @@ from warpfree.io.frames import plot_series
 from warpfree.run import OutputOptions
 from warpfree.solvers.efg.model import EFGModel, MLSSettings
 from warpfree.solvers.pic import Injection, PICSolver, PlasmaPoisson, Species
-from warpfree.solvers.pic.scene_tools import lattice_nodes, plot_history, walled_box, write_history
+from warpfree.solvers.pic.scene_tools import POTENTIAL_FRAMES, lattice_nodes, plot_history, walled_box, write_history
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.pic_diode import child_langmuir_flux, steady_potential
 
@@ -91,4 +91,5 @@ def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5
 
     return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, dt=dt, name="pic_diode",
                     params=params, analyses=[diode_analysis],
-                    output=OutputOptions(vtk=vtk, frames=frames, frame_bounds=((0.0, width), (0.0, gap))))
+                    output=OutputOptions(vtk=vtk, frames=frames, extra_frames=POTENTIAL_FRAMES,
+                                         frame_bounds=((0.0, width), (0.0, gap))))

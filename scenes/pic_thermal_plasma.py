@@ -18,9 +18,9 @@ import numpy as np
 from warpfree.errors import ParameterError, require_positive
 from warpfree.run import OutputOptions
 from warpfree.solvers.efg.model import EFGModel, MLSSettings
-from warpfree.solvers.pic import PlasmaPoisson, PICSolver, Species, load_species, random_positions
-from warpfree.solvers.pic.scene_tools import (lattice_nodes, momentum_change, periodic_box, plot_history,
-                                              relative_drift, write_history)
+from warpfree.solvers.pic import PICSolver, PlasmaPoisson, Species, load_species, random_positions
+from warpfree.solvers.pic.scene_tools import (POTENTIAL_FRAMES, lattice_nodes, momentum_change, periodic_box,
+                                              plot_history, relative_drift, write_history)
 from warpfree.time_loop import TimeLoop
 
 
@@ -74,4 +74,5 @@ def build(box: tuple = (64.0, 128.0), node_spacing: float = 1.0, d_max: float = 
 
     return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, dt=dt, name="pic_thermal_plasma",
                     params=params, analyses=[energy_analysis],
-                    output=OutputOptions(vtk=vtk, frames=frames, frame_bounds=((0.0, lx), (0.0, ly))))
+                    output=OutputOptions(vtk=vtk, frames=frames, extra_frames=POTENTIAL_FRAMES,
+                                         frame_bounds=((0.0, lx), (0.0, ly))))

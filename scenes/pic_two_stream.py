@@ -18,9 +18,9 @@ import numpy as np
 from warpfree.errors import ParameterError, require_positive
 from warpfree.run import OutputOptions
 from warpfree.solvers.efg.model import EFGModel, MLSSettings
-from warpfree.solvers.pic import PlasmaPoisson, PICSolver, Species, lattice_positions, load_species
-from warpfree.solvers.pic.scene_tools import (lattice_nodes, momentum_change, periodic_box, plot_history,
-                                              relative_drift, write_history)
+from warpfree.solvers.pic import PICSolver, PlasmaPoisson, Species, lattice_positions, load_species
+from warpfree.solvers.pic.scene_tools import (POTENTIAL_FRAMES, lattice_nodes, momentum_change, periodic_box,
+                                              plot_history, relative_drift, write_history)
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.pic_two_stream import GAMMA_MAX, K_V0_FASTEST, growth_rate
 
@@ -85,7 +85,8 @@ def build(beam_speed: float = 1.0, length_y: float = 4.0, node_spacing: float = 
 
     return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, dt=dt, name="pic_two_stream",
                     params=params, analyses=[growth_analysis],
-                    output=OutputOptions(vtk=vtk, frames=frames, frame_bounds=((0.0, length), (0.0, length_y))))
+                    output=OutputOptions(vtk=vtk, frames=frames, extra_frames=POTENTIAL_FRAMES,
+                                         frame_bounds=((0.0, length), (0.0, length_y))))
 
 
 def _phase_space(path, solver):

@@ -164,3 +164,21 @@ def test_open_boundary_input_is_refused_with_the_parameter_named():
     s = PICSolver(walled, [], 0.1, particle_walls="absorb", injections=[Injection(beam, "lower")])
     with pytest.raises(ParameterError, match="average_from"):
         s.mean_potential()
+
+
+def test_scenes_write_potential_frames_beside_particle_frames(tmp_path):
+    """``OutputOptions.extra_frames``: the PIC scenes write frames/nodes_potential_NNNNN.png beside the particle
+    frames; a pair naming no output field is refused before the run."""
+    from warpfree.run import OutputOptions
+    from warpfree.time_loop import TimeLoop
+
+    device.use("cpu", 2)
+    run = _diode(frames=True, t_end=0.4, output_every=10)
+    run.run(str(tmp_path), progress=False)
+    frames = sorted(p.name for p in (tmp_path / "frames").iterdir())
+    particles = [f for f in frames if f.startswith("frame_")]
+    potential = [f for f in frames if f.startswith("nodes_potential_")]
+    assert len(particles) == len(potential) == 3
+    with pytest.raises(ParameterError, match="extra_frames"):
+        TimeLoop(run.solver, t_end=0.1, output_interval=0.02, dt=0.02,
+                 output=OutputOptions(extra_frames=(("nodes", "charge_density"),)))

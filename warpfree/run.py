@@ -46,7 +46,8 @@ class OutputOptions:
     zmax)])`` (default: the bounding box of the first output, 5% margin); meshes: write the solver's
     ``output_meshes()`` (e.g. free surfaces) as PLY; background: write in a worker process beside the run;
     plots: the scene's analyses draw plots through :meth:`Run.plot` (the writer loads Matplotlib while the run
-    steps, as it does for frames).
+    steps, as it does for frames); extra_frames: more frame series, each a (set, field) pair drawn alone into
+    ``frames/<set>_<field>_NNNNN.png`` (a PIC scene's potential on its nodes beside its particles).
     """
 
     vtk: bool = True
@@ -57,13 +58,15 @@ class OutputOptions:
     meshes: bool = False
     background: bool = True
     plots: bool = False
+    extra_frames: tuple = ()
 
 
 class RunDirectory:
     """The layout of a run directory, in one place.
 
     ``summary.json``, ``run.json`` (how the CLI ran it: scene, overrides), ``<set>.pvd`` + ``vtk/``,
-    ``frames/frame_NNNNN.png``, ``<mesh>/<mesh>_NNNNN.ply``, ``checkpoints/``, and the scene's own plots.
+    ``frames/frame_NNNNN.png`` (and ``frames/<set>_<field>_NNNNN.png`` for extra series),
+    ``<mesh>/<mesh>_NNNNN.ply``, ``checkpoints/``, and the scene's own plots.
     """
 
     def __init__(self, root: str):
@@ -82,8 +85,8 @@ class RunDirectory:
     def checkpoints(self) -> str:
         return os.path.join(self.root, "checkpoints")
 
-    def frame(self, index: int) -> str:
-        return os.path.join(self.root, "frames", f"frame_{index:05d}.png")
+    def frame(self, index: int, series: str = "frame") -> str:
+        return os.path.join(self.root, "frames", f"{series}_{index:05d}.png")
 
     def mesh(self, name: str, index: int) -> str:
         return os.path.join(self.root, name, f"{name}_{index:05d}.ply")
@@ -141,6 +144,9 @@ class Run(ABC):
         if field not in fields[name]:
             raise ParameterError("frame_field", f"must be one of {sorted(fields[name])} for the set {name!r}, "
                                                 f"got {field!r}")
+        for extra in self.output.extra_frames:
+            if len(extra) != 2 or extra[0] not in fields or extra[1] not in fields[extra[0]]:
+                raise ParameterError("extra_frames", f"each must be a (set, field) pair of {fields}, got {extra!r}")
         return name, field
 
     def write_outputs(self, directory: RunDirectory, index: int, step: int, time_s: float, title: str) -> None:
@@ -152,6 +158,8 @@ class Run(ABC):
                 batch += self._vtu_jobs(directory, sets, step, time_s)
             if self.output.frames:
                 batch.append(self._frame_job(directory, sets, index, title))
+                for set_name, field in self.output.extra_frames:
+                    batch.append(self._frame_job(directory, sets, index, title, set_name, field))
             if self.output.meshes:
                 for mesh_name, (vertices, faces) in self.solver.output_meshes().items():
                     batch.append(("mesh", {"path": directory.mesh(mesh_name, index), "vertices": vertices,
@@ -171,15 +179,21 @@ class Run(ABC):
             jobs.append(("pvd", {"path": str(series.pvd_path), "entries": entries}))
         return jobs
 
-    def _frame_job(self, directory: RunDirectory, sets: list[OutputSet], index: int, title: str):
-        shown = next(s for s in sets if s.name == self._frame_set)
-        others = [s.points for s in sets if s.name != self._frame_set and not s.solid and len(s.points)]
-        solids = [s.points for s in sets if s.name != self._frame_set and s.solid and len(s.points)]
+    def _frame_job(self, directory: RunDirectory, sets: list[OutputSet], index: int, title: str,
+                   set_name: str | None = None, field: str | None = None):
+        """The main frame (the chosen set, the others as context), or with ``set_name`` and ``field`` an extra
+        series' frame (that set alone)."""
+        extra = set_name is not None
+        set_name, field = (set_name, field) if extra else (self._frame_set, self._frame_field)
+        shown = next(s for s in sets if s.name == set_name)
+        others = [s.points for s in sets if s.name != set_name and not s.solid and len(s.points) and not extra]
+        solids = [s.points for s in sets if s.name != set_name and s.solid and len(s.points) and not extra]
         dim = self.solver.dim
         if self._bounds is None:
             self._bounds = self.output.frame_bounds or _bounding_box(sets, dim)
-        return ("frame", {"path": directory.frame(index), "points": shown.points,
-                          "values": shown.fields[self._frame_field], "dim": dim, "field_name": self._frame_field,
+        path = directory.frame(index, f"{set_name}_{field}") if extra else directory.frame(index)
+        return ("frame", {"path": path, "points": shown.points,
+                          "values": shown.fields[field], "dim": dim, "field_name": field,
                           "bounds": self._bounds, "boundary_points": np.vstack(others) if others else None,
                           "solid_points": np.vstack(solids) if solids else None, "title": title})
 

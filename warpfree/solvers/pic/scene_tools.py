@@ -11,8 +11,13 @@ import numpy as np
 from warpfree.errors import ParameterError, require_positive
 from warpfree.space import Space
 
-__all__ = ["periodic_box", "walled_box", "lattice_nodes", "write_history", "plot_history", "relative_drift",
-           "momentum_change"]
+__all__ = ["POTENTIAL_FRAMES", "periodic_box", "walled_box", "lattice_nodes", "write_history", "plot_history",
+           "relative_drift", "momentum_change"]
+
+
+#: the frame series every PIC scene writes beside its particle frames: the potential on the nodes
+#: (``frames/nodes_potential_NNNNN.png``; ``warpfree.run.OutputOptions.extra_frames``)
+POTENTIAL_FRAMES = (("nodes", "potential"),)
 
 
 def periodic_box(length_x: float, length_y: float) -> Space:
