@@ -216,7 +216,7 @@ class TimeLoop(Run):
             self._record(directory)
             if directory is not None and self.checkpoint_every:
                 self.save_checkpoint(directory)
-        bar = _progress(self.t_end, self.time, progress, self.name)
+        bar = _progress(self.t_end, self.time, progress, self.name, self.solver.time_unit)
         steps0 = self.step_count
         try:
             while self.time < self.t_end * (1 - 1e-12):
@@ -265,10 +265,13 @@ class TimeLoop(Run):
         return {"step": self.step_s, **super()._phases()}
 
 
-def _progress(total: float, start: float, enabled: bool, name: str):
+def _progress(total: float, start: float, enabled: bool, name: str, time_unit: str = "s"):
+    """The progress bar in simulated time, in the solver's time unit (PIC: /ω_pe)."""
     if not enabled:
         return None
     from tqdm import tqdm
 
-    return tqdm(total=total, initial=start, desc=name, unit="s(sim)", mininterval=0.5 if sys.stderr.isatty() else 10.0,
-                bar_format="{desc}: {percentage:3.0f}%|{bar}| t={n:.4f}/{total:.4f} s [{elapsed}<{remaining}]")
+    return tqdm(total=total, initial=start, desc=name, unit=f"{time_unit}(sim)",
+                mininterval=0.5 if sys.stderr.isatty() else 10.0,
+                bar_format="{desc}: {percentage:3.0f}%|{bar}| t={n:.4f}/{total:.4f} " + time_unit
+                + " [{elapsed}<{remaining}]")
