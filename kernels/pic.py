@@ -268,18 +268,27 @@ def leapfrog_push(
     position32[i] = wp.vec3(float(x[0]), float(x[1]), 0.0)
 
 
+@wp.struct
+class WallSource:
+    """A wall source (``warpfree.solvers.pic.injection``): its species index, random ``seed``, ``inward`` +1 (lower
+    wall, emits along +y) or -1 (upper), the cold beam's ``normal_speed``, the thermal source's ``thermal_speed`` (0:
+    cold) and the drift along the wall ``drift_x``."""
+
+    species: int
+    seed: int
+    inward: wp.float64
+    normal_speed: wp.float64
+    thermal_speed: wp.float64
+    drift_x: wp.float64
+
+
 @wp.kernel
 def inject_particles(
     first: int,
     box: Box2d,
+    source: WallSource,
     slot0: int,
     id0: int,
-    seed: int,
-    species_index: int,
-    inward: wp.float64,
-    normal_speed: wp.float64,
-    thermal_speed: wp.float64,
-    drift_x: wp.float64,
     dt: wp.float64,
     position: wp.array(dtype=wp.vec2d),
     velocity: wp.array(dtype=wp.vec2d),
@@ -288,23 +297,24 @@ def inject_particles(
     position32: wp.array(dtype=wp.vec3),
     exit_wall: wp.array(dtype=wp.int32),
 ):
-    """New particle i of a wall source (``warpfree.solvers.pic.injection``) into slot ``slot0`` + i with id ``id0`` +
-    i: x uniform along the wall, v_n = ``normal_speed`` (cold) or v_th sqrt(-2 ln U) (thermal: ``thermal_speed`` >
-    0, the flux-weighted half-Maxwellian), v_x = ``drift_x`` (+ v_th N(0, 1) when thermal), a depth v_n Δt U inside
-    the wall at y = lower (``inward`` +1) or upper (-1). Counter-based random numbers (``seed``, the id): the same
-    particles for any thread count. One that would land beyond the opposite wall is marked absorbed there."""
+    """New particle i of a wall ``source`` into slot ``slot0`` + i with id ``id0`` + i: x uniform along the wall, v_n
+    = the cold beam's normal speed or v_th sqrt(-2 ln U) (thermal: the flux-weighted half-Maxwellian), v_x = the
+    drift along the wall (+ v_th N(0, 1) when thermal), a depth v_n Δt U inside the wall. Counter-based random
+    numbers (the source's seed, the id): the same particles for any thread count. One that would land beyond the
+    opposite wall is marked absorbed there."""
     i = first + wp.tid()
     slot = slot0 + i
     pid = id0 + i
-    rng = wp.rand_init(seed, pid)
+    inward = source.inward
+    rng = wp.rand_init(source.seed, pid)
     along = wp.float64(wp.randf(rng))
     depth = wp.float64(wp.randf(rng))
-    vn = normal_speed
-    vx = drift_x
-    if thermal_speed > wp.float64(0.0):
+    vn = source.normal_speed
+    vx = source.drift_x
+    if source.thermal_speed > wp.float64(0.0):
         u = wp.float64(1.0) - wp.float64(wp.randf(rng))   # (0, 1]
-        vn = thermal_speed * wp.sqrt(wp.float64(-2.0) * wp.log(u))
-        vx = vx + thermal_speed * wp.float64(wp.randn(rng))
+        vn = source.thermal_speed * wp.sqrt(wp.float64(-2.0) * wp.log(u))
+        vx = vx + source.thermal_speed * wp.float64(wp.randn(rng))
     lo = box.lower[1]
     hi = lo + box.length[1]
     wall = lo
@@ -319,7 +329,7 @@ def inject_particles(
         left = far
     position[slot] = x
     velocity[slot] = wp.vec2d(vx, inward * vn)
-    species[slot] = species_index
+    species[slot] = source.species
     particle_id[slot] = pid
     position32[slot] = wp.vec3(float(x[0]), float(x[1]), 0.0)
     exit_wall[slot] = left

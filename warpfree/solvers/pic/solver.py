@@ -179,6 +179,7 @@ class PICSolver(TimeDependentSolver):
         self.macro_mass = wp.array(self.macro_mass_np, dtype=wp.float64, device=dev)
         self.charge_over_mass = wp.array([sp_.charge / sp_.mass for sp_ in self.species_list], dtype=wp.float64,
                                          device=dev)
+        self._sources = [self._wall_source(len(self.loads) + k, j) for k, j in enumerate(self.injections)]
         self._absorb = wp.array([0, 0] + [int(m == "absorb") for m in self.particle_walls], dtype=wp.int32,
                                 device=dev)
         self.open_boundaries = bool(self.injections) or "absorb" in self.particle_walls
@@ -244,6 +245,18 @@ class PICSolver(TimeDependentSolver):
         if space.periodic[1] and modes != ("reflect", "reflect"):
             raise ParameterError("particle_walls", "the box is periodic along y: it has no walls to absorb particles")
         return modes
+
+    @staticmethod
+    def _wall_source(index: int, injection: Injection) -> pk.WallSource:
+        """The kernel's bundle for one source (built once: the same object every step)."""
+        src = pk.WallSource()
+        src.species = index
+        src.seed = int(injection.seed)
+        src.inward = wp.float64(injection.inward)
+        src.normal_speed = wp.float64(injection.normal_speed)
+        src.thermal_speed = wp.float64(injection.species.thermal_speed if injection.warm else 0.0)
+        src.drift_x = wp.float64(injection.species.drift[0])
+        return src
 
     def _allocate_work(self, capacity: int) -> None:
         """The per-particle work arrays for ``capacity`` slots (their contents are rebuilt every step, except the
@@ -365,18 +378,13 @@ class PICSolver(TimeDependentSolver):
         self._ensure_capacity(self.count + sum(new_counts))
         slot = self.count
         charge = 0.0
-        for k, (source, new) in enumerate(zip(self.injections, new_counts)):
-            index = len(self.loads) + k
-            sp_ = source.species
+        for source, new in zip(self._sources, new_counts):
             self.launcher.launch(pk.inject_particles, new, [
-                self.model.box, slot, self.loaded_count + injected, int(source.seed), index,
-                wp.float64(source.inward), wp.float64(source.normal_speed),
-                wp.float64(sp_.thermal_speed if source.warm else 0.0), wp.float64(sp_.drift[0]),
-                wp.float64(self.dt), st.position, st.velocity, st.species, st.particle_id, self.position32,
-                self.exit_wall])
+                self.model.box, source, slot, self.loaded_count + injected, wp.float64(self.dt), st.position,
+                st.velocity, st.species, st.particle_id, self.position32, self.exit_wall])
             slot += new
             injected += new
-            charge += new * self.macro_charge_np[index]
+            charge += new * self.macro_charge_np[source.species]
         st.injection_carry.assign(carry)
         st.injected.assign(np.array([injected], dtype=np.int64))
         st.injected_charge.assign(st.injected_charge.numpy() + charge)
