@@ -33,6 +33,10 @@ from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.dam_break_2d import front_errors
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"dx": 0.1, "t_end": 0.1, "output_interval": 0.02}
+
 
 def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval: float = 0.02,
           column_height: float = 2.0, tank_length: float = 4.0, tank_height: float = 4.0, h_factor: float = 1.6,

@@ -33,6 +33,10 @@ from warpfree.time_loop import TimeLoop
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"dx": 0.1, "t_end": 0.04, "output_interval": 0.02, "surface": True}
+
 
 def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
           tank_mesh: str = os.path.join(HERE, "meshes", "spheric2_tank.stl"),

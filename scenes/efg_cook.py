@@ -75,6 +75,10 @@ def cook_errors(solver: ElasticitySolver) -> dict:
             "reference_uy_48_52": ref["uy_48_52"], "uy_48_52_rel_error": float(u[1, 1] / ref["uy_48_52"] - 1.0),
             "strain_energy": solver.strain_energy(), "reference_strain_energy": ref["strain_energy"]}
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"cells": 4}
+
 
 def build(cells: int = 32, layout: str = "regular", seed: int = 0, d_max: float = 1.8, gauss: int = 2,
           method: str = "lagrange", integration: str = "consistent", refinements: int = 0, magnify: float = 50.0,

@@ -90,6 +90,10 @@ def cylinder_errors(solver: ElasticitySolver) -> dict:
     out["energy_norm_error"] = err / norm
     return out
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"cells_r": 4, "cells_t": 4}
+
 
 def build(cells_r: int = 16, cells_t: int = 16, layout: str = "regular", seed: int = 0, d_max: float = 2.5,
           gauss: int = 2, method: str = "lagrange", integration: str | None = None, model: str = "efg",

@@ -154,6 +154,10 @@ def resistor_errors(solver: PoissonSolver) -> dict:
     out["conductance_rel_error"] = out["conductance"] / ref.conductance() - 1.0
     return out
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"per_mm": 4}
+
 
 def build(per_mm: int = 13, d_max: float = 1.8, weight: str = "cubic_spline", method: str = "lagrange", gauss: int = 2,
           truncation: bool = True, integration: str = "consistent", interface_condition: str = "nitsche",

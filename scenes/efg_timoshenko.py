@@ -81,6 +81,10 @@ def beam_errors(solver: ElasticitySolver) -> dict:
             "tip_rel_error": float(tip / beam.TIP_DEFLECTION - 1.0), "energy_norm_error": err / norm,
             "strain_energy": solver.strain_energy(), "exact_strain_energy": beam.strain_energy()}
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"cells_x": 12, "cells_y": 3}
+
 
 def build(cells_x: int = 48, cells_y: int = 12, layout: str = "regular", seed: int = 0, d_max: float = 3.5,
           weight: str = "cubic_spline", basis: str = "linear", gauss: int = 2, method: str = "lagrange",

@@ -28,6 +28,10 @@ from warpfree.solvers.spem.kronecker import NodalValues
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.em_cavity_2d import cavity_field
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"cells_per_radius": 8, "t_end": 5e-10}
+
 
 def build(radius: float = 0.1, eps_r: float = 10.0, cells_per_radius: int = 20, courant: float = 0.9,
           t_end: float = 5.5e-9, output_interval: float = 0.25e-9, scheme: str = "fpm", support: float = 0.0,

@@ -24,6 +24,10 @@ from warpfree.solvers.spem import C0, Source, SPEMModel, SPEMSolver, Waveform, s
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.em_line_1d import line_wave, mean_error, wavelength_from_crossings
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"particles_per_wavelength": 10, "t_end": 9.5e-10}
+
 
 def build(frequency: float = 1.8e9, length: float = math.pi, particles_per_wavelength: float = 20.0,
           courant: float = 0.95, t_end: float = 4.75e-9, output_interval: float = 0.475e-9, scheme: str = "fpm",

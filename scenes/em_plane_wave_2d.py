@@ -36,6 +36,10 @@ from warpfree.solvers.spem import (C0, PML, PlaneWave, SPEMModel, SPEMSolver, Wa
                                    support_for_jitter)
 from warpfree.time_loop import TimeLoop
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"particles_per_wavelength": 20, "size": 0.2, "margin": 0.03, "t_end": 5e-10}
+
 
 def build(size: float = 0.5, frequency: float = 3.6e9, amplitude: float = 1.0, particles_per_wavelength: float = 40.0,
           pml_cells: int = 12, margin: float = 0.05, ramp: float = 2.0, courant: float = 0.95, t_end: float = 2.0e-9,

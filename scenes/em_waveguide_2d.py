@@ -29,6 +29,10 @@ from warpfree.solvers.spem import C0, PML, Source, SPEMModel, SPEMSolver, Wavefo
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.em_waveguide_2d import cutoff_frequency, tm1_field
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"particles_per_wavelength": 20, "t_end": 8.2e-10}
+
 
 def build(width: float = 0.5, length: float = 0.4, pml_thickness: float = 0.1, frequency_ratio: float = 1.2,
           amplitude: float = 0.2, particles_per_wavelength: float = 40.0, courant: float = 0.95, ramp: float = 0.0,

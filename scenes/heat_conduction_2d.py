@@ -16,6 +16,10 @@ from warpfree.solvers.heat import HeatModel, HeatSolver
 from warpfree.space import Space
 from warpfree.time_loop import TimeLoop
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"n": 16, "t_end": 0.5, "output_interval": 0.1}
+
 
 def build(n: int = 40, length: float = 1.0, alpha: float = 0.01, mode: int = 1, amplitude: float = 1.0,
           t_end: float = 2.5, output_interval: float = 0.05, frames: bool = True, vtk: bool = True) -> TimeLoop:

@@ -29,6 +29,10 @@ from warpfree.solvers.pic.scene_tools import POTENTIAL_FRAMES, lattice_nodes, pl
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.pic_diode import child_langmuir_flux, steady_potential
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"node_spacing": 0.0625, "width": 0.5, "particles_per_step": 20, "t_end": 0.6, "output_every": 5}
+
 
 def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5, injection_speed: float = 0.1,
           node_spacing: float = 1.0 / 32.0, width: float = 0.25, d_max: float = 2.0, particles_per_step: float = 20.0,

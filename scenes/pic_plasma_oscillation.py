@@ -27,6 +27,10 @@ from warpfree.solvers.pic.scene_tools import (POTENTIAL_FRAMES, lattice_nodes, m
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.pic_plasma_oscillation import frequency_from_crossings, leapfrog_frequency
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"node_spacing": 0.5, "periods": 1.0, "output_every": 8}
+
 
 def build(wavenumber: float = 0.5, length_y: float = 4.0, node_spacing: float = 0.25, d_max: float = 2.0,
           particles_per_node: int = 2, amplitude: float = 0.01, dt: float = 0.1, periods: float = 4.0,

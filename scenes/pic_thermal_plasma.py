@@ -23,6 +23,10 @@ from warpfree.solvers.pic.scene_tools import (POTENTIAL_FRAMES, lattice_nodes, m
                                               plot_history, relative_drift, write_history)
 from warpfree.time_loop import TimeLoop
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"box": (8.0, 16.0), "periods": 1.0, "output_every": 10}
+
 
 def build(box: tuple = (64.0, 128.0), node_spacing: float = 1.0, d_max: float = 2.0, particles_per_node: int = 16,
           mass_ratio: float = 1836.15, ion_temperature: float = 0.1, dt: float = 0.2, periods: float = 50.0,

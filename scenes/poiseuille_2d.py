@@ -41,6 +41,10 @@ from warpfree.validation import poiseuille_2d as exact
 #: anchor times of Morris et al. (1997) in units of L²/ν (0.0225 s ... 0.225 s for L = 1 mm, ν = 1e-6 m²/s)
 ANCHORS = (0.0225, 0.045, 0.1125, 0.225)
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"n": 10, "t_end": 0.0225, "output_interval": 0.00225}
+
 
 def build(n: int = 40, width: float = 1.0e-3, channel_length: float = 1.0e-3, nu: float = 1.0e-6,
           force: float = 2.0e-4, rho0: float = 1000.0, mach: float = 0.1, h_factor: float = 1.6,

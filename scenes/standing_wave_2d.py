@@ -24,6 +24,10 @@ from warpfree.solvers.wcsph.scene_tools import box_2d, require_scene_values, sti
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import standing_wave_2d as linear
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"dx": 0.05, "periods": 0.25, "settle_periods": 0.25, "outputs_per_period": 20}
+
 
 def build(length: float = 1.0, depth: float = 0.5, amplitude: float = 0.01, dx: float = 0.02, periods: float = 3.0,
           h_factor: float = 1.6, kernel: str = "wendland_c2", alpha: float = 0.02, delta: float = 0.1,

@@ -36,6 +36,10 @@ from warpfree.solvers.wcsph.scene_tools import box_2d, require_scene_values, sti
 from warpfree.run import OutputOptions
 from warpfree.time_loop import TimeLoop
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"dx": 0.05, "t_end": 0.05, "output_interval": 0.01, "settle_periods": 0.25}
+
 
 def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float = 2.0,
           output_interval: float = 0.05, h_factor: float = 1.6, kernel: str = "wendland_c2",

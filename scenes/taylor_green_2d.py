@@ -43,6 +43,10 @@ from warpfree.validation import taylor_green_2d as exact
 #: |energy_error| above which the run is said to have broken down (reported as ``breakdown_time``)
 BREAKDOWN_ENERGY_ERROR = 0.05
 
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"n": 16, "t_end": 0.05, "output_interval": 0.01}
+
 
 def build(n: int = 50, length: float = 1.0, u0: float = 1.0, reynolds: float = 100.0, rho0: float = 1000.0,
           mach: float = 0.1, h_factor: float = 1.6, kernel: str = "wendland_c2", alpha: float = 0.0,
