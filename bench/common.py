@@ -118,7 +118,7 @@ def build_scene(scene: str, threads: int, device: str = "cpu", **params):
     (``TimeLoop`` or ``StaticRun``)."""
     os.environ.setdefault("WARPFREE_VERBOSE", "0")
     import warpfree.device
-    from warpfree.cli import load_scene, scene_parameters
+    from warpfree.scene_loader import load_scene, scene_parameters
 
     warpfree.device.use(device, threads)
     path = scene if scene.endswith(".py") else str(SCENES / f"{scene}.py")
@@ -132,7 +132,7 @@ def build_scene(scene: str, threads: int, device: str = "cpu", **params):
 
 def parse_sets(scene: str, pairs: list[str]) -> dict:
     """``name=value`` overrides of a scene's parameters, typed as the CLI types them."""
-    from warpfree.cli import load_scene, parse_overrides, scene_parameters
+    from warpfree.scene_loader import load_scene, parse_overrides, scene_parameters
 
     path = scene if scene.endswith(".py") else str(SCENES / f"{scene}.py")
     return parse_overrides(pairs, scene_parameters(load_scene(path)))

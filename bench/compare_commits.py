@@ -22,6 +22,7 @@ How
 Usage
     python bench/compare_commits.py BASE [NEW]     # NEW defaults to the working tree
     python bench/compare_commits.py 4f67931 --scenes dam_break_2d,pic_diode --keep /tmp/compare
+    python bench/compare_commits.py 4f67931 --ignore params/dt --ignore model/dt   # a summary key changed on purpose
 Exit code 0 when every scene's outputs are the same, 1 otherwise.
 """
 
@@ -39,6 +40,8 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+
+from warpfree.scene_loader import value_text
 
 ROOT = Path(__file__).resolve().parent.parent
 #: summary.json keys whose values are timings or machine facts, not results
@@ -80,37 +83,30 @@ def smallest(scene_file: Path) -> dict | None:
     return None
 
 
-def as_text(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (tuple, list)):
-        return ",".join(as_text(v) for v in value)
-    return repr(value) if isinstance(value, float) else str(value)
-
-
 def run_scene(side: Path, scene: str, params: dict, out: Path, threads: int) -> tuple[int, str]:
     cmd = [sys.executable, "-m", "warpfree.cli", "run", str(side / "src" / "scenes" / f"{scene}.py"),
            "--out", str(out), "--threads", str(threads), "--no-progress"]
     for k, v in params.items():
-        cmd += ["--set", f"{k}={as_text(v)}"]
+        cmd += ["--set", f"{k}={value_text(v)}"]
     env = {**os.environ, "PYTHONPATH": str(side / "site")}
     res = subprocess.run(cmd, cwd=side, env=env, capture_output=True, text=True)
     return res.returncode, (res.stdout + res.stderr)[-2000:]
 
 
-def strip_volatile(value, roots: dict[str, str]):
-    """``value`` without timings, with each path in ``roots`` (path -> token) replaced by its token."""
+def strip_volatile(value, roots: dict[str, str], ignore: tuple = (), where: str = ""):
+    """``value`` without timings and the ``ignore``d key paths (``model/dt``), with each path in ``roots``
+    (path -> token) replaced by its token."""
     if isinstance(value, dict):
         out = {}
         for k, v in value.items():
-            if k in VOLATILE_KEYS or k.endswith("_s"):
+            if k in VOLATILE_KEYS or k.endswith("_s") or f"{where}{k}" in ignore:
                 continue
             if k == "throughput" and isinstance(v, dict):
                 v = {kk: vv for kk, vv in v.items() if kk != "value"}
-            out[k] = strip_volatile(v, roots)
+            out[k] = strip_volatile(v, roots, ignore, f"{where}{k}/")
         return out
     if isinstance(value, list):
-        return [strip_volatile(v, roots) for v in value]
+        return [strip_volatile(v, roots, ignore, where) for v in value]
     if isinstance(value, str):
         for path, token in roots.items():
             value = value.replace(path, token)
@@ -163,7 +159,7 @@ def compare_vtu(a: Path, b: Path) -> str | None:
     return None
 
 
-def compare_runs(base: Path, new: Path, trees: tuple[Path, Path]) -> tuple[list[str], list[str], int]:
+def compare_runs(base: Path, new: Path, trees: tuple[Path, Path], ignore: tuple = ()) -> tuple[list[str], list[str], int]:
     """(failures, reported-only differences, files compared) between two run directories; ``trees``: the two
     staged source trees (paths into them, e.g. of a mesh file, are not a difference)."""
     failures, reported, count = [], [], 0
@@ -179,8 +175,9 @@ def compare_runs(base: Path, new: Path, trees: tuple[Path, Path]) -> tuple[list[
         if name.endswith(".vtu"):
             d = compare_vtu(a, b)
         elif name.endswith("summary.json"):
-            d = first_difference(strip_volatile(json.loads(a.read_text()), {str(base): "<out>", str(trees[0]): "<tree>"}),
-                                 strip_volatile(json.loads(b.read_text()), {str(new): "<out>", str(trees[1]): "<tree>"}))
+            d = first_difference(
+                strip_volatile(json.loads(a.read_text()), {str(base): "<out>", str(trees[0]): "<tree>"}, ignore),
+                strip_volatile(json.loads(b.read_text()), {str(new): "<out>", str(trees[1]): "<tree>"}, ignore))
         elif name.endswith(".pvd"):
             d = None if a.read_text().replace(str(base), "") == b.read_text().replace(str(new), "") else "differs"
         else:
@@ -196,6 +193,8 @@ def main(argv=None) -> int:
     parser.add_argument("new", nargs="?", default=".", help="git revision of the later side ('.': the working tree)")
     parser.add_argument("--scenes", default=None, help="comma-separated scene names (default: every scene)")
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--ignore", action="append", default=[], metavar="KEY/PATH",
+                        help="a summary.json key path changed on purpose, e.g. model/dt (repeatable)")
     parser.add_argument("--keep", default=None, help="keep the staged trees and runs in this folder")
     args = parser.parse_args(argv)
     work = Path(args.keep or tempfile.mkdtemp(prefix="warpfree_compare_"))
@@ -229,7 +228,8 @@ def main(argv=None) -> int:
         if outs is None:
             bad += 1
             continue
-        failures, reported, count = compare_runs(outs["base"], outs["new"], (sides["base"], sides["new"]))
+        failures, reported, count = compare_runs(outs["base"], outs["new"], (sides["base"], sides["new"]),
+                                                  tuple(args.ignore))
         status = "same" if not failures else "DIFFERENT"
         print(f"{scene:26s} {status}: {count} files compared" + (f", {len(reported)} pictures differ" if reported else ""))
         for line in failures[:10]:

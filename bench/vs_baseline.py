@@ -65,7 +65,10 @@ TAG = "@@BASELINE_RESULT@@"
 def worker(cfg: dict) -> dict:
     """Time ``cfg['steps']``-step blocks of the scene in the tree at ``cfg['root']`` (old or new API)."""
     import warpfree.device
-    from warpfree.cli import load_scene
+    try:
+        from warpfree.scene_loader import load_scene
+    except ImportError:  # a tree from before the scene loader had its own module
+        from warpfree.cli import load_scene
 
     warpfree.device.use("cpu", cfg["threads"])
     module = load_scene(os.path.join(cfg["root"], "scenes", cfg["scene"] + ".py"))

@@ -1,6 +1,7 @@
-"""2D dam break (Martin & Moyce 1952): a water column of width a and height n² a (``column_height``,
-default 2) collapses in a tank of length 4a. The surge front Z = x_front/a against Martin & Moyce's
-T = t sqrt(n² g/a) is compared with the experiments: for n² = 2 Martin & Moyce (1952) and Koshizuka &
+"""2D dam break (Martin & Moyce 1952): WCSPH surge front against the experiments.
+
+A water column of width a and height n² a (``column_height``, default 2) collapses in a tank of length 4a. The
+surge front Z = x_front/a against Martin & Moyce's T = t sqrt(n² g/a) is compared with the experiments: for n² = 2 Martin & Moyce (1952) and Koshizuka &
 Oka (1996), at T <= 2.5; for n² = 1 (the square column, ``--set column_height=1 --set tank_length=15
 --set tank_height=2 --set t_end=3.1``) Martin & Moyce's square-column series up to T = 9.5. The run
 writes ``front.png`` and the errors into ``summary.json``.
@@ -25,13 +26,14 @@ import os
 import numpy as np
 
 from warpfree.geometry import lattice_box
-from warpfree.errors import ParameterError
+from warpfree.errors import ParameterError, reported_as
 from warpfree.solvers.wcsph.scene_tools import (box_2d, box_walls_2d, front_position, hydrostatic_density,
                                                  require_scene_values)
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.dam_break_2d import front_errors
+
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
@@ -43,7 +45,7 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
           kernel: str = "wendland_c2", alpha: float = 0.1, wall_artificial: bool = False, delta: float = 0.1,
           mu: float = 1.0e-3,
           boundary_model: str = "dynamic", wall_safety: float = 0.75, cfl: float = 0.4, g: float = 9.81, rho0: float = 1000.0,
-          wall_layers: int = 3, checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "speed",
+          wall_layers: int = 3, checkpoint_every: int = 0, dt: float | None = None, frames: bool = True, frame_field: str = "speed",
           vtk: bool = True) -> TimeLoop:
     """Build the dam break; lengths in units of a (tank_length, tank_height), SI otherwise."""
     params = dict(locals())
@@ -57,15 +59,15 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
     length, top = tank_length * a, tank_height * a
     c0 = 10.0 * np.sqrt(2.0 * g * height)
     fluid = lattice_box((0.0, 0.0), (a, height), dx)
-    walls = box_walls_2d(length, top, dx, wall_layers)
-    fp = FluidParams(dim=2, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
-                     delta=delta, gravity=(0.0, -g, 0.0), boundary_model=boundary_model, cfl=cfl,
-                     wall_artificial_viscosity=wall_artificial,
-                     lj_d=2.0 * g * height,
-                     lj_r0=dx if boundary_model == "lennard_jones" else wall_safety * dx, container_lo=(0.0, 0.0, -1.0),
-                     container_hi=(length, top, 1.0))
-    solver = WCSPHSolver(fluid, walls, fp, density=hydrostatic_density(fluid[:, 1], height, rho0, c0, g),
-                         containers=[box_2d(length, top)])
+    with reported_as(layers="wall_layers", lj_r0="wall_safety"):
+        walls = box_walls_2d(length, top, dx, wall_layers)
+        fp = FluidParams(dim=2, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
+                         delta=delta, gravity=(0.0, -g, 0.0), boundary_model=boundary_model, cfl=cfl,
+                         wall_artificial_viscosity=wall_artificial, lj_d=2.0 * g * height,
+                         lj_r0=dx if boundary_model == "lennard_jones" else wall_safety * dx,
+                         container_lo=(0.0, 0.0, -1.0), container_hi=(length, top, 1.0))
+        solver = WCSPHSolver(fluid, walls, fp, density=hydrostatic_density(fluid[:, 1], height, rho0, c0, g),
+                             containers=[box_2d(length, top)])
 
     t_max = 2.5 if column_height == 2.0 else None  # the n² = 2 comparison stops at T = 2.5 (see README)
 
@@ -80,6 +82,6 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
 
     return TimeLoop(solver, t_end=t_end, output_interval=output_interval, name="dam_break_2d",
                       params=params, probes={"front": front_position}, analyses=[front_analysis],
-                      dt=dt or None, checkpoint_every=checkpoint_every,
+                      dt=dt, checkpoint_every=checkpoint_every,
                       output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field, plots=True,
                                            frame_bounds=((-0.1 * a, length + 0.1 * a), (-0.1 * a, top + 0.1 * a))))

@@ -1,5 +1,6 @@
-"""3D dam break with an obstacle (the geometry of SPHERIC benchmark test 2, Kleefsman et al. 2005):
-a water column 1.228 m long, 1 m wide and 0.55 m high at the far end of a 3.22 x 1 x 1 m tank hits a
+"""3D dam break with an obstacle (SPHERIC benchmark test 2, Kleefsman et al. 2005): tank and obstacle from STL meshes.
+
+A water column 1.228 m long, 1 m wide and 0.55 m high at the far end of a 3.22 x 1 x 1 m tank hits a
 0.161 x 0.403 x 0.161 m box. Tank and obstacle are read from the STL files in ``scenes/meshes/``
 (any watertight STL/OBJ/PLY can be passed instead). Wall particles are placed from the meshes' true
 surfaces (``warpfree.surface_layers``): three layers outside the tank and three inside the obstacle, the
@@ -25,13 +26,14 @@ import numpy as np
 
 from warpfree.geometry import fill_mesh, load_mesh
 from warpfree.surface_layers import surface_layers
-from warpfree.errors import ParameterError
+from warpfree.errors import ParameterError, reported_as
 from warpfree.solvers.wcsph.scene_tools import clear_of, hydrostatic_density, require_scene_values
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
 from warpfree.time_loop import TimeLoop
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
@@ -44,35 +46,38 @@ def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
           column_length: float = 1.228, column_height: float = 0.55, h_factor: float = 1.3,
           kernel: str = "wendland_c2", alpha: float = 0.1, delta: float = 0.1, mu: float = 1.0e-3,
           wall_safety: float = 0.75, cfl: float = 0.3, g: float = 9.81, rho0: float = 1000.0, wall_layers: int = 3,
-          checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "speed", vtk: bool = True,
+          checkpoint_every: int = 0, dt: float | None = None, frames: bool = True, frame_field: str = "speed", vtk: bool = True,
           surface: bool = False) -> TimeLoop:
     params = dict(locals())
     require_scene_values(positive=dict(dx=dx, column_length=column_length, column_height=column_height, g=g,
                                        rho0=rho0), layers=dict(wall_layers=wall_layers))
-    tank = load_mesh(tank_mesh)
+    with reported_as(mesh="tank_mesh"):
+        tank = load_mesh(tank_mesh)
     lo, hi = tank.bounds
     for name, value, room in (("column_length", column_length, hi[0] - lo[0]), ("column_height", column_height,
                                                                                hi[2] - lo[2])):
         if value >= room:
             raise ParameterError(name, f"must be below the tank's {room:.4g} m, got {value}")
     origin = lo
-    obstacle = load_mesh(obstacle_mesh) if obstacle_mesh else None
+    with reported_as(mesh="obstacle_mesh"):
+        obstacle = load_mesh(obstacle_mesh) if obstacle_mesh else None
     # fluid: the tank's lattice inside the column box, dx/2 clear of the tank and of the obstacle
     fluid = fill_mesh(tank, dx, origin=origin, clearance=0.5 * dx)  # dx need not divide the tank
     keep = (fluid[:, 0] >= hi[0] - column_length) & (fluid[:, 2] <= lo[2] + column_height)
     fluid = fluid[keep]
-    walls = surface_layers(tank, dx, wall_layers, "outside")
-    obstacle_walls = None
-    if obstacle is not None:
-        fluid = clear_of(fluid, obstacle, 0.5 * dx)
-        obstacle_walls = surface_layers(obstacle, dx, wall_layers, "inside")
-    c0 = 10.0 * np.sqrt(2.0 * g * column_height)
-    fp = FluidParams(dim=3, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
-                     delta=delta, gravity=(0.0, 0.0, -g), cfl=cfl, lj_d=2.0 * g * column_height,
-                     lj_r0=wall_safety * dx, container_lo=tuple(lo), container_hi=tuple(hi))
-    density = hydrostatic_density(fluid[:, 2], lo[2] + column_height, rho0, c0, g)
-    solver = WCSPHSolver(fluid, walls, fp, density=density, containers=[tank], obstacle_boundary=obstacle_walls,
-                         obstacles=[obstacle] if obstacle is not None else [])
+    with reported_as(layers="wall_layers", lj_r0="wall_safety"):
+        walls = surface_layers(tank, dx, wall_layers, "outside")
+        obstacle_walls = None
+        if obstacle is not None:
+            fluid = clear_of(fluid, obstacle, 0.5 * dx)
+            obstacle_walls = surface_layers(obstacle, dx, wall_layers, "inside")
+        c0 = 10.0 * np.sqrt(2.0 * g * column_height)
+        fp = FluidParams(dim=3, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
+                         delta=delta, gravity=(0.0, 0.0, -g), cfl=cfl, lj_d=2.0 * g * column_height,
+                         lj_r0=wall_safety * dx, container_lo=tuple(lo), container_hi=tuple(hi))
+        density = hydrostatic_density(fluid[:, 2], lo[2] + column_height, rho0, c0, g)
+        solver = WCSPHSolver(fluid, walls, fp, density=density, containers=[tank], obstacle_boundary=obstacle_walls,
+                             obstacles=[obstacle] if obstacle is not None else [])
 
     probes = {"front": lambda s, t: float(s.fluid_positions()[:, 0].min())}
     if obstacle is not None:
@@ -89,6 +94,6 @@ def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
 
     b = tuple(zip(lo, hi))
     return TimeLoop(solver, t_end=t_end, output_interval=output_interval, name="dam_break_3d", params=params,
-                      probes=probes, analyses=[obstacle_analysis], dt=dt or None, checkpoint_every=checkpoint_every,
+                      probes=probes, analyses=[obstacle_analysis], dt=dt, checkpoint_every=checkpoint_every,
                       output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field, frame_bounds=b,
                                            meshes=surface))

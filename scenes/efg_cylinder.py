@@ -16,7 +16,7 @@ import os
 
 import numpy as np
 
-from warpfree.errors import ParameterError, require_positive
+from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
 from warpfree.run import OutputOptions, StaticRun
 from warpfree.solvers.efg.boundary import Essential, Natural
 from warpfree.solvers.efg.layouts import annulus_nodes
@@ -90,6 +90,10 @@ def cylinder_errors(solver: ElasticitySolver) -> dict:
     out["energy_norm_error"] = err / norm
     return out
 
+
+#: the scene's parameters behind the solver's internal names: an error names what the user set
+NAMES = {"cells": "cells_r, cells_t", "order": "gauss", "support": "cells_r, cells_t, d_max"}
+
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
 SMALLEST = {"cells_r": 4, "cells_t": 4}
@@ -102,11 +106,10 @@ def build(cells_r: int = 16, cells_t: int = 16, layout: str = "regular", seed: i
     """``cells_r`` x ``cells_t`` polar node spacings (nodes: one more each way)."""
     params = dict(locals())
     for name in ("cells_r", "cells_t", "gauss"):
-        v = params[name]
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-            raise ParameterError(name, f"must be an integer >= 1, got {v!r}")
+        require_integer(name, params[name], minimum=1)
     require_positive("magnify", magnify)
-    solver = cylinder_solver(cells_r, cells_t, layout, seed, d_max, gauss, method, integration, model)
+    with reported_as(**NAMES):
+        solver = cylinder_solver(cells_r, cells_t, layout, seed, d_max, gauss, method, integration, model)
 
     def accuracy(run, out_dir):
         u, _, sig = run.solver.strain_stress_at(run.solver.cells.position)
@@ -115,4 +118,4 @@ def build(cells_r: int = 16, cells_t: int = 16, layout: str = "regular", seed: i
         return {"cylinder": cylinder_errors(run.solver)}
 
     return StaticRun(solver, name="efg_cylinder", params=params, analyses=[accuracy],
-                     output=OutputOptions(vtk=vtk, frames=frames))
+                     output=OutputOptions(vtk=vtk, frames=frames), reported_as=NAMES)

@@ -21,7 +21,7 @@ import os
 
 import numpy as np
 
-from warpfree.errors import ParameterError, require_positive
+from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
 from warpfree.run import OutputOptions, StaticRun
 from warpfree.solvers.efg.boundary import Essential, Natural
 from warpfree.solvers.efg.layouts import box_sides, grid_nodes, random_grid_nodes
@@ -81,6 +81,10 @@ def beam_errors(solver: ElasticitySolver) -> dict:
             "tip_rel_error": float(tip / beam.TIP_DEFLECTION - 1.0), "energy_norm_error": err / norm,
             "strain_energy": solver.strain_energy(), "exact_strain_energy": beam.strain_energy()}
 
+
+#: the scene's parameters behind the solver's internal names: an error names what the user set
+NAMES = {"cells": "cells_x, cells_y", "order": "gauss", "support": "cells_x, cells_y, d_max"}
+
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
 SMALLEST = {"cells_x": 12, "cells_y": 3}
@@ -95,13 +99,12 @@ def build(cells_x: int = 48, cells_y: int = 12, layout: str = "regular", seed: i
     ``refinements``: also solve on that many layouts from 6 x 1.5 ... cells doubling (convergence study)."""
     params = dict(locals())
     for name in ("cells_x", "cells_y", "gauss", "refinements"):
-        v = params[name]
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < (0 if name == "refinements" else 1):
-            raise ParameterError(name, f"must be an integer >= {0 if name == 'refinements' else 1}, got {v!r}")
+        require_integer(name, params[name], minimum=0 if name == "refinements" else 1)
     require_positive("magnify", magnify)
     options = dict(layout=layout, seed=seed, d_max=d_max, weight=weight, basis=basis, gauss=gauss, method=method,
                    integration=integration, model=model)
-    solver = beam_solver(cells_x, cells_y, **options)
+    with reported_as(**NAMES):
+        solver = beam_solver(cells_x, cells_y, **options)
 
     def accuracy(run, out_dir):
         result = {"beam": beam_errors(run.solver)}
@@ -121,7 +124,7 @@ def build(cells_x: int = 48, cells_y: int = 12, layout: str = "regular", seed: i
         return result
 
     return StaticRun(solver, name="efg_timoshenko", params=params, analyses=[accuracy],
-                     output=OutputOptions(vtk=vtk, frames=frames))
+                     output=OutputOptions(vtk=vtk, frames=frames), reported_as=NAMES)
 
 
 def _solved(solver):

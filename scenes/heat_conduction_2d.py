@@ -9,12 +9,13 @@ import os
 
 import numpy as np
 
-from warpfree.errors import ParameterError, require_finite, require_positive
+from warpfree.errors import ParameterError, reported_as, require_finite, require_integer, require_positive
 from warpfree.geometry import lattice_box
 from warpfree.run import OutputOptions
 from warpfree.solvers.heat import HeatModel, HeatSolver
 from warpfree.space import Space
 from warpfree.time_loop import TimeLoop
+
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
@@ -25,16 +26,16 @@ def build(n: int = 40, length: float = 1.0, alpha: float = 0.01, mode: int = 1, 
           t_end: float = 2.5, output_interval: float = 0.05, frames: bool = True, vtk: bool = True) -> TimeLoop:
     """``n`` particles per side of the L × L box (m), diffusivity α (m²/s), sine mode ``mode``, T0 = 300 K."""
     params = dict(locals())
-    if isinstance(n, bool) or int(n) != n or n < 6:
+    if require_integer("n", n) < 6:
         raise ParameterError("n", f"must be an integer >= 6 (the box must hold two supports of 2.6 dx), got {n!r}")
-    if isinstance(mode, bool) or int(mode) != mode or not 1 <= mode < n / 2:
-        raise ParameterError("mode", f"must be an integer from 1 to {(n - 1) // 2} (below n/2), got {mode!r}")
+    require_integer("mode", mode, minimum=1, maximum=(n - 1) // 2)  # below n/2
     require_positive("length", length)
     if require_finite("amplitude", amplitude) == 0.0:
         raise ParameterError("amplitude", "must not be 0 (the decay of a zero mode is not measurable)")
     dx = length / n
     space = Space(2, (0.0, 0.0, 0.0), (length, length, 0.0), (True, True, False))
-    model = HeatModel(lattice_box((0.0, 0.0), (length, length), dx), dx, alpha, space)
+    with reported_as(dx="n"):
+        model = HeatModel(lattice_box((0.0, 0.0), (length, length), dx), dx, alpha, space)
     k = 2.0 * np.pi * mode / length
     x = model.particles.numpy("position")[:, 0]
     solver = HeatSolver(model, 300.0 + amplitude * np.sin(k * x))

@@ -1,5 +1,7 @@
-"""Planar vacuum diode (issue 10: absorbing walls, electrodes, injection): a cold electron beam injected at the
-cathode, its steady space-charge potential against the beam equations' solution.
+"""Planar vacuum diode: an injected cold electron beam's space-charge potential against the steady beam equations.
+
+Absorbing walls, electrodes and injection: a cold electron beam injected at the cathode, its steady space-charge
+potential against the beam equations' solution.
 
 Normalised units (ε0 = 1, electron charge -1, mass 1). The cathode at y = 0 (potential 0) emits a cold beam at speed
 ``injection_speed`` v0 with particle flux Γ = ``injected_fraction`` Γ_CL, Γ_CL = (4/9) sqrt(2) V^{3/2}/d² the
@@ -20,7 +22,7 @@ import os
 
 import numpy as np
 
-from warpfree.errors import require_positive
+from warpfree.errors import reported_as, require_integer, require_positive
 from warpfree.io.frames import plot_series
 from warpfree.run import OutputOptions
 from warpfree.solvers.efg.model import EFGModel, MLSSettings
@@ -28,6 +30,7 @@ from warpfree.solvers.pic import Injection, PICSolver, PlasmaPoisson, Species
 from warpfree.solvers.pic.scene_tools import POTENTIAL_FRAMES, lattice_nodes, plot_history, walled_box, write_history
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.pic_diode import child_langmuir_flux, steady_potential
+
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
@@ -42,10 +45,13 @@ def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5
     of the periodic slab along x; ``particles_per_step``: macro-particles the cathode emits per step; ``dt``,
     ``t_end`` in the normalised time unit (the potential is averaged over the second half)."""
     params = dict(locals())
-    for name in ("voltage", "gap", "injected_fraction", "injection_speed", "width"):
+    for name in ("voltage", "gap", "injected_fraction", "injection_speed", "width", "dt"):
         require_positive(name, params[name])
-    space = walled_box(width, gap)
-    model = EFGModel(lattice_nodes(space, node_spacing), MLSSettings(d_max=d_max), space=space)
+    every = require_integer("output_every", output_every, minimum=1)
+    with reported_as(node_spacing="node_spacing, width, gap"):
+        space = walled_box(width, gap)
+        nodes = lattice_nodes(space, node_spacing)
+    model = EFGModel(nodes, MLSSettings(d_max=d_max), space=space)
     field = PlasmaPoisson(model, walls=(0.0, voltage))
     flux = injected_fraction * child_langmuir_flux(voltage, gap)
     v0 = injection_speed
@@ -54,7 +60,6 @@ def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5
     solver = PICSolver(field, [], dt, modes=(), particle_walls="absorb",
                        injections=[Injection(beam, "lower", particles_per_step)],
                        average_from=0.5 * n_steps * dt)
-    every = max(1, int(output_every))
 
     def diode_analysis(run, out_dir):
         s = run.solver
@@ -93,7 +98,7 @@ def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5
                     xlabel="y", ylabel="v_y", title=f"phase space at t = {s.t:.3g}")
         return {"diode": result}
 
-    return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, dt=dt, name="pic_diode",
+    return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, name="pic_diode",
                     params=params, analyses=[diode_analysis],
                     output=OutputOptions(vtk=vtk, frames=frames, extra_frames=POTENTIAL_FRAMES,
                                          frame_bounds=((0.0, width), (0.0, gap))))

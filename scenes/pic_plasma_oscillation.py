@@ -1,4 +1,4 @@
-"""Cold plasma oscillation (issue 10): electrons displaced by δ sin(kx) on a neutralising background oscillate at ω_p.
+"""Cold plasma oscillation: electrons displaced by δ sin(kx) on a neutralising background oscillate at ω_p.
 
 Normalised units (ω_pe = 1). A box of one wavelength 2π/k along x, periodic both ways; EFG nodes on a lattice
 (``node_spacing``, linear basis, cubic spline, d_max), electrons on a quiet lattice of ``particles_per_node`` per
@@ -18,7 +18,7 @@ import os
 
 import numpy as np
 
-from warpfree.errors import ParameterError, require_positive
+from warpfree.errors import reported_as, require_integer, require_positive
 from warpfree.run import OutputOptions
 from warpfree.solvers.efg.model import EFGModel, MLSSettings
 from warpfree.solvers.pic import PICSolver, PlasmaPoisson, Species, lattice_positions, load_species
@@ -26,6 +26,7 @@ from warpfree.solvers.pic.scene_tools import (POTENTIAL_FRAMES, lattice_nodes, m
                                               plot_history, relative_drift, write_history)
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.pic_plasma_oscillation import frequency_from_crossings, leapfrog_frequency
+
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
@@ -42,19 +43,22 @@ def build(wavenumber: float = 0.5, length_y: float = 4.0, node_spacing: float = 
     k = require_positive("wavenumber", wavenumber)
     require_positive("amplitude", amplitude)
     require_positive("periods", periods)
+    require_positive("dt", dt)
+    require_integer("particles_per_node", particles_per_node, minimum=1)
+    every = require_integer("output_every", output_every, minimum=1)
     length = 2.0 * math.pi / k
-    space = periodic_box(length, length_y)
-    model = EFGModel(lattice_nodes(space, node_spacing), MLSSettings(d_max=d_max), space=space)
+    with reported_as(length_y="length_y", node_spacing="node_spacing, wavenumber, length_y"):
+        space = periodic_box(length, length_y)
+        nodes = lattice_nodes(space, node_spacing)
+    model = EFGModel(nodes, MLSSettings(d_max=d_max), space=space)
     field = PlasmaPoisson(model)
-    if int(particles_per_node) != particles_per_node or particles_per_node < 1:
-        raise ParameterError("particles_per_node", f"must be a whole number >= 1, got {particles_per_node}")
-    counts = [int(round(space.length[a] / node_spacing)) * int(particles_per_node) for a in range(2)]
-    position = lattice_positions(space, counts)
+    counts = [int(round(space.length[a] / node_spacing)) * particles_per_node for a in range(2)]
+    with reported_as(counts="particles_per_node"):
+        position = lattice_positions(space, counts)
     position[:, 0] = np.mod(position[:, 0] + amplitude * np.sin(k * position[:, 0]), length)
     electrons = load_species(Species("electron", -1.0, 1.0, 1.0), space, position)
     solver = PICSolver(field, [electrons], dt, modes=[(1, 0)], gather=gather)
     n_steps = int(math.ceil(periods * 2.0 * math.pi / dt))
-    every = max(1, int(output_every))
 
     def oscillation_analysis(run, out_dir):
         h = run.solver.history
@@ -70,7 +74,7 @@ def build(wavenumber: float = 0.5, length_y: float = 4.0, node_spacing: float = 
                                                     / run.solver.initial_particle_charge - 1.0))),
             "particles": run.solver.n, "nodes": model.node_count, "steps": len(h["time"])}}
 
-    return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, dt=dt, name="pic_plasma_oscillation",
+    return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, name="pic_plasma_oscillation",
                     params=params, analyses=[oscillation_analysis],
                     output=OutputOptions(vtk=vtk, frames=frames, extra_frames=POTENTIAL_FRAMES,
                                          frame_bounds=((0.0, length), (0.0, length_y))))

@@ -1,4 +1,4 @@
-"""Thermal plasma in a periodic box (issue 10; seed 002 §6.1/6.3): energy conservation with both species moving.
+"""Thermal plasma in a periodic box (seed 002 §6.1/6.3): energy conservation with both species moving.
 
 Normalised units: electrons (charge -1, mass 1, density 1, temperature 1: ω_pe = 1, λ_D = 1) and protons (charge
 +1, mass ``mass_ratio``, density 1, temperature ``ion_temperature``: seed 002 §6.3 has electrons at 10⁴ K and
@@ -15,13 +15,14 @@ import os
 
 import numpy as np
 
-from warpfree.errors import ParameterError, require_positive
+from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
 from warpfree.run import OutputOptions
 from warpfree.solvers.efg.model import EFGModel, MLSSettings
 from warpfree.solvers.pic import PICSolver, PlasmaPoisson, Species, load_species, random_positions
 from warpfree.solvers.pic.scene_tools import (POTENTIAL_FRAMES, lattice_nodes, momentum_change, periodic_box,
                                               plot_history, relative_drift, write_history)
 from warpfree.time_loop import TimeLoop
+
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
@@ -40,20 +41,23 @@ def build(box: tuple = (64.0, 128.0), node_spacing: float = 1.0, d_max: float = 
     except (TypeError, ValueError):
         raise ParameterError("box", f"must be two lengths (Lx, Ly) in Debye lengths, got {box!r}") from None
     require_positive("periods", periods)
-    if int(particles_per_node) != particles_per_node or particles_per_node < 1:
-        raise ParameterError("particles_per_node", f"must be a whole number >= 1, got {particles_per_node}")
-    space = periodic_box(lx, ly)
-    nodes = lattice_nodes(space, node_spacing)
+    require_positive("dt", dt)
+    require_integer("particles_per_node", particles_per_node, minimum=1)
+    every = require_integer("output_every", output_every, minimum=1)
+    with reported_as(length_x="box", length_y="box", node_spacing="node_spacing, box"):
+        space = periodic_box(lx, ly)
+        nodes = lattice_nodes(space, node_spacing)
     model = EFGModel(nodes, MLSSettings(d_max=d_max), space=space)
     field = PlasmaPoisson(model)
-    rng = np.random.default_rng(seed)
-    count = int(particles_per_node) * nodes.shape[0]
-    loads = [load_species(Species("electron", -1.0, 1.0, 1.0, 1.0), space, random_positions(space, count, rng), rng),
-             load_species(Species("proton", 1.0, mass_ratio, 1.0, ion_temperature), space,
-                          random_positions(space, count, rng), rng)]
+    rng = np.random.default_rng(require_integer("seed", seed, minimum=0))
+    count = particles_per_node * nodes.shape[0]
+    with reported_as(count="particles_per_node", mass="mass_ratio", temperature="ion_temperature"):
+        loads = [load_species(Species("electron", -1.0, 1.0, 1.0, 1.0), space, random_positions(space, count, rng),
+                              rng),
+                 load_species(Species("proton", 1.0, mass_ratio, 1.0, ion_temperature), space,
+                              random_positions(space, count, rng), rng)]
     solver = PICSolver(field, loads, dt, modes=[(1, 0), (0, 1)], gather=gather)
     n_steps = int(math.ceil(periods * 2.0 * math.pi / dt))
-    every = max(1, int(output_every))
 
     def energy_analysis(run, out_dir):
         h = run.solver.history
@@ -76,7 +80,7 @@ def build(box: tuple = (64.0, 128.0), node_spacing: float = 1.0, d_max: float = 
             "particles_per_support": float(count / nodes.shape[0] * math.pi * (d_max * node_spacing) ** 2
                                            / node_spacing ** 2)}}
 
-    return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, dt=dt, name="pic_thermal_plasma",
+    return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, name="pic_thermal_plasma",
                     params=params, analyses=[energy_analysis],
                     output=OutputOptions(vtk=vtk, frames=frames, extra_frames=POTENTIAL_FRAMES,
                                          frame_bounds=((0.0, lx), (0.0, ly))))

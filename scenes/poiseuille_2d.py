@@ -29,7 +29,7 @@ import os
 
 import numpy as np
 
-from warpfree.errors import ParameterError
+from warpfree.errors import ParameterError, reported_as
 from warpfree.geometry import lattice_box
 from warpfree.kernels.smoothing import KERNELS
 from warpfree.run import OutputOptions
@@ -40,6 +40,7 @@ from warpfree.validation import poiseuille_2d as exact
 
 #: anchor times of Morris et al. (1997) in units of L²/ν (0.0225 s ... 0.225 s for L = 1 mm, ν = 1e-6 m²/s)
 ANCHORS = (0.0225, 0.045, 0.1125, 0.225)
+
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
@@ -81,9 +82,10 @@ def build(n: int = 40, width: float = 1.0e-3, channel_length: float = 1.0e-3, nu
                                             f"{math.ceil((support - 0.5 * dx) / dx - 1e-9)}")
     u_c = exact.centre_velocity(force, nu, width)
     c0 = u_c / mach
-    fluid = lattice_box((0.0, 0.0), (channel_length, width), dx)
-    walls = np.vstack([lattice_box((0.0, -wall_layers * dx), (channel_length, 0.0), dx),
-                       lattice_box((0.0, width), (channel_length, width + wall_layers * dx), dx)])
+    with reported_as(dx="n, channel_length, wall_layers"):  # the count: channel_length/dx x (n + 2 wall_layers)
+        fluid = lattice_box((0.0, 0.0), (channel_length, width), dx)
+        walls = np.vstack([lattice_box((0.0, -wall_layers * dx), (channel_length, 0.0), dx),
+                           lattice_box((0.0, width), (channel_length, width + wall_layers * dx), dx)])
     fp = FluidParams(dim=2, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=rho0 * nu, alpha=0.0,
                      delta=0.0, gravity=(force, 0.0, 0.0), boundary_model="dynamic", no_slip=True, cfl=cfl,
                      container_lo=(0.0, 0.0, -1.0), container_hi=(channel_length, width, 1.0),

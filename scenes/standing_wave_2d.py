@@ -19,10 +19,12 @@ import os
 
 import numpy as np
 
+from warpfree.errors import ParameterError, reported_as
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph.scene_tools import box_2d, require_scene_values, still_water_2d
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import standing_wave_2d as linear
+
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
@@ -40,18 +42,17 @@ def build(length: float = 1.0, depth: float = 0.5, amplitude: float = 0.01, dx: 
     require_scene_values(positive=dict(length=length, depth=depth, amplitude=amplitude, dx=dx, periods=periods,
                                        g=g, rho0=rho0), layers=dict(wall_layers=wall_layers,
                                                                     outputs_per_period=outputs_per_period))
-    from warpfree.errors import ParameterError
-
     if amplitude >= 0.2 * depth:
         raise ParameterError("amplitude", f"must be < 0.2 depth = {0.2 * depth:g} m (a linear wave), got {amplitude}")
     omega = linear.frequency(g, length, depth)
     period = 2.0 * math.pi / omega
     c0 = 10.0 * math.sqrt(2.0 * g * depth)
     tank = box_2d(length, 2.0 * depth)
-    solver, _, settled = still_water_2d(
-        tank, depth, dx, dict(h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha, delta=delta,
-                              gravity=(0.0, -g, 0.0), cfl=cfl, lj_d=2.0 * g * depth, lj_r0=0.75 * dx),
-        wall_layers=wall_layers, settle_periods=settle_periods)
+    with reported_as(layers="wall_layers"):
+        solver, _, settled = still_water_2d(
+            tank, depth, dx, dict(h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha, delta=delta,
+                                  gravity=(0.0, -g, 0.0), cfl=cfl, lj_d=2.0 * g * depth, lj_r0=0.75 * dx),
+            wall_layers=wall_layers, settle_periods=settle_periods)
     x = solver.fluid.numpy("position").astype(np.float64)
     v = linear.initial_velocity(x[:, 0], x[:, 1], amplitude, g, length, depth)
     solver.fluid["velocity"].assign(np.column_stack([v, np.zeros(len(v))]).astype(np.float32))

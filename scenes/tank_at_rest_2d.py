@@ -1,5 +1,6 @@
-"""2D tank at rest (hydrostatic): water of depth H in a tank of width W, starting from the
-hydrostatic density. The pressure along the depth must follow p = ρ0 g (H - y); no particle may leave
+"""2D tank at rest, upright or tilted: WCSPH pressure against the hydrostatic p = ρ0 g (H - y).
+
+Water of depth H in a tank of width W, starting from the hydrostatic density. The pressure along the depth must follow p = ρ0 g (H - y); no particle may leave
 the container, the kinetic energy must decay from the start and the free surface stay level.
 
 The quiet start (measured in ``warpfree/validation/tank_at_rest_2d/README.md``): a square lattice under
@@ -31,10 +32,11 @@ import os
 
 import numpy as np
 
-from warpfree.errors import require_finite
+from warpfree.errors import reported_as, require_finite
 from warpfree.solvers.wcsph.scene_tools import box_2d, require_scene_values, still_water_2d
 from warpfree.run import OutputOptions
 from warpfree.time_loop import TimeLoop
+
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
@@ -45,7 +47,7 @@ def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float
           output_interval: float = 0.05, h_factor: float = 1.6, kernel: str = "wendland_c2",
           alpha: float = 0.1, delta: float = 0.1, mu: float = 1.0e-3, boundary_model: str = "dynamic", wall_safety: float = 0.75,
           cfl: float = 0.4, g: float = 9.81, rho0: float = 1000.0, wall_layers: int = 3,
-          checkpoint_every: int = 0, dt: float = 0.0, frames: bool = True, frame_field: str = "pressure", vtk: bool = True,
+          checkpoint_every: int = 0, dt: float | None = None, frames: bool = True, frame_field: str = "pressure", vtk: bool = True,
           tilt: float = 0.0, shifting: float = 0.0, relax: bool = True, settle_periods: float = 3.0) -> TimeLoop:
     """Build the tank; the container is twice as high as the water."""
     params = dict(locals())
@@ -56,12 +58,13 @@ def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float
     tank = box_2d(width, 2.0 * depth) @ rotation.T
     tank[:, 1] -= tank[:, 1].min()
     c0 = 10.0 * np.sqrt(2.0 * g * depth)
-    solver, water, settled = still_water_2d(
-        tank, depth, dx, dict(h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha, delta=delta,
-                              gravity=(0.0, -g, 0.0), boundary_model=boundary_model, cfl=cfl, shifting=shifting,
-                              lj_d=2.0 * g * depth,
-                              lj_r0=dx if boundary_model == "lennard_jones" else wall_safety * dx),
-        wall_layers=wall_layers, relax=relax, settle_periods=settle_periods)
+    with reported_as(layers="wall_layers", lj_r0="wall_safety"):
+        solver, water, settled = still_water_2d(
+            tank, depth, dx, dict(h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha, delta=delta,
+                                  gravity=(0.0, -g, 0.0), boundary_model=boundary_model, cfl=cfl, shifting=shifting,
+                                  lj_d=2.0 * g * depth,
+                                  lj_r0=dx if boundary_model == "lennard_jones" else wall_safety * dx),
+            wall_layers=wall_layers, relax=relax, settle_periods=settle_periods)
     lo, hi = tank.min(axis=0), tank.max(axis=0)
 
     def pressure_analysis(sim: TimeLoop, out_dir: str) -> dict:
@@ -80,7 +83,7 @@ def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float
         return surface_level_spread(s.fluid.numpy("position"), water, dx)
 
     return TimeLoop(solver, t_end=t_end, output_interval=output_interval, name="tank_at_rest_2d",
-                      params=params, analyses=[pressure_analysis], dt=dt or None,
+                      params=params, analyses=[pressure_analysis], dt=dt,
                       probes={"surface_spread": surface_spread},
                       checkpoint_every=checkpoint_every,
                       output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field,

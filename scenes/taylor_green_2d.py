@@ -31,7 +31,7 @@ import os
 
 import numpy as np
 
-from warpfree.errors import ParameterError, require_positive
+from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
 from warpfree.geometry import lattice_box
 from warpfree.kernels.smoothing import KERNELS
 from warpfree.run import OutputOptions
@@ -42,6 +42,7 @@ from warpfree.validation import taylor_green_2d as exact
 
 #: |energy_error| above which the run is said to have broken down (reported as ``breakdown_time``)
 BREAKDOWN_ENERGY_ERROR = 0.05
+
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
@@ -59,8 +60,7 @@ def build(n: int = 50, length: float = 1.0, u0: float = 1.0, reynolds: float = 1
     params = dict(locals())
     require_scene_values(positive=dict(length=length, u0=u0, reynolds=reynolds, rho0=rho0, mach=mach,
                                        h_factor=h_factor))
-    if isinstance(n, bool) or int(n) != n:
-        raise ParameterError("n", f"must be an integer, got {n!r}")
+    require_integer("n", n)
     if kernel not in KERNELS:
         raise ParameterError("kernel", f"must be one of {sorted(KERNELS)}, got {kernel!r}")
     # the periodic side must hold two neighbour radii (support + 15 % skin)
@@ -79,7 +79,8 @@ def build(n: int = 50, length: float = 1.0, u0: float = 1.0, reynolds: float = 1
     t_end = t_end or t_e
     output_interval = output_interval or t_end / 40.0
     dx = length / n
-    fluid = lattice_box((0.0, 0.0), (length, length), dx)
+    with reported_as(dx="n"):
+        fluid = lattice_box((0.0, 0.0), (length, length), dx)
     x, y = fluid[:, 0], fluid[:, 1]
     fp = FluidParams(dim=2, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=rho0 * nu, alpha=alpha,
                      delta=delta, shifting=shifting, gravity=(0.0, 0.0, 0.0), cfl=cfl, container_lo=(0.0, 0.0, -1.0),

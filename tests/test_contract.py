@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from warpfree import device
-from warpfree.cli import load_scene
+from warpfree.scene_loader import load_scene
 from warpfree.solver import State, TimeDependentSolver
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

@@ -11,7 +11,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from warpfree.cli import main
-from warpfree.cli import load_scene
+from warpfree.scene_loader import load_scene
 from warpfree.device import Launcher
 from warpfree.errors import ParameterError
 from warpfree.solvers.efg import assembly

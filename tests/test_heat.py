@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from warpfree import device
-from warpfree.cli import load_scene
+from warpfree.scene_loader import load_scene
 from warpfree.errors import ParameterError
 from warpfree.solvers.heat import HeatModel, HeatSolver
 from warpfree.space import Space

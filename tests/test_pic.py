@@ -181,7 +181,7 @@ def test_threads_give_bitwise_identical_runs():
 
 
 def test_plasma_oscillation_frequency_within_one_percent_of_the_leapfrog(tmp_path):
-    from warpfree.cli import load_scene
+    from warpfree.scene_loader import load_scene
 
     run = load_scene("scenes/pic_plasma_oscillation.py").build(frames=False, vtk=False)
     result = run.run(str(tmp_path), progress=False)["analysis"]["oscillation"]
@@ -192,7 +192,7 @@ def test_plasma_oscillation_frequency_within_one_percent_of_the_leapfrog(tmp_pat
 
 
 def test_two_stream_growth_rate_within_ten_percent(tmp_path):
-    from warpfree.cli import load_scene
+    from warpfree.scene_loader import load_scene
 
     run = load_scene("scenes/pic_two_stream.py").build(frames=False, vtk=False)
     result = run.run(str(tmp_path), progress=False)["analysis"]["two_stream"]
@@ -202,7 +202,7 @@ def test_two_stream_growth_rate_within_ten_percent(tmp_path):
 
 
 def test_thermal_plasma_conserves_energy_on_a_small_box(tmp_path):
-    from warpfree.cli import load_scene
+    from warpfree.scene_loader import load_scene
 
     run = load_scene("scenes/pic_thermal_plasma.py").build(box=(8.0, 16.0), periods=10.0, frames=False, vtk=False)
     result = run.run(str(tmp_path), progress=False)["analysis"]["thermal"]
@@ -304,9 +304,14 @@ def test_boris_push_gyrates_at_the_discrete_cyclotron_frequency():
 
 def test_cli_takes_tuples_and_names_a_bad_one():
     """`--set box=8,16` (or "(8, 16)") types each item like the default's; a wrong count names the parameter."""
-    from warpfree.cli import parse_overrides
+    from types import SimpleNamespace
 
-    defaults = {"box": (64.0, 128.0), "fit_window": (1e-6, 1e-3)}
+    from warpfree.scene_loader import parse_overrides, scene_parameters
+
+    def build(box: tuple = (64.0, 128.0), fit_window: tuple = (1e-6, 1e-3)):
+        return None
+
+    defaults = scene_parameters(SimpleNamespace(build=build))
     assert parse_overrides(["box=(8, 16)", "fit_window=1e-5,1e-2"], defaults) == {"box": (8.0, 16.0),
                                                                                   "fit_window": (1e-5, 1e-2)}
     with pytest.raises(ParameterError) as err:

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from warpfree import device
-from warpfree.cli import load_scene
+from warpfree.scene_loader import load_scene
 from warpfree.errors import ParameterError
 from warpfree.solvers.efg.model import EFGModel, MLSSettings
 from warpfree.solvers.pic import Injection, PICSolver, PlasmaPoisson, Species, load_species, random_positions

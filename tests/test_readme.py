@@ -4,7 +4,7 @@ import os
 import re
 
 from warpfree import device
-from warpfree.cli import load_scene
+from warpfree.scene_loader import load_scene
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

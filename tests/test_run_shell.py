@@ -163,5 +163,6 @@ def test_static_scene_through_the_cli(tmp_path, capsys):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["kind"] == "static" and summary["status"] == "ok" and "setup" in summary["phases_s"]
     assert "solved" in capsys.readouterr().out and (out / "frames" / "frame_00000.png").is_file()
-    assert main(["run", str(scene), "--out", str(out), "--checkpoint-every", "5", "--no-progress"]) == 2
+    assert main(["run", str(scene), "--out", str(tmp_path / "again"), "--checkpoint-every", "5",
+                 "--no-progress"]) == 2
     assert "--checkpoint-every" in capsys.readouterr().err

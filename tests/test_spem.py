@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from warpfree import device
-from warpfree.cli import load_scene
+from warpfree.scene_loader import load_scene
 from warpfree.errors import ParameterError
 from warpfree.solvers.spem import (C0, PML, SPEMModel, SPEMSolver, staggered_box, staggered_disk, staggered_line,
                                    support_for_jitter)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from warpfree import device
-from warpfree.cli import load_scene
+from warpfree.scene_loader import load_scene
 from warpfree.errors import ParameterError
 from warpfree.validation import standing_wave_2d as linear
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from warpfree import device
-from warpfree.cli import load_scene
+from warpfree.scene_loader import load_scene
 from warpfree.errors import ParameterError, RunError
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
 
@@ -167,7 +167,7 @@ def test_time_step_above_cfl_limit_is_refused(dam_break):
 
 
 def test_scene_parameter_errors_name_the_parameter(dam_break):
-    from warpfree.cli import parse_overrides, scene_parameters
+    from warpfree.scene_loader import parse_overrides, scene_parameters
 
     defaults = scene_parameters(dam_break)
     with pytest.raises(ParameterError, match="nonsense"):

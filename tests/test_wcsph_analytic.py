@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from warpfree import device
-from warpfree.cli import load_scene, main
+from warpfree.cli import main
+from warpfree.scene_loader import load_scene
 from warpfree.errors import ParameterError
 from warpfree.geometry import lattice_box
 from warpfree.solvers.wcsph.model import lattice_second_moment

@@ -14,7 +14,7 @@ import pytest
 import trimesh
 
 from warpfree import device
-from warpfree.cli import load_scene
+from warpfree.scene_loader import load_scene
 from warpfree.geometry import fill_mesh, fill_polygon
 from warpfree.solids import Solids
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver

@@ -37,7 +37,7 @@ import numpy as np
 if TYPE_CHECKING:
     import trimesh
 
-from .errors import ParameterError, require_memory, require_positive
+from .errors import ParameterError, require_integer, require_memory, require_positive
 
 __all__ = [
     "lattice_box",
@@ -96,9 +96,7 @@ def _origin(origin, default: np.ndarray) -> np.ndarray:
 
 
 def _layers(layers) -> int:
-    if isinstance(layers, bool) or not isinstance(layers, (int, np.integer)) or layers < 1:
-        raise ParameterError("layers", f"must be an integer >= 1, got {layers!r}")
-    return int(layers)
+    return require_integer("layers", layers, minimum=1)
 
 
 def _side(side) -> str:

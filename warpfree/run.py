@@ -27,7 +27,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from .errors import ParameterError, RunError
+from .errors import ParameterError, RunError, reported_as
 from .io.writer import OutputError, OutputWriter
 from .solver import OutputSet, PhaseTimes, Solver, StaticSolver
 
@@ -106,13 +106,18 @@ class Run(ABC):
     params: the scene's parameters, recorded in the summary.
     analyses: functions ``(run, out_dir) -> dict`` run at the end, merged into ``summary["analysis"]``.
     output: :class:`OutputOptions`.
+    reported_as: internal name -> the scene's parameter(s) (:func:`~warpfree.errors.reported_as`), for bad input found
+        only when the run starts (e.g. an MLS support too small for its basis, met when a static solve evaluates its
+        shape functions): the error names what the user set.
     """
 
     kind: ClassVar[str] = "run"
 
     def __init__(self, solver: Solver, name: str = "run", params: dict | None = None,
-                 analyses: list[Analysis] | None = None, output: OutputOptions | None = None):
+                 analyses: list[Analysis] | None = None, output: OutputOptions | None = None,
+                 reported_as: dict[str, str] | None = None):
         self.solver = solver
+        self.reported_as = dict(reported_as or {})
         self.name = name
         self.params = dict(params or {})
         self.analyses = list(analyses or [])
@@ -212,7 +217,8 @@ class Run(ABC):
         try:
             try:
                 try:
-                    self._execute(directory, resume, progress)
+                    with reported_as(**self.reported_as):
+                        self._execute(directory, resume, progress)
                     with self.phases("output"):
                         self._writer.finish()
                 except OutputError as exc:
@@ -305,10 +311,11 @@ class StaticRun(Run):
     kind: ClassVar[str] = "static"
 
     def __init__(self, solver: StaticSolver, name: str = "run", params: dict | None = None,
-                 analyses: list[Analysis] | None = None, output: OutputOptions | None = None):
+                 analyses: list[Analysis] | None = None, output: OutputOptions | None = None,
+                 reported_as: dict[str, str] | None = None):
         if not isinstance(solver, StaticSolver):
             raise ParameterError("solver", f"a StaticRun needs a StaticSolver, got {type(solver).__name__}")
-        super().__init__(solver, name, params, analyses, output)
+        super().__init__(solver, name, params, analyses, output, reported_as)
         self.solve_s = 0.0
 
     def _execute(self, directory: RunDirectory | None, resume: bool, progress: bool) -> None:

@@ -4,8 +4,9 @@ A solver is a static **model** (parameters, materials, neighbour structures, fac
 object another solver may hold), a **state** (the arrays that change; by construction exactly what a
 checkpoint saves), and the launches that advance or solve them. Two kinds:
 
-- :class:`TimeDependentSolver`: ``step(dt)`` and ``stable_dt()`` (``math.inf``: no limit), run by
-  :class:`warpfree.time_loop.TimeLoop`.
+- :class:`TimeDependentSolver`: ``step(dt)``, ``stable_dt()`` (``math.inf``: no limit) and ``step_rule()``, how
+  the time loop may choose the step (:class:`StepRule`: a new stable step every step, one constant step below a
+  limit, or the solver's own fixed step), run by :class:`warpfree.time_loop.TimeLoop`.
 - :class:`StaticSolver`: ``solve()``, run once by :class:`warpfree.run.StaticRun`, with the same run
   directory, summary, outputs and errors and no time loop.
 
@@ -17,6 +18,7 @@ gives a throughput. Timed phases go to :attr:`Solver.phases`.
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from abc import ABC, abstractmethod
@@ -31,7 +33,7 @@ import warp as wp
 from .device import Launcher
 from .errors import ParameterError
 
-__all__ = ["State", "OutputSet", "PhaseTimes", "Solver", "TimeDependentSolver", "StaticSolver"]
+__all__ = ["State", "OutputSet", "PhaseTimes", "Solver", "StepRule", "TimeDependentSolver", "StaticSolver"]
 
 
 class State:
@@ -113,6 +115,41 @@ class PhaseTimes:
         return dict(self.seconds)
 
 
+@dataclass(frozen=True)
+class StepRule:
+    """How the time loop chooses a solver's time step; the solver declares it (:meth:`TimeDependentSolver.step_rule`).
+
+    - ``variable``: a new step every step, the solver's :meth:`~TimeDependentSolver.stable_dt` at the current state
+      (WCSPH's CFL step); a run may ask for a fixed step instead, checked against the stable one every step.
+    - ``constant`` (``value``: the largest stable step): one step for the whole run, the largest that divides the output
+      interval into whole steps (a staggered leapfrog keeps its order only with a constant step: SPEM).
+    - ``fixed`` (``value``: the step): exactly the solver's own step, set on the solver (PIC: the velocities live at
+      half steps of its Δt, and ω_p Δt is physics the scene chooses); output interval and end time must be whole
+      multiples of it.
+    """
+
+    kind: str
+    value: float = math.inf
+
+    KINDS: ClassVar[tuple[str, ...]] = ("variable", "constant", "fixed")
+
+    def __post_init__(self):
+        if self.kind not in self.KINDS:
+            raise ValueError(f"StepRule.kind must be one of {self.KINDS}, got {self.kind!r}")
+
+    @classmethod
+    def variable(cls) -> "StepRule":
+        return cls("variable")
+
+    @classmethod
+    def constant(cls, limit: float) -> "StepRule":
+        return cls("constant", float(limit))
+
+    @classmethod
+    def fixed(cls, step: float) -> "StepRule":
+        return cls("fixed", float(step))
+
+
 class Solver(ABC):
     """What every solver provides. Subclass :class:`TimeDependentSolver` or :class:`StaticSolver`.
 
@@ -184,6 +221,10 @@ class TimeDependentSolver(Solver):
     @abstractmethod
     def stable_dt(self) -> float:
         """The largest stable step at the current state (s); ``math.inf`` when nothing limits it."""
+
+    def step_rule(self) -> StepRule:
+        """How the time loop chooses the step (:class:`StepRule`); by default a new stable step every step."""
+        return StepRule.variable()
 
     def problem(self) -> str | None:
         """Checked after every step: a message when the last step left the state bad, else None."""

@@ -27,7 +27,7 @@ import numpy as np
 import warp as wp
 
 from .device import current_launcher
-from .errors import ParameterError, require_memory, require_positive
+from .errors import ParameterError, require_integer, require_memory, require_positive
 from .geometry import ccw_polygon, is_mesh
 from .neighbours import NeighbourGrid, NeighbourList
 from .particles import to_vec3
@@ -47,21 +47,20 @@ def surface_layers(shape, dx: float, layers: int, side: str) -> np.ndarray:
     mesh), ``layers`` layers on ``side`` ("outside": container walls; "inside": obstacle walls), layer k at
     (k + 1/2) ``dx`` from the surface (m). Returns (N, 2) for a polygon, (N, 3) for a mesh."""
     dx = require_positive("dx", dx)
-    if isinstance(layers, bool) or int(layers) != layers or layers < 1:
-        raise ParameterError("layers", f"must be an integer >= 1, got {layers!r}")
+    layers = require_integer("layers", layers, minimum=1)
     if side not in ("outside", "inside"):
         raise ParameterError("side", f"must be 'outside' or 'inside', got {side!r}")
     sign = 1.0 if side == "outside" else -1.0
     if is_mesh(shape):
         if not shape.is_watertight:
             raise ParameterError("mesh", "must be watertight (closed) to have an inside and an outside")
-        require_memory("dx", shape.area * layers / dx ** 2, 200.0, "boundary particles")
+        require_memory("dx, layers", shape.area * layers / dx ** 2, 200.0, "boundary particles")
         candidates = [_mesh_layer(shape, dx, (k + 0.5) * dx, sign) for k in range(int(layers))]
         solids = Solids(current_launcher(), 3, containers=[shape])
     else:
         poly = ccw_polygon(shape)
         perimeter = float(np.sum(np.linalg.norm(np.roll(poly, -1, axis=0) - poly, axis=1)))
-        require_memory("dx", perimeter * layers / dx, 100.0, "boundary particles")
+        require_memory("dx, layers", perimeter * layers / dx, 100.0, "boundary particles")
         candidates = [_polygon_layer(poly, dx, (k + 0.5) * dx, sign) for k in range(int(layers))]
         solids = Solids(current_launcher(), 2, containers=[poly])
     kept = []

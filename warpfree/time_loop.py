@@ -1,8 +1,11 @@
 """The time loop: steps, probes, the output schedule and checkpoints of a time-dependent solver.
 
-Time step: the solver's stable step (``stable_dt()``; ``math.inf`` means no limit, and then a fixed
-``dt`` is required), shortened only to land exactly on output times; or a fixed ``dt`` that must stay
-within the stable step (else the run stops naming ``dt``).
+Time step, as the solver's :class:`~warpfree.solver.StepRule` says: ``variable``, the solver's stable step
+(``stable_dt()``; ``math.inf`` means no limit, and then a fixed ``dt`` is required) or a fixed ``dt`` the run asks for
+that must stay within it (else the run stops naming ``dt``); ``constant``, one step for the whole run, the largest
+below the solver's limit that divides the output interval (or the run's ``dt``, within the limit); ``fixed``, the
+solver's own step, the output interval and end time whole multiples of it. A variable or constant step is shortened
+only to land exactly on output times and the end; :attr:`TimeLoop.step_size` is the constant or fixed step.
 
 At every output time the loop records the probes and the solver's diagnostics, hands the output sets
 to the writer and keeps a copy of the state (the last good state, written as a checkpoint if the run
@@ -39,7 +42,8 @@ class TimeLoop(Run):
     ----------
     t_end, output_interval: seconds (> 0).
     probes: name -> ``f(solver, t)``, recorded at every output time into ``series`` and the summary.
-    dt: a fixed step (s) instead of the stable one; refused if above the stable limit.
+    dt: a fixed step (s) instead of the stable one (variable and constant rules); refused if above the stable limit;
+        a solver with a fixed step of its own takes none.
     checkpoint_every: write a checkpoint every K steps (0: none; the two newest are kept).
     max_steps: stop after this many steps of this call to :meth:`run` (an interrupted run, for tests).
     """
@@ -49,13 +53,13 @@ class TimeLoop(Run):
     def __init__(self, solver: TimeDependentSolver, t_end: float, output_interval: float, name: str = "run",
                  params: dict | None = None, probes: dict[str, Probe] | None = None,
                  analyses: list[Analysis] | None = None, dt: float | None = None, checkpoint_every: int = 0,
-                 output: OutputOptions | None = None, max_steps: int | None = None):
+                 output: OutputOptions | None = None, max_steps: int | None = None,
+                 reported_as: dict[str, str] | None = None):
         if not isinstance(solver, TimeDependentSolver):
             raise ParameterError("solver", f"a TimeLoop needs a TimeDependentSolver, got {type(solver).__name__}")
-        super().__init__(solver, name, params, analyses, output)
+        super().__init__(solver, name, params, analyses, output, reported_as)
         self.t_end = require_positive("t_end", t_end)
         self.output_interval = require_positive("output_interval", output_interval)
-        self.dt_fixed = None if dt is None else require_positive("dt", dt)
         self.checkpoint_every = checkpoint_every
         self.probes = dict(probes or {})
         self.max_steps = max_steps
@@ -70,12 +74,38 @@ class TimeLoop(Run):
         self._good = None                  # (loop scalars, state copies, series lengths) at the last output
         self._checkpoint_step = -1
         self.skipped_checkpoints: list[str] = []  # damaged checkpoints a resume passed over
-        limit = solver.stable_dt()
-        if self.dt_fixed is None and not math.isfinite(limit):
-            raise ParameterError("dt", "this solver has no stable-step limit: give a fixed dt")
-        if self.dt_fixed is not None and self.dt_fixed > limit:
-            unit = solver.time_unit
-            raise ParameterError("dt", f"{self.dt_fixed:.4g} {unit} exceeds the stable (CFL) limit {limit:.4g} {unit}")
+        self.rule = solver.step_rule()
+        self.dt_fixed = self._chosen_step(None if dt is None else require_positive("dt", dt))
+
+    @property
+    def step_size(self) -> float | None:
+        """The run's step when it has one for the whole run (a constant or fixed rule, or a fixed ``dt``); None when
+        the solver's stable step is taken anew every step."""
+        return self.dt_fixed
+
+    def _chosen_step(self, dt: float | None) -> float | None:
+        """The step of the whole run from the solver's rule and the run's ``dt`` (None: a new stable step each step)."""
+        unit, rule = self.solver.time_unit, self.rule
+        if rule.kind == "fixed":
+            if dt is not None and dt != rule.value:
+                raise ParameterError("dt", f"this solver steps by its own Δt = {rule.value:.6g} {unit}, set where the "
+                                           f"solver is made; a run cannot take another ({dt:.6g} {unit})")
+            for name, span in (("output_interval", self.output_interval), ("t_end", self.t_end)):
+                steps = span / rule.value
+                if abs(steps - round(steps)) > 1e-9 * max(1.0, steps):
+                    raise ParameterError(name, f"{span:.6g} {unit} is not a whole number of the solver's steps "
+                                               f"Δt = {rule.value:.6g} {unit} ({steps:.6g})")
+            return rule.value
+        limit = self.solver.stable_dt() if rule.kind == "variable" else rule.value
+        if dt is None:
+            if not math.isfinite(limit):
+                raise ParameterError("dt", "this solver has no stable-step limit: give a fixed dt")
+            if rule.kind == "constant":  # the largest step below the limit that divides the output interval
+                return self.output_interval / math.ceil(self.output_interval / limit - 1e-9)
+            return None
+        if dt > limit:
+            raise ParameterError("dt", f"{dt:.4g} {unit} exceeds the stable (CFL) limit {limit:.4g} {unit}")
+        return dt
 
     @property
     def checkpoint_every(self) -> int:
@@ -94,7 +124,7 @@ class TimeLoop(Run):
 
     def next_dt(self) -> float:
         """The step to take now: stable or fixed, shortened to land on the next output time or the end."""
-        limit = self.solver.stable_dt()
+        limit = self.solver.stable_dt() if self.rule.kind == "variable" else self.rule.value
         if math.isnan(limit) or limit <= 0:
             raise RunError(f"non-finite or broken state: the stable time step is {limit}", self.step_count)
         if self.dt_fixed is not None:

@@ -8,12 +8,16 @@ import os
 
 import numpy as np
 
-from warpfree.errors import ParameterError, require_positive
+from warpfree.errors import ParameterError, require_memory, require_positive
 from warpfree.space import Space
 
 __all__ = ["POTENTIAL_FRAMES", "periodic_box", "walled_box", "lattice_nodes", "write_history", "plot_history",
            "relative_drift", "momentum_change"]
 
+
+#: memory per node of a PIC field solve, bytes: the EFG model's shape rows, the factorised Poisson matrix and the
+#: deposit and gather rows; the thermal plasma's peak resident memory grows by 33 kB per node, rounded up
+BYTES_PER_NODE = 40e3
 
 #: the frame series every PIC scene writes beside its particle frames: the potential on the nodes
 #: (``frames/nodes_potential_NNNNN.png``; ``warpfree.run.OutputOptions.extra_frames``)
@@ -38,7 +42,9 @@ def lattice_nodes(space: Space, spacing: float) -> np.ndarray:
     """Nodes on a regular lattice of about ``spacing`` (exactly Lx/nx, Ly/ny with n = round(L/spacing)), the first at
     the box's lower corner; along an axis that is not periodic (walls) the last row lies on the upper wall."""
     require_positive("node_spacing", spacing)
-    counts = [int(round(space.length[a] / spacing)) for a in range(2)]
+    spans = space.length[:2] / spacing
+    require_memory("node_spacing", float(np.prod(spans + 1.0)), BYTES_PER_NODE, "nodes")
+    counts = [int(round(spans[a])) for a in range(2)]
     if min(counts) < 2:
         raise ParameterError("node_spacing", f"{spacing} leaves fewer than 2 nodes along an axis of the box "
                                              f"{space.length[:2].tolist()}")

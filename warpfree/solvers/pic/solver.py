@@ -39,7 +39,7 @@ from warpfree.kernels import efg as ek
 from warpfree.kernels import pic as pk
 from warpfree.neighbours import NeighbourGrid
 from warpfree.reduce import Reduction
-from warpfree.solver import OutputSet, State, TimeDependentSolver
+from warpfree.solver import OutputSet, State, StepRule, TimeDependentSolver
 from warpfree.solvers.efg.model import RCOND_LIMIT, EFGModel
 
 from .field import PlasmaPoisson
@@ -512,6 +512,10 @@ class PICSolver(TimeDependentSolver):
         """The solver's own Δt (checked against the leapfrog's limit 2/ω_p at construction): the staggered
         velocities belong to it, so it is the only step :meth:`step` takes."""
         return self.dt
+
+    def step_rule(self) -> StepRule:
+        """Exactly the solver's own Δt: output times and the end are whole multiples of it."""
+        return StepRule.fixed(self.dt)
 
     @property
     def dim(self) -> int:

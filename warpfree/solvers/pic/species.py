@@ -15,8 +15,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from warpfree.errors import ParameterError, require_finite, require_positive
+from warpfree.errors import ParameterError, require_finite, require_integer, require_memory, require_positive
 from warpfree.space import Space
+
+#: memory per macro-particle of a PIC run, bytes: position, velocity, cell keys and sort buffers, the deposit and
+#: gather rows (float64); the thermal plasma's peak resident memory grows by 420 B per particle, rounded up
+BYTES_PER_PARTICLE = 512.0
 
 __all__ = ["Species", "ParticleLoad", "load_species", "lattice_positions", "random_positions"]
 
@@ -77,9 +81,8 @@ def _box_of(space: Space) -> tuple[np.ndarray, np.ndarray]:
 
 def lattice_positions(space: Space, counts: tuple[int, int]) -> np.ndarray:
     """A quiet start: ``counts`` = (nx, ny) particles on a regular lattice, at the centres of nx × ny equal cells."""
-    nx, ny = (int(c) for c in counts)
-    if nx < 1 or ny < 1:
-        raise ParameterError("counts", f"need at least one particle per axis, got {counts}")
+    nx, ny = (require_integer("counts", c, minimum=1) for c in counts)  # at least one particle per axis
+    require_memory("counts", float(nx) * ny, BYTES_PER_PARTICLE, "macro-particles")
     lower, length = _box_of(space)
     x = lower[0] + (np.arange(nx) + 0.5) * length[0] / nx
     y = lower[1] + (np.arange(ny) + 0.5) * length[1] / ny
@@ -90,7 +93,9 @@ def lattice_positions(space: Space, counts: tuple[int, int]) -> np.ndarray:
 def random_positions(space: Space, count: int, rng: np.random.Generator) -> np.ndarray:
     """``count`` positions uniform in the box."""
     lower, length = _box_of(space)
-    return lower + rng.random((int(count), 2)) * length
+    count = require_integer("count", count, minimum=1)
+    require_memory("count", count, BYTES_PER_PARTICLE, "macro-particles")
+    return lower + rng.random((count, 2)) * length
 
 
 def load_species(species: Species, space: Space, position, rng: np.random.Generator | None = None,

@@ -21,7 +21,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from warpfree.errors import ParameterError, require_positive
+from warpfree.errors import ParameterError, require_memory, require_positive
+
+#: memory per particle (E or H) of a SPEM run, bytes: positions, fields, PML, cross-set neighbour lists, derivative
+#: rows and the energy-conserving pair's sparse operators; the peak resident memory of the line, cavity and plane-wave
+#: scenes grows by 2.4-3.4 kB per particle, rounded up
+BYTES_PER_PARTICLE = 4096.0
 
 __all__ = ["StaggeredLayout", "staggered_line", "staggered_box", "staggered_disk"]
 
@@ -133,8 +138,18 @@ def _jitter(points: np.ndarray, keep: np.ndarray, amplitude: float, dim: int, rn
 def _check_jitter(jitter: float) -> float:
     j = require_positive("jitter", jitter, allow_zero=True)
     if j >= 0.5:
-        raise ParameterError("jitter", f"must be below 0.5 (a fraction of the spacing; 0.3 is the issue's test), got {j}")
+        raise ParameterError("jitter", f"must be below 0.5 (a fraction of the spacing), got {j}")
     return j
+
+
+def _require_cells(name: str, cells: float, dim: int, per_axis=None) -> None:
+    """Refuse a spacing that leaves fewer than 2 cells along an axis, or more particles (an E and an H per cell) than
+    the memory available holds (:func:`warpfree.errors.require_memory`), before anything is allocated."""
+    per_axis = np.atleast_1d(cells if per_axis is None else per_axis)
+    if np.any(np.round(per_axis) < 2):
+        raise ParameterError(name, f"leaves fewer than 2 cells along an axis (the region spans {per_axis.tolist()} "
+                                   "spacings)")
+    require_memory(name, 2.0 * float(cells), BYTES_PER_PARTICLE, "particles (E and H)")
 
 
 def staggered_line(x0: float, x1: float, spacing: float, jitter: float = 0.0, seed: int = 0,
@@ -146,8 +161,9 @@ def staggered_line(x0: float, x1: float, spacing: float, jitter: float = 0.0, se
     if not x1 > x0:
         raise ParameterError("x1", f"must exceed x0 = {x0}, got {x1}")
     j = _check_jitter(jitter)
+    _require_cells("spacing", (x1 - x0) / spacing, 1)
     if grade_from is None or ratio == 1.0:
-        cells = max(2, int(round((x1 - x0) / spacing)))
+        cells = int(round((x1 - x0) / spacing))
         nodes = x0 + (x1 - x0) * np.arange(cells + 1) / cells
     else:
         if not 1.0 <= ratio <= 1.2:
@@ -198,7 +214,8 @@ def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int =
     j = _check_jitter(jitter)
     if not (np.isfinite(grading) and 1.0 <= grading <= 3.0):
         raise ParameterError("grading", f"must be in [1, 3] (largest over smallest spacing), got {grading}")
-    cells = np.maximum(2, np.round((hi - lo) / spacing).astype(int))
+    _require_cells("spacing", np.prod((hi - lo) / spacing), 2, per_axis=(hi - lo) / spacing)
+    cells = np.round((hi - lo) / spacing).astype(int)
     nodes = [graded_nodes(lo[a], hi[a], cells[a], grading) for a in range(2)]
     widths = [np.diff(x) for x in nodes]
     ix, iy = np.meshgrid(np.arange(cells[0] + 1), np.arange(cells[1] + 1), indexing="ij")
@@ -229,6 +246,7 @@ def staggered_disk(centre, radius: float, spacing: float, jitter: float = 0.0, s
     spacing = require_positive("spacing", spacing)
     j = _check_jitter(jitter)
     c = np.asarray(centre, float)[:2]
+    _require_cells("spacing", np.pi * (radius / spacing) ** 2, 2, per_axis=np.full(2, 2.0 * radius / spacing))
     n = int(np.ceil(radius / spacing)) + 1
     k = np.arange(-n, n + 1)
     gx, gy = np.meshgrid(k * spacing, k * spacing, indexing="ij")

@@ -25,7 +25,7 @@ import scipy.sparse as sp
 import warp as wp
 
 from warpfree.device import Launcher, current_launcher
-from warpfree.errors import ParameterError, require_positive
+from warpfree.errors import ParameterError, require_bool, require_integer, require_positive
 from warpfree.kernels import spem as K
 from warpfree.neighbours import NeighbourGrid, NeighbourList
 from warpfree.particles import ParticleSet
@@ -72,8 +72,7 @@ class PML:
                                                   f"(2 x {spacing:.4g} m): the grading cannot be resolved")
         if not 0.0 < self.reflection < 1.0:
             raise ParameterError("pml.reflection", f"must be in (0, 1) (the target reflection ψ), got {self.reflection}")
-        if isinstance(self.order, bool) or int(self.order) != self.order or not 1 <= self.order <= 6:
-            raise ParameterError("pml.order", f"must be an integer from 1 to 6 (3 or 4 usual), got {self.order!r}")
+        require_integer("pml.order", self.order, minimum=1, maximum=6)  # 3 or 4 usual
         for s in self.sides:
             if s not in ("x-", "x+", "y-", "y+"):
                 raise ParameterError("pml.sides", f"each side is one of x-, x+, y-, y+; got {s!r}")
@@ -149,7 +148,7 @@ class SPEMModel:
             loss_e = pml.sigma(layout.e_position, lo, hi) / (EPS0 * self.eps_r[:, None])
             loss_h = pml.sigma(layout.h_position, lo, hi) / (EPS0 * eps_h[:, None])  # σ*/μ = σ/ε (3.21)
         self.interior = interior
-        self.pec = bool(pec)
+        self.pec = require_bool("pec", pec)
         e, h = self.electric, self.magnetic
         self.held = layout.on_wall.copy() if self.pec else np.zeros(layout.n_e, bool)  # E particles not updated
         e.add("support", self._supports(layout.e_position, layout.e_spacing, layout.h_position))
@@ -173,7 +172,7 @@ class SPEMModel:
         self.h_rows = NeighbourList(NeighbourGrid(launcher, reach, self.space, e.position), h.position)  # H -> E
         self.e_coefficient = self._coefficients(e, h, self.e_rows, self.held)
         self.h_coefficient = self._coefficients(h, e, self.h_rows, np.zeros(h.n, bool))
-        self.conservative = (scheme == "fpm") if conservative is None else bool(conservative)
+        self.conservative = (scheme == "fpm") if conservative is None else require_bool("conservative", conservative)
         self.conservation = None
         if self.conservative:  # the nearest energy-conserving pair that is still exact for linear fields
             self._make_conservative()

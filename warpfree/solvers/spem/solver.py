@@ -22,9 +22,9 @@ import warp as wp
 
 from warpfree.device import Launcher, current_launcher
 from warpfree.distribution import launch_order
-from warpfree.errors import ParameterError, require_positive
+from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.kernels import spem as K
-from warpfree.solver import OutputSet, State, TimeDependentSolver
+from warpfree.solver import OutputSet, State, StepRule, TimeDependentSolver
 
 from .kronecker import NodalValues
 from .model import SPEMModel
@@ -109,14 +109,22 @@ class SPEMSolver(TimeDependentSolver):
     takes them at the particles (seed §3.1.5, :mod:`.kronecker`; for the "sph" and "cspm" schemes, whose values
     are read through that interpolant; FPM's values already are point values). PEC particles keep 0.
     ``distribution``: which particles each thread updates (``warpfree/distribution.py``: "blocks",
-    "alternating", "random", "neighbours"); the results are bitwise the same for all."""
+    "alternating", "random", "neighbours"); the results are bitwise the same for all.
+
+    Time step: constant over a run (the staggered leapfrog keeps its second order only so), at most ``courant`` × the
+    stable limit (:meth:`stable_dt`, eq. 3.21): the time loop takes the largest such step that divides its output
+    interval (:class:`~warpfree.solver.StepRule`)."""
 
     name = "spem"
     work_unit = "particle-steps"
 
     def __init__(self, model: SPEMModel, sources: list[Source] | None = None, ez=None, hx=None, hy=None,
-                 launcher: Launcher | None = None, kronecker: bool = False, distribution: str = "blocks"):
+                 launcher: Launcher | None = None, kronecker: bool = False, distribution: str = "blocks",
+                 courant: float = 0.95):
         super().__init__(model, launcher or model.launcher or current_launcher())
+        if not 0.0 < require_finite("courant", courant) <= 1.0:
+            raise ParameterError("courant", f"must be in (0, 1] (a fraction of the stable step), got {courant}")
+        self.courant = float(courant)
         e, h, dev = model.electric, model.magnetic, self.launcher.device
 
         def initial(name, value, s):
@@ -198,12 +206,9 @@ class SPEMSolver(TimeDependentSolver):
     def stable_dt(self) -> float:
         return self._dt_max
 
-    def step_for(self, interval: float, courant: float = 0.95) -> float:
-        """A step of at most ``courant`` × the stable limit that divides ``interval`` (s) into whole steps
-        (the leapfrog keeps its order only with a constant step)."""
-        if not 0.0 < courant <= 1.0:
-            raise ParameterError("courant", f"must be in (0, 1] (a fraction of the stable step), got {courant}")
-        return interval / math.ceil(interval / (courant * self._dt_max) - 1e-9)
+    def step_rule(self) -> StepRule:
+        """One constant step for the run, at most ``courant`` × the stable limit."""
+        return StepRule.constant(self.courant * self._dt_max)
 
     def after_load(self) -> None:
         self.t = float(self.state.time.numpy()[0])

@@ -79,7 +79,6 @@ class FluidParams:
                                      # "dynamic" walls a safety net when > 0 (e.g. 0.75 dx), 0 = off
     skin: float = 0.15               # neighbour-list skin as a fraction of the support (0 = rebuild every step)
     cfl: float = 0.1                 # Courant number of seed eq. 5-12
-    dt: float | None = None          # fixed time step (s); None = the stable step every step
     container_lo: tuple = (-1e30, -1e30, -1e30)   # fluid must stay inside this box (m)
     container_hi: tuple = (1e30, 1e30, 1e30)
     periodic: tuple = (False, False, False)       # periodic axes; their period is the container box
@@ -137,8 +136,6 @@ class FluidParams:
         cfl = require_positive("cfl", self.cfl)
         if cfl > 1.0:
             raise ParameterError("cfl", f"must be in (0, 1], got {cfl}")
-        if self.dt is not None:
-            require_positive("dt", self.dt)
         lo = np.asarray(self.container_lo, dtype=float)
         hi = np.asarray(self.container_hi, dtype=float)
         if lo.shape != (3,) or hi.shape != (3,) or np.any(hi <= lo):

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from warpfree.errors import ParameterError, require_positive
+from warpfree.errors import ParameterError, require_integer, require_positive
 
 
 def require_scene_values(positive: dict | None = None, layers: dict | None = None) -> None:
@@ -14,8 +14,7 @@ def require_scene_values(positive: dict | None = None, layers: dict | None = Non
     for name, value in (positive or {}).items():
         require_positive(name, value)
     for name, value in (layers or {}).items():
-        if isinstance(value, bool) or int(value) != value or value < 1:
-            raise ParameterError(name, f"must be an integer >= 1, got {value!r}")
+        require_integer(name, value, minimum=1)
 
 
 def hydrostatic_density(y: np.ndarray, surface: float, rho0: float, c0: float, g: float,

@@ -217,7 +217,7 @@ class WCSPHSolver(TimeDependentSolver):
         t, steps = 0.0, 0
         try:
             while t < duration:
-                dt = min(self.stable_dt() if self.model.params.dt is None else self.model.params.dt, duration - t)
+                dt = min(self.stable_dt(), duration - t)
                 self.step(dt)
                 t += dt
                 steps += 1

@@ -1,0 +1,6 @@
+"""``python -m warpfree``: the ``warpfree`` command."""
+
+from .cli import entry
+
+if __name__ == "__main__":
+    entry()
