@@ -15,9 +15,10 @@ What it checks
 
 How
     A side is a git revision (``git archive``) or ``.`` (this working tree, uncommitted changes included). Each is
-    assembled into a folder that Python imports ``warpfree`` from (``PYTHONPATH``, ahead of any installed copy),
-    with the ``package-dir`` mapping of that side's ``pyproject.toml`` applied (``kernels/`` as ``warpfree.kernels``),
-    so the two sides never mix. Both run with this interpreter and its packages.
+    assembled into a folder that Python imports ``warpfree`` from, with the mapping of that side's packaging applied
+    (``kernels/`` as ``warpfree.kernels``, ``scenes/`` as ``warpfree.scenes``), and run as ``python -S`` with that
+    folder and this interpreter's packages on ``PYTHONPATH``: no installed (editable) copy of warpfree can stand in
+    for a missing module, so the two sides never mix.
 
 Usage
     python bench/compare_commits.py BASE [NEW]     # NEW defaults to the working tree
@@ -66,13 +67,31 @@ def stage(revision: str, into: Path) -> Path:
         subprocess.run(["tar", "-x", "-C", str(src)], input=archive, check=True)
     site = into / "site"
     shutil.copytree(src / "warpfree", site / "warpfree")
-    config = tomllib.loads((src / "pyproject.toml").read_text())
-    mapping = config.get("tool", {}).get("setuptools", {}).get("package-dir", {})
-    for package, folder in mapping.items():
+    for package, folder in package_folders(src).items():
         parts = package.split(".")
         if parts[0] == "warpfree" and len(parts) > 1 and folder != package.replace(".", "/"):
             shutil.copytree(src / folder, site.joinpath(*parts), dirs_exist_ok=True)
     return src
+
+
+def package_folders(src: Path) -> dict[str, str]:
+    """Package -> folder of the tree's mapped packages: ``package-dir`` in pyproject.toml, or ``MAPPED`` in setup.py."""
+    config = tomllib.loads((src / "pyproject.toml").read_text())
+    mapping = dict(config.get("tool", {}).get("setuptools", {}).get("package-dir", {}))
+    if (src / "setup.py").is_file():
+        for node in ast.parse((src / "setup.py").read_text()).body:
+            if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "MAPPED" for t in node.targets):
+                mapping.update(ast.literal_eval(node.value))
+    return mapping
+
+
+def side_environment(side: Path) -> dict[str, str]:
+    """The environment that imports warpfree from ``side`` only: its assembled folder first, then this interpreter's
+    packages, run with ``python -S`` so that no .pth file (an editable install's finder) adds another warpfree."""
+    import sysconfig
+
+    paths = [str(side / "site"), sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]]
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(dict.fromkeys(paths))}
 
 
 def smallest(scene_file: Path) -> dict | None:
@@ -84,12 +103,11 @@ def smallest(scene_file: Path) -> dict | None:
 
 
 def run_scene(side: Path, scene: str, params: dict, out: Path, threads: int) -> tuple[int, str]:
-    cmd = [sys.executable, "-m", "warpfree.cli", "run", str(side / "src" / "scenes" / f"{scene}.py"),
+    cmd = [sys.executable, "-S", "-m", "warpfree.cli", "run", str(side / "src" / "scenes" / f"{scene}.py"),
            "--out", str(out), "--threads", str(threads), "--no-progress"]
     for k, v in params.items():
         cmd += ["--set", f"{k}={value_text(v)}"]
-    env = {**os.environ, "PYTHONPATH": str(side / "site")}
-    res = subprocess.run(cmd, cwd=side, env=env, capture_output=True, text=True)
+    res = subprocess.run(cmd, cwd=side, env=side_environment(side), capture_output=True, text=True)
     return res.returncode, (res.stdout + res.stderr)[-2000:]
 
 

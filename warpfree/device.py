@@ -13,6 +13,7 @@ only on ``n`` and k.
 
 from __future__ import annotations
 
+import importlib
 import math
 import numbers
 import os
@@ -27,11 +28,10 @@ _initialised = False
 
 
 def init_warp() -> None:
-    """Initialise Warp once (quiet unless WARPFREE_VERBOSE=1, see ``warpfree/__init__.py``)."""
+    """Initialise Warp once, configured as :mod:`warpfree.kernels` configures it (quiet, no gradient kernels)."""
     global _initialised
     if not _initialised:
-        if os.environ.get("WARPFREE_VERBOSE", "0") in ("", "0"):
-            wp.config.log_level = wp.LOG_WARNING
+        importlib.import_module("warpfree.kernels")  # Warp's configuration
         wp.init()
         _initialised = True
 
