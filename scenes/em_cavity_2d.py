@@ -31,7 +31,7 @@ from warpfree.validation.em_cavity_2d import cavity_field
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
-SMALLEST = {"cells_per_radius": 8, "t_end": 5e-10}
+SMALLEST = {"cells_per_radius": 8, "t_end": 1.0e-9, "output_interval": 0.25e-9}
 
 
 def build(radius: float = 0.1, eps_r: float = 10.0, cells_per_radius: int = 20, courant: float = 0.9,

@@ -32,7 +32,7 @@ from warpfree.validation.em_waveguide_2d import cutoff_frequency, tm1_field
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
-SMALLEST = {"particles_per_wavelength": 20, "t_end": 8.2e-10}
+SMALLEST = {"particles_per_wavelength": 20, "t_end": 1.64e-9}
 
 
 def build(width: float = 0.5, length: float = 0.4, pml_thickness: float = 0.1, frequency_ratio: float = 1.2,

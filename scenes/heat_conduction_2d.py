@@ -19,7 +19,7 @@ from warpfree.time_loop import TimeLoop
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
-SMALLEST = {"n": 16, "t_end": 0.5, "output_interval": 0.1}
+SMALLEST = {"n": 16, "t_end": 2.0, "output_interval": 0.25}
 
 
 def build(n: int = 40, length: float = 1.0, alpha: float = 0.01, mode: int = 1, amplitude: float = 1.0,

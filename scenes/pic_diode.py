@@ -34,7 +34,8 @@ from warpfree.validation.pic_diode import child_langmuir_flux, steady_potential
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
-SMALLEST = {"node_spacing": 0.0625, "width": 0.5, "particles_per_step": 20, "t_end": 0.6, "output_every": 5}
+SMALLEST = {"node_spacing": 0.0625, "width": 0.5, "particles_per_step": 20.0, "t_end": 0.6,
+            "output_every": 5}
 
 
 def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5, injection_speed: float = 0.1,

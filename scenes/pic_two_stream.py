@@ -27,7 +27,8 @@ from warpfree.validation.pic_two_stream import GAMMA_MAX, K_V0_FASTEST, growth_r
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
-SMALLEST = {"node_spacing": 1.0, "length_y": 4.0, "particles_per_node": 2, "d_max": 1.8, "t_end": 2.4, "output_every": 4}
+SMALLEST = {"node_spacing": 1.0, "length_y": 4.0, "particles_per_node": 2, "d_max": 1.8, "t_end": 2.4,
+            "output_every": 4}
 
 
 def build(beam_speed: float = 1.0, length_y: float = 4.0, node_spacing: float = 0.5, d_max: float = 2.0,

@@ -65,7 +65,11 @@ def build(length: float = 1.0, depth: float = 0.5, amplitude: float = 0.01, dx: 
         return float(np.sum(mass * s.fluid.numpy("position")[:, 0]) / np.sum(mass))
 
     def wave_analysis(run: TimeLoop, out_dir: str) -> dict:
-        res = standing_wave_errors(run.series["time"], run.series["centre_of_mass_x"], omega, expected)
+        try:
+            res = standing_wave_errors(run.series["time"], run.series["centre_of_mass_x"], omega, expected)
+        except ValueError as exc:  # too short a record to fit
+            return {"standing_wave": {"fit_error": str(exc), "omega_linear": omega, "period_linear": period,
+                                      "settling": settled}}
         res.update({"omega_linear": omega, "period_linear": period, "settling": settled})
         plot_wave(os.path.join(out_dir, "standing_wave.png"), run.series, res, length, expected,
                   f"L = {length:g} m, d = {depth:g} m, A = {amplitude:g} m, dx = {dx:g} m, α = {alpha:g}")

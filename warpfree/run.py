@@ -236,7 +236,7 @@ class Run(ABC):
             if directory is not None:
                 analysis = {}
                 with self.phases("analysis"):
-                    for fn in self.analyses:
+                    for fn in (self.analyses if self.complete else ()):  # an interrupted run is analysed when resumed
                         analysis.update(fn(self, directory.root) or {})
                     try:
                         self._writer.finish()  # the plots the analyses handed over (:meth:`plot`)
@@ -261,6 +261,11 @@ class Run(ABC):
 
     def _current_step(self) -> int | None:
         return None
+
+    @property
+    def complete(self) -> bool:
+        """The run has done all it was asked to (a time loop: reached its end; not stopped by ``max_steps``)."""
+        return True
 
     def _keep_last_good(self, directory: RunDirectory | None, err: RunError) -> RunError:
         """Keep the last good state on disk (time loops: a checkpoint); returns the error to raise."""

@@ -276,6 +276,10 @@ class TimeLoop(Run):
     def _current_step(self) -> int | None:
         return self.step_count
 
+    @property
+    def complete(self) -> bool:
+        return self.time >= self.t_end * (1 - 1e-12)
+
     # -- summary -------------------------------------------------------------------------------------
     def _throughput(self) -> dict:
         n = self.solver.work_items

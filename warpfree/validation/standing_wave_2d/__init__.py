@@ -48,6 +48,9 @@ def fit_damped_oscillation(t, signal, omega_guess: float) -> dict:
 
     t = np.asarray(t, np.float64)
     s = np.asarray(signal, np.float64)
+    if t.size < 6:
+        raise ValueError(f"the fit of 5 parameters needs at least 6 samples, got {t.size}: run longer or output "
+                         "more often")
 
     def model(tt, c, b, beta, omega, phase):
         return c + b * np.exp(-beta * tt) * np.sin(omega * tt + phase)
@@ -64,7 +67,7 @@ def fit_damped_oscillation(t, signal, omega_guess: float) -> dict:
         if best is None or rms < best[1]:
             best = (p, rms)
     if best is None:
-        raise RuntimeError("the oscillation fit did not converge")
+        raise ValueError("the oscillation fit did not converge")
     (c, b, beta, omega, phase), rms = best
     if b < 0:
         b, phase = -b, phase + np.pi

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-import kernels_for_tests as kt
+from helpers import kernels_for_tests as kt
 from warpfree.kernels import smoothing as sm
 from warpfree.neighbours import NeighbourGrid
 from warpfree.space import Space

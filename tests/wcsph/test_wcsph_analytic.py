@@ -7,7 +7,6 @@ give the sources and the measurements behind every tolerance below). Fine resolu
 import inspect
 import json
 import math
-import os
 
 import numpy as np
 import pytest
@@ -22,7 +21,6 @@ from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
 from warpfree.validation import poiseuille_2d as pf
 from warpfree.validation import taylor_green_2d as tg
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 # Taylor–Green: L = U = 1, Re = 100 (ν = 0.01), c0 = 10 U; t_e = 0.6333 s (exact kinetic energy down to e^-1)
 NU_TG = 0.01
@@ -30,7 +28,7 @@ T_E = tg.time_for_energy_ratio(math.exp(-1.0), NU_TG, 1.0)
 
 
 def scene(name):
-    return load_scene(os.path.join(ROOT, "scenes", f"{name}.py"))
+    return load_scene(name)
 
 
 @pytest.fixture(scope="module")
@@ -319,7 +317,7 @@ def test_taylor_green_exact_solution_is_consistent():
 ])
 def test_scene_runs_from_the_cli_and_writes_its_plot(name, sets, plot, key, tmp_path):
     out = tmp_path / name
-    args = ["run", os.path.join(ROOT, "scenes", f"{name}.py"), "--out", str(out), "--threads", "2", "--no-progress"]
+    args = ["run", name, "--out", str(out), "--threads", "2", "--no-progress"]
     for s in sets:
         args += ["--set", s]
     assert main(args) == 0

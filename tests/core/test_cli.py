@@ -1,7 +1,6 @@
 """Every scene runs from the CLI with tiny sizes and writes its outputs; the CLI explains itself."""
 
 import json
-import os
 import subprocess
 import sys
 
@@ -9,7 +8,6 @@ import pytest
 
 from warpfree.cli import main
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def run_cli(*args):
@@ -18,7 +16,7 @@ def run_cli(*args):
 
 def test_dam_break_2d_cli_writes_vtu_frames_front_plot_and_summary(tmp_path):
     out = tmp_path / "db"
-    assert run_cli(os.path.join(ROOT, "scenes", "dam_break_2d.py"), "--set", "dx=0.1", "--set", "t_end=0.04",
+    assert run_cli("dam_break_2d", "--set", "dx=0.1", "--set", "t_end=0.04",
                    "--set", "output_interval=0.02", "--out", str(out), "--threads", "2") == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "ok" and summary["threads"] == 2
@@ -31,7 +29,7 @@ def test_dam_break_2d_cli_writes_vtu_frames_front_plot_and_summary(tmp_path):
 
 def test_dam_break_3d_cli_with_free_surface(tmp_path):
     out = tmp_path / "db3"
-    assert run_cli(os.path.join(ROOT, "scenes", "dam_break_3d.py"), "--set", "dx=0.1", "--set", "t_end=0.02",
+    assert run_cli("dam_break_3d", "--set", "dx=0.1", "--set", "t_end=0.02",
                    "--set", "output_interval=0.02", "--set", "surface=true", "--out", str(out)) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["analysis"]["obstacle"]["max_fluid_particles_inside"] == 0
@@ -41,16 +39,16 @@ def test_dam_break_3d_cli_with_free_surface(tmp_path):
 
 def test_tank_at_rest_cli_no_frames(tmp_path):
     out = tmp_path / "tank"
-    assert run_cli(os.path.join(ROOT, "scenes", "tank_at_rest_2d.py"), "--set", "dx=0.05", "--set", "t_end=0.02",
+    assert run_cli("tank_at_rest_2d", "--set", "dx=0.05", "--set", "t_end=0.02",
                    "--set", "output_interval=0.01", "--no-frames", "--out", str(out)) == 0
     assert not (out / "frames").exists() and (out / "pressure.png").is_file()
 
 
 def test_cli_errors_name_the_parameter(tmp_path, capsys):
-    assert run_cli(os.path.join(ROOT, "scenes", "dam_break_2d.py"), "--set", "dx=-1", "--out", str(tmp_path)) == 2
+    assert run_cli("dam_break_2d", "--set", "dx=-1", "--out", str(tmp_path)) == 2
     assert "dx" in capsys.readouterr().err
-    assert run_cli(os.path.join(ROOT, "scenes", "nope.py")) == 2
-    assert run_cli(os.path.join(ROOT, "scenes", "dam_break_2d.py"), "--threads", "0", "--out", str(tmp_path)) == 2
+    assert run_cli("nope") == 2
+    assert run_cli("dam_break_2d", "--threads", "0", "--out", str(tmp_path)) == 2
     assert "threads" in capsys.readouterr().err
 
 
@@ -63,7 +61,7 @@ def test_help_explains_commands(args):
 
 def test_cli_resume_continues_from_the_last_checkpoint(tmp_path):
     out = tmp_path / "db"
-    scene = os.path.join(ROOT, "scenes", "dam_break_2d.py")
+    scene = "dam_break_2d"
     assert run_cli(scene, "--set", "dx=0.1", "--set", "t_end=0.03", "--checkpoint-every", "10",
                    "--no-frames", "--out", str(out)) == 0
     first = json.loads((out / "summary.json").read_text())
@@ -84,13 +82,13 @@ def test_cli_resume_continues_from_the_last_checkpoint(tmp_path):
 ])
 def test_bad_scene_values_exit_2_before_any_output(args, name, tmp_path, capsys):
     out = tmp_path / "run"
-    assert run_cli(os.path.join(ROOT, "scenes", "dam_break_2d.py"), *args, "--out", str(out)) == 2
+    assert run_cli("dam_break_2d", *args, "--out", str(out)) == 2
     assert capsys.readouterr().err.startswith(f"warpfree: error: {name}:")
     assert not any(p.name != "run.json" for p in out.glob("*"))  # nothing written but the probe of --out
 
 
 def test_3d_scene_names_its_own_parameters(capsys):
-    scene = os.path.join(ROOT, "scenes", "dam_break_3d.py")
+    scene = "dam_break_3d"
     assert run_cli(scene, "--set", "column_height=-0.5") == 2
     assert capsys.readouterr().err.startswith("warpfree: error: column_height:")
     assert run_cli(scene, "--set", "column_length=5") == 2
@@ -104,7 +102,7 @@ def test_unloadable_scene_and_unwritable_out_exit_2(tmp_path, capsys):
     assert "scene" in capsys.readouterr().err
     blocker = tmp_path / "file"
     blocker.write_text("")
-    assert run_cli(os.path.join(ROOT, "scenes", "dam_break_2d.py"), "--out", str(blocker / "run")) == 2
+    assert run_cli("dam_break_2d", "--out", str(blocker / "run")) == 2
     assert "--out" in capsys.readouterr().err
 
 
@@ -114,7 +112,7 @@ def _listing(path):
 
 def test_resume_changes_only_the_end_time_and_a_refusal_touches_nothing(tmp_path, capsys):
     out = tmp_path / "db"
-    scene = os.path.join(ROOT, "scenes", "dam_break_2d.py")
+    scene = "dam_break_2d"
     assert run_cli(scene, "--set", "dx=0.1", "--set", "t_end=0.03", "--checkpoint-every", "10", "--no-frames",
                    "--out", str(out)) == 0
     before = _listing(out)
@@ -130,7 +128,7 @@ def test_resume_changes_only_the_end_time_and_a_refusal_touches_nothing(tmp_path
 
 def test_resume_skips_a_damaged_newest_checkpoint(tmp_path, capsys):
     out = tmp_path / "db"
-    scene = os.path.join(ROOT, "scenes", "dam_break_2d.py")
+    scene = "dam_break_2d"
     assert run_cli(scene, "--set", "dx=0.1", "--set", "t_end=0.03", "--checkpoint-every", "10", "--no-frames",
                    "--out", str(out)) == 0
     full = json.loads((out / "summary.json").read_text())
@@ -150,7 +148,7 @@ def test_kills_during_checkpoint_writes_never_break_resume(tmp_path):
     import signal
     import time
 
-    scene = os.path.join(ROOT, "scenes", "dam_break_2d.py")
+    scene = "dam_break_2d"
     common = ["--set", "dx=0.1", "--set", "t_end=0.3", "--no-frames", "--set", "vtk=false", "--no-progress"]
     ref = tmp_path / "ref"
     assert run_cli(scene, *common, "--out", str(ref)) == 0
@@ -176,23 +174,3 @@ def test_kills_during_checkpoint_writes_never_break_resume(tmp_path):
     final = json.loads((out / "summary.json").read_text())
     expect = json.loads((ref / "summary.json").read_text())
     assert final["status"] == "ok" and final["steps"] == expect["steps"] and final["probes"] == expect["probes"]
-
-
-@pytest.mark.parametrize("scene,settings,plot", [
-    ("em_line_1d.py", ["particles_per_wavelength=10", "t_end=0.95e-9"], "line.png"),
-    ("em_cavity_2d.py", ["cells_per_radius=8", "t_end=0.5e-9"], "cavity.png"),
-    ("em_waveguide_2d.py", ["particles_per_wavelength=20", "t_end=0.82e-9"], "waveguide.png"),
-    ("em_plane_wave_2d.py", ["particles_per_wavelength=20", "size=0.2", "margin=0.03", "t_end=0.5e-9"],
-     "plane_wave.png"),
-])
-def test_em_scenes_write_frames_vtu_plot_and_their_error(tmp_path, scene, settings, plot):
-    out = tmp_path / "em"
-    args = [a for s in settings for a in ("--set", s)]
-    assert run_cli(os.path.join(ROOT, "scenes", scene), *args, "--out", str(out)) == 0
-    summary = json.loads((out / "summary.json").read_text())
-    assert summary["status"] == "ok" and summary["throughput"]["value"] > 0
-    assert "mean_error" in next(iter(summary["analysis"].values()))
-    frames = list((out / "frames").glob("*.png"))
-    assert frames and len(frames) == len(list((out / "vtk").glob("electric_*.vtu")))
-    assert (out / "electric.pvd").is_file() and (out / "magnetic.pvd").is_file()
-    assert (out / plot).is_file()

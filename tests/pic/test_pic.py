@@ -183,7 +183,7 @@ def test_threads_give_bitwise_identical_runs():
 def test_plasma_oscillation_frequency_within_one_percent_of_the_leapfrog(tmp_path):
     from warpfree.scene_loader import load_scene
 
-    run = load_scene("scenes/pic_plasma_oscillation.py").build(frames=False, vtk=False)
+    run = load_scene("pic_plasma_oscillation").build(frames=False, vtk=False)
     result = run.run(str(tmp_path), progress=False)["analysis"]["oscillation"]
     assert abs(result["frequency_rel_error"]) < 0.01
     assert result["charge_rel_error"] < 1e-12
@@ -194,7 +194,7 @@ def test_plasma_oscillation_frequency_within_one_percent_of_the_leapfrog(tmp_pat
 def test_two_stream_growth_rate_within_ten_percent(tmp_path):
     from warpfree.scene_loader import load_scene
 
-    run = load_scene("scenes/pic_two_stream.py").build(frames=False, vtk=False)
+    run = load_scene("pic_two_stream").build(frames=False, vtk=False)
     result = run.run(str(tmp_path), progress=False)["analysis"]["two_stream"]
     assert abs(result["growth_rate_rel_error"]) < 0.10
     assert result["fit_to"] - result["fit_from"] > 5.0
@@ -204,7 +204,7 @@ def test_two_stream_growth_rate_within_ten_percent(tmp_path):
 def test_thermal_plasma_conserves_energy_on_a_small_box(tmp_path):
     from warpfree.scene_loader import load_scene
 
-    run = load_scene("scenes/pic_thermal_plasma.py").build(box=(8.0, 16.0), periods=10.0, frames=False, vtk=False)
+    run = load_scene("pic_thermal_plasma").build(box=(8.0, 16.0), periods=10.0, frames=False, vtk=False)
     result = run.run(str(tmp_path), progress=False)["analysis"]["thermal"]
     assert result["total_energy_drift"] < 0.01
     assert result["momentum_change"] < 1e-10 * result["thermal_momentum"]

@@ -4,7 +4,6 @@ equations (``warpfree.validation.pic_diode``)."""
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 import pytest
@@ -17,11 +16,10 @@ from warpfree.solvers.pic import Injection, PICSolver, PlasmaPoisson, Species, l
 from warpfree.solvers.pic.scene_tools import lattice_nodes, periodic_box, walled_box
 from warpfree.validation.pic_diode import cathode_gradient, child_langmuir_flux, steady_potential
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _diode(**kw):
-    return load_scene(os.path.join(ROOT, "scenes", "pic_diode.py")).build(**{"frames": False, "vtk": False, **kw})
+    return load_scene("pic_diode").build(**{"frames": False, "vtk": False, **kw})
 
 
 def _walled_field(width=1.0, gap=1.0, spacing=1.0 / 16.0, walls=(0.0, 0.0)):

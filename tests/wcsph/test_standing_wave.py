@@ -1,7 +1,6 @@
 """Standing wave in a tank: the linear-theory reference (warpfree.validation.standing_wave_2d) and the scene."""
 
 import math
-import os
 
 import numpy as np
 import pytest
@@ -12,7 +11,7 @@ from warpfree.errors import ParameterError
 from warpfree.validation import standing_wave_2d as linear
 
 G = 9.81
-SCENE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "scenes", "standing_wave_2d.py")
+SCENE = "standing_wave_2d"
 
 
 def test_linear_theory_is_consistent():

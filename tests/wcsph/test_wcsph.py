@@ -12,12 +12,11 @@ from warpfree.scene_loader import load_scene
 from warpfree.errors import ParameterError, RunError
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 G = 9.81
 
 
 def scene(name):
-    return load_scene(os.path.join(ROOT, "scenes", f"{name}.py"))
+    return load_scene(name)
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 
 import numpy as np
 import pytest
@@ -13,12 +12,11 @@ from warpfree.errors import ParameterError
 from warpfree.solvers.heat import HeatModel, HeatSolver
 from warpfree.space import Space
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def decay(n, tmp_path):
     device.use("cpu", 2)
-    run = load_scene(os.path.join(ROOT, "scenes", "heat_conduction_2d.py")).build(n=n, frames=False, vtk=False)
+    run = load_scene("heat_conduction_2d").build(n=n, frames=False, vtk=False)
     summary = run.run(str(tmp_path / f"n{n}"), progress=False)
     heat = summary["diagnostic_series"]["heat_content"]
     return summary["analysis"]["decay"], heat
@@ -61,7 +59,7 @@ def test_stable_step_from_gershgorin_bound_is_stable_and_twice_it_is_not():
 def test_bad_scene_parameters_exit_2_naming_them(setting, name, tmp_path, capsys):
     from warpfree.cli import main
 
-    scene = os.path.join(ROOT, "scenes", "heat_conduction_2d.py")
+    scene = "heat_conduction_2d"
     assert main(["run", scene, "--set", setting, "--out", str(tmp_path), "--no-progress"]) == 2
     assert capsys.readouterr().err.startswith(f"warpfree: error: {name}:")
 

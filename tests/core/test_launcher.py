@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-import kernels_for_tests as kt
+from helpers import kernels_for_tests as kt
 from warpfree.device import Launcher, default_threads, resolve_device
 from warpfree.errors import ParameterError
 from warpfree.kernels import smoothing as sm

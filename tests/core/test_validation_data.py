@@ -12,6 +12,7 @@ from importlib import resources
 import numpy as np
 import pytest
 
+from helpers import ROOT
 from warpfree.validation import read_csv
 from warpfree.validation import dam_break_2d as db
 
@@ -127,7 +128,7 @@ def test_read_csv_names_the_missing_case_or_file():
 def test_loads_from_a_zipped_package(tmp_path):
     """importlib.resources, not file paths next to the source: the case package loads its CSVs when
     warpfree.validation is imported from a zip archive (a stand-in warpfree/__init__.py, no Warp)."""
-    src = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "warpfree", "validation")
+    src = os.path.join(ROOT, "warpfree", "validation")
     archive = tmp_path / "pkg.zip"
     with zipfile.ZipFile(archive, "w") as zf:
         zf.writestr("warpfree/__init__.py", "")

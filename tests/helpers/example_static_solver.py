@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-import kernels_for_tests as kt
+from helpers import kernels_for_tests as kt
 from warpfree.device import current_launcher
 from warpfree.kernels.smoothing import kernel_id, support_factor
 from warpfree.neighbours import NeighbourGrid, NeighbourList

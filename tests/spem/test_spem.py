@@ -4,20 +4,20 @@ independence and bad input."""
 
 from __future__ import annotations
 
+import json
 import math
-import os
 
 import numpy as np
 import pytest
 
 from warpfree import device
+from warpfree.cli import main
 from warpfree.scene_loader import load_scene
 from warpfree.errors import ParameterError
 from warpfree.solvers.spem import (C0, PML, SPEMModel, SPEMSolver, staggered_box, staggered_disk, staggered_line,
                                    support_for_jitter)
 from warpfree.time_loop import TimeLoop
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def rows_of(rows_list):
@@ -162,7 +162,7 @@ def test_line_1d_matches_the_exact_wave(tmp_path):
     wave on (0.5, 1.5) at t = 4.75 ns (measured 2026-11-23), wavelength error < 0.1 %. Asserted: the issue's
     1e-2 and 0.1 %."""
     device.use("cpu", 2)
-    run = load_scene(os.path.join(ROOT, "scenes", "em_line_1d.py")).build(frames=False, vtk=False)
+    run = load_scene("em_line_1d").build(frames=False, vtk=False)
     line = run.run(str(tmp_path / "line"), progress=False)["analysis"]["line"]
     assert line["particles_per_wavelength"] == pytest.approx(20.0, rel=0.01)
     assert line["mean_error"] < 1e-2
@@ -255,7 +255,7 @@ def test_circular_cavity_against_the_bessel_series(tmp_path):
     30 %-jittered particles; CSPM 1.9 % (support 1.5), plain SPH 88 % (the thesis: about 5 % with plain SPH).
     Asserted: the issue's 1 %, jittered within 2x of uniform, and FPM at least twice as accurate as CSPM."""
     device.use("cpu", 2)
-    scene = load_scene(os.path.join(ROOT, "scenes", "em_cavity_2d.py"))
+    scene = load_scene("em_cavity_2d")
     err = {}
     for name, kw in (("fpm", {}), ("jittered", {"jitter": 0.3}), ("cspm", {"scheme": "cspm", "support": 1.5})):
         run = scene.build(frames=False, vtk=False, **kw)
@@ -420,7 +420,7 @@ def test_waveguide_matches_the_exact_tm1_wave_with_half_the_thesis_density(tmp_p
     """Seed 000 §4.4 at 40 particles per wavelength (the thesis: 80), t = 4.1 ns: measured 2026-11-23 mean error
     0.11 % of E0 along x = 0.25 m outside the PML (largest 0.31 %). Asserted: the thesis's 0.39 %."""
     device.use("cpu", 2)
-    run = load_scene(os.path.join(ROOT, "scenes", "em_waveguide_2d.py")).build(frames=False, vtk=False)
+    run = load_scene("em_waveguide_2d").build(frames=False, vtk=False)
     wg = run.run(str(tmp_path / "wg"), progress=False)["analysis"]["waveguide"]
     assert wg["particles_per_wavelength"] == pytest.approx(40.0)
     assert wg["mean_error"] < 3.9e-3
@@ -428,7 +428,7 @@ def test_waveguide_matches_the_exact_tm1_wave_with_half_the_thesis_density(tmp_p
 
 def plane_wave(tmp_path, **kw):
     device.use("cpu", 2)
-    run = load_scene(os.path.join(ROOT, "scenes", "em_plane_wave_2d.py")).build(frames=False, vtk=False, size=0.2,
+    run = load_scene("em_plane_wave_2d").build(frames=False, vtk=False, size=0.2,
                                                                               margin=0.03, **kw)
     return run.run(str(tmp_path / "pw"), progress=False)["analysis"]["plane_wave"]
 
@@ -467,3 +467,23 @@ def test_plane_wave_box_must_lie_in_the_lossless_interior():
         SPEMSolver(model, [PlaneWave(Waveform(1e9), lower=(0.3, 0.15), upper=(0.2, 0.35))])
     with pytest.raises(ParameterError, match="^plane_wave.direction"):
         SPEMSolver(model, [PlaneWave(Waveform(1e9), lower=(0.15, 0.15), upper=(0.35, 0.35), direction=(0, 0))])
+
+
+@pytest.mark.parametrize("scene,settings,plot", [
+    ("em_line_1d", ["particles_per_wavelength=10", "t_end=0.95e-9"], "line.png"),
+    ("em_cavity_2d", ["cells_per_radius=8", "t_end=0.5e-9"], "cavity.png"),
+    ("em_waveguide_2d", ["particles_per_wavelength=20", "t_end=0.82e-9"], "waveguide.png"),
+    ("em_plane_wave_2d", ["particles_per_wavelength=20", "size=0.2", "margin=0.03", "t_end=0.5e-9"],
+     "plane_wave.png"),
+])
+def test_em_scenes_write_frames_vtu_plot_and_their_error(tmp_path, scene, settings, plot):
+    out = tmp_path / "em"
+    args = [a for s in settings for a in ("--set", s)]
+    assert main(["run", scene, *args, "--out", str(out), "--no-progress"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "ok" and summary["throughput"]["value"] > 0
+    assert "mean_error" in next(iter(summary["analysis"].values()))
+    frames = list((out / "frames").glob("*.png"))
+    assert frames and len(frames) == len(list((out / "vtk").glob("electric_*.vtu")))
+    assert (out / "electric.pvd").is_file() and (out / "magnetic.pvd").is_file()
+    assert (out / plot).is_file()

@@ -18,7 +18,7 @@ import warpfree
 from warpfree.cli import main
 from warpfree.scene_loader import load_scene, shipped_scenes, summary_line, value_text
 
-ROOT = Path(__file__).resolve().parents[1]
+from helpers import ROOT
 
 
 def run_cli(*args):

@@ -6,7 +6,7 @@ import re
 from warpfree import device
 from warpfree.scene_loader import load_scene
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from helpers import ROOT
 
 
 def test_writing_a_scene_example_runs(tmp_path):

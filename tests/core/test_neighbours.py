@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-import kernels_for_tests as kt
+from helpers import kernels_for_tests as kt
 from warpfree import neighbours as nb
 from warpfree.errors import ParameterError
 from warpfree.neighbours import (MovingNeighbours, NeighbourGrid, NeighbourList, NeighbourTable,

@@ -9,7 +9,7 @@ import os
 import numpy as np
 import pytest
 
-from example_static_solver import NodalValuesSolver
+from helpers.example_static_solver import NodalValuesSolver
 from warpfree import device
 from warpfree.errors import ParameterError, RunError
 from warpfree.geometry import jittered_lattice
@@ -138,7 +138,7 @@ def test_bad_frame_options_name_the_option(option, value):
 
 STATIC_SCENE = '''
 import numpy as np
-from example_static_solver import NodalValuesSolver
+from helpers.example_static_solver import NodalValuesSolver
 from warpfree.geometry import jittered_lattice
 from warpfree.run import OutputOptions, StaticRun
 from warpfree.space import Space

@@ -4,7 +4,6 @@ assembly, the patch test, the Timoshenko beam against Timoshenko & Goodier, and 
 from __future__ import annotations
 
 import json
-import os
 
 import numpy as np
 import pytest
@@ -21,7 +20,6 @@ from warpfree.solvers.efg.model import EFGModel, MLSSettings
 from warpfree.solvers.efg.quadrature import rectangle_cells
 from warpfree.solvers.efg.solver import ElasticitySolver, PoissonSolver
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 @pytest.fixture(scope="module")
@@ -159,7 +157,7 @@ def test_assembly_is_bitwise_identical_for_any_thread_count():
 
 
 def _beam(**kw):
-    return load_scene(os.path.join(ROOT, "scenes", "efg_timoshenko.py")).build(frames=False, vtk=False, **kw)
+    return load_scene("efg_timoshenko").build(frames=False, vtk=False, **kw)
 
 
 def test_timoshenko_tip_deflection_and_energy_norm_convergence(tmp_path):
@@ -186,7 +184,7 @@ def test_timoshenko_random_nodes_and_plain_quadrature_stay_within_the_tolerance(
 
 def test_timoshenko_cli_writes_vtu_frame_plots_and_summary(tmp_path):
     out = tmp_path / "beam"
-    assert main(["run", os.path.join(ROOT, "scenes", "efg_timoshenko.py"), "--set", "cells_x=12", "--set",
+    assert main(["run", "efg_timoshenko", "--set", "cells_x=12", "--set",
                  "cells_y=3", "--set", "refinements=2", "--out", str(out), "--no-progress"]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "ok" and summary["kind"] == "static"
@@ -242,7 +240,7 @@ def test_cylinder_radial_displacement_matches_plane_strain_lame(tmp_path):
     Measured 2026-11-23 (mean over the nodes on each arc), 17 x 17 polar nodes (default): inner -9.0e-5, outer
     -6.6e-5, energy-norm error 5.6e-3;
     random layout (seed 1): -3.4e-4, -1.7e-4, 2.3e-2."""
-    scene = load_scene(os.path.join(ROOT, "scenes", "efg_cylinder.py"))
+    scene = load_scene("efg_cylinder")
     for layout, energy in (("regular", 1e-2), ("random", 5e-2)):
         summary = scene.build(layout=layout, seed=1, frames=layout == "regular", vtk=False).run(
             str(tmp_path / layout), progress=False)
@@ -256,7 +254,7 @@ def test_cylinder_radial_displacement_matches_plane_strain_lame(tmp_path):
 def test_cook_membrane_converges_to_the_fem_reference(tmp_path):
     """Issue: converges to a fine-mesh FEM reference (ours: Q9 16²..512², Richardson, u_y(48, 60) = 0.0958439).
     Measured 2026-11-23: 81, 289, 1089 regular nodes -2.4 %, -1.0 %, -0.56 % (default 1089)."""
-    scene = load_scene(os.path.join(ROOT, "scenes", "efg_cook.py"))
+    scene = load_scene("efg_cook")
     summary = scene.build(refinements=2, frames=False, vtk=False).run(str(tmp_path), progress=False)
     levels = summary["analysis"]["convergence"]["levels"] + [summary["analysis"]["cook"]]
     errors = [abs(lvl["uy_48_60_rel_error"]) for lvl in levels]
@@ -301,7 +299,7 @@ def test_resistor_potential_and_field_against_the_fem_reference_and_truncation_m
     uniform points 7.4e-4 mean; |E| 2.0 % largest; without domain truncation 31 % and the normal current off by
     1 - σ1/σ2 = 39 %. The normal-current continuity of 0.1 % is not met (5.2 % mean, 2.5 % at 2835 nodes): not
     asserted."""
-    scene = load_scene(os.path.join(ROOT, "scenes", "efg_resistor.py"))
+    scene = load_scene("efg_resistor")
     summary = scene.build(frames=False, vtk=False).run(str(tmp_path / "truncated"), progress=False)
     r = summary["analysis"]["resistor"]
     assert r["potential_crossing_max_error"] < 2e-3 and r["potential_uniform_mean_error"] < 2e-3
@@ -370,7 +368,7 @@ def test_nem_runs_the_beam_and_cylinder_on_random_nodes(tmp_path):
     beam = _beam(cells_x=24, cells_y=6, layout="random", seed=1, model="nem")
     b = beam.run(str(tmp_path / "beam"), progress=False)["analysis"]["beam"]
     assert b["energy_norm_error"] < 0.25 and abs(b["tip_rel_error"]) < 0.03
-    cylinder = load_scene(os.path.join(ROOT, "scenes", "efg_cylinder.py")).build(
+    cylinder = load_scene("efg_cylinder").build(
         layout="random", seed=1, model="nem", frames=False, vtk=False)
     c = cylinder.run(str(tmp_path / "cylinder"), progress=False)["analysis"]["cylinder"]
     assert c["energy_norm_error"] < 0.12 and abs(c["u_r_inner_rel_error"]) < 0.01
@@ -380,7 +378,7 @@ def test_resistor_normal_current_is_continuous_to_0_1_percent_with_the_quadratic
     """Issue: the normal current continuous across the interface within 0.1 %. Measured 2026-11-23 on the middle
     fifth of the interface (x 1.4-1.6 mm, away from the singular corners): quadratic basis, d_max 2.5, 2835 nodes
     0.093 % mean; the linear default at 742 nodes 3.7 % (its one-sided gradients are first order)."""
-    scene = load_scene(os.path.join(ROOT, "scenes", "efg_resistor.py"))
+    scene = load_scene("efg_resistor")
     summary = scene.build(basis="quadratic", d_max=2.5, per_mm=26, frames=False, vtk=False).run(str(tmp_path),
                                                                                                  progress=False)
     r = summary["analysis"]["resistor"]

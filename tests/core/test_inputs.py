@@ -3,7 +3,6 @@ closest ones, every error naming the parameter the user set, and the memory guar
 
 from __future__ import annotations
 
-import os
 import signal
 from types import SimpleNamespace
 

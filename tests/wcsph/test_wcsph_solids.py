@@ -7,7 +7,6 @@ with status "ok" had none at any output; the tests also count at the end, indepe
 
 from __future__ import annotations
 
-import os
 
 import numpy as np
 import pytest
@@ -23,7 +22,6 @@ from warpfree.surface_layers import surface_layers
 from warpfree.time_loop import TimeLoop
 from warpfree.run import OutputOptions
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def outputs_audited(run) -> int:
@@ -37,7 +35,7 @@ def test_3d_dam_break_with_obstacle_for_4_seconds():
     wall particles stood up to 0.4 dx behind its faces and fluid entered it (up to 21 particles, 1.9 cm deep);
     measured now (2026-11-23): none at any of the 81 outputs."""
     device.use("cpu", 2)
-    run = load_scene(os.path.join(ROOT, "scenes", "dam_break_3d.py")).build(t_end=4.0, frames=False, vtk=False)
+    run = load_scene("dam_break_3d").build(t_end=4.0, frames=False, vtk=False)
     summary = run.run(None, progress=False)
     assert summary["status"] == "ok" and outputs_audited(run) == 81
     assert max(run.series["inside_obstacle"]) == 0
@@ -75,7 +73,7 @@ def test_tilted_2d_tanks_hold_their_water(tilt):
     tilted walls at irregular distances and the start is out of equilibrium; quiet tilted tanks need a relaxed
     start, not done yet.)"""
     device.use("cpu", 2)
-    run = load_scene(os.path.join(ROOT, "scenes", "tank_at_rest_2d.py")).build(
+    run = load_scene("tank_at_rest_2d").build(
         tilt=tilt, width=0.5, depth=0.4, dx=0.025, t_end=1.0, frames=False, vtk=False)
     summary = run.run(None, progress=False)
     assert summary["status"] == "ok" and outputs_audited(run) == 21
