@@ -3,9 +3,9 @@
 A water column 1.228 m long, 1 m wide and 0.55 m high at the far end of a 3.22 x 1 x 1 m tank hits a
 0.161 x 0.403 x 0.161 m box. Tank and obstacle are read from the STL files in ``scenes/meshes/``
 (any watertight STL/OBJ/PLY can be passed instead). Wall particles are placed from the meshes' true
-surfaces (``warpfree.surface_layers``): three layers outside the tank and three inside the obstacle, the
+surfaces (``warpfree.solvers.wcsph.surface_layers``): three layers outside the tank and three inside the obstacle, the
 first dx/2 from the surface; the fluid keeps dx/2 from both surfaces. At every output the solver checks
-the fluid against the true tank and obstacle surfaces (``warpfree.solids``): a fluid particle inside a
+the fluid against the true tank and obstacle surfaces (``warpfree.solvers.wcsph.solids``): a fluid particle inside a
 solid stops the run with the count and the depth. The probe ``inside_obstacle`` records how many fluid
 particles are inside the obstacle (0 throughout).
 
@@ -25,7 +25,7 @@ import os
 import numpy as np
 
 from warpfree.geometry import fill_mesh, load_mesh
-from warpfree.surface_layers import surface_layers
+from warpfree.solvers.wcsph.surface_layers import surface_layers
 from warpfree.errors import ParameterError, reported_as
 from warpfree.solvers.wcsph.scene_tools import clear_of, hydrostatic_density, require_scene_values
 from warpfree.run import OutputOptions

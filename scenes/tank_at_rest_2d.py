@@ -7,13 +7,13 @@ The quiet start (measured in ``warpfree/validation/tank_at_rest_2d/README.md``):
 hydrostatic pressure is not stable in WCSPH (it rearranges along slip lines after about a second, the kinetic
 energy growing 20-fold), and one meeting tilted walls starts out of balance. So by default (``relax``) the
 water's particles are first relaxed to a uniform concentration inside the water's region against the walls
-and the empty space above (``warpfree.relaxation``), then settled in the solver's own discretisation for
+and the empty space above (``warpfree.solvers.wcsph.relaxation``), then settled in the solver's own discretisation for
 ``settle_periods`` periods of the first sloshing mode, damped critically (``scene_tools.settle_water``),
 before t = 0. ``relax=False, settle_periods=0`` gives the plain lattice start.
 
 ``tilt`` (degrees) rotates the tank (W × 2H) about its lower-left corner and lifts it so its lowest corner
 is at y = 0; the water fills it up to the level y = H, its surface horizontal. The walls are placed along
-the tank's true sides (``warpfree.surface_layers``) and the water keeps dx/2 from them, whatever the tilt;
+the tank's true sides (``warpfree.solvers.wcsph.surface_layers``) and the water keeps dx/2 from them, whatever the tilt;
 at every output the fluid is checked against the true sides.
 
 The run writes ``pressure.png`` (binned SPH pressure against ρ0 g (H - y)) and the errors, normalised

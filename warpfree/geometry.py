@@ -503,7 +503,7 @@ def fill_polygon(polygon, dx, origin=None, clearance=0.0) -> np.ndarray:
 
     ``polygon`` is (M, 2) vertices in either orientation, closed implicitly; ``origin`` defaults to
     the polygon's lower-left bound. ``clearance`` (m): keep only points at least that far from the
-    boundary (dx/2 matches boundary particles placed by ``warpfree.surface_layers``, whose first layer is
+    boundary (dx/2 matches boundary particles placed by ``warpfree.solvers.wcsph.surface_layers``, whose first layer is
     dx/2 on the other side, so the wall the fluid feels is the true boundary, at any orientation).
     """
     polygon = _polygon(polygon)

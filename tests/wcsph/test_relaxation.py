@@ -1,4 +1,4 @@
-"""Relaxed particle arrangements (warpfree.relaxation): the free-boundary term, convergence, the result."""
+"""Relaxed particle arrangements (warpfree.solvers.wcsph.relaxation): the free-boundary term, convergence, the result."""
 
 import numpy as np
 import pytest
@@ -8,9 +8,9 @@ from warpfree import device
 from warpfree.errors import ParameterError
 from warpfree.geometry import fill_polygon
 from warpfree.kernels.smoothing import SIGMA, kernel_profile
-from warpfree.relaxation import free_boundary_points, relax_particles
+from warpfree.solvers.wcsph.relaxation import free_boundary_points, relax_particles
 from warpfree.solvers.wcsph.scene_tools import box_2d
-from warpfree.surface_layers import surface_layers
+from warpfree.solvers.wcsph.surface_layers import surface_layers
 
 
 def _grad_c(x, points, volume, boundary, h):

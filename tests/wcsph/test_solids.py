@@ -1,4 +1,4 @@
-"""Solids on their true surfaces (warpfree/solids.py): which side a particle is on and how deep, and the penalty
+"""Solids on their true surfaces (warpfree/solvers/wcsph/solids.py): which side a particle is on and how deep, and the penalty
 that keeps fluid out; 2D polygons (extruded prisms) and 3D meshes."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import warp as wp
 
 from warpfree.device import Launcher
 from warpfree.errors import ParameterError
-from warpfree.kernels.solids import add_surface_penalty
-from warpfree.solids import Solids
+from warpfree.kernels.wcsph_solids import add_surface_penalty
+from warpfree.solvers.wcsph.solids import Solids
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""Boundary particles from the true surface (warpfree/surface_layers.py): every layer at its distance from the
+"""Boundary particles from the true surface (warpfree/solvers/wcsph/surface_layers.py): every layer at its distance from the
 surface whatever the orientation, no gaps, no two particles too close, a density of one per dx^dim."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from warpfree import device
 from warpfree.errors import ParameterError
-from warpfree.surface_layers import surface_layers
+from warpfree.solvers.wcsph.surface_layers import surface_layers
 
 DX = 0.05
 

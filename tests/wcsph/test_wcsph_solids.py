@@ -15,10 +15,10 @@ import trimesh
 from warpfree import device
 from warpfree.scene_loader import load_scene
 from warpfree.geometry import fill_mesh, fill_polygon
-from warpfree.solids import Solids
+from warpfree.solvers.wcsph.solids import Solids
 from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
 from warpfree.solvers.wcsph.scene_tools import box_2d, box_walls_2d, clear_of, hydrostatic_density
-from warpfree.surface_layers import surface_layers
+from warpfree.solvers.wcsph.surface_layers import surface_layers
 from warpfree.time_loop import TimeLoop
 from warpfree.run import OutputOptions
 

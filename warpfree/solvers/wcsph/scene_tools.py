@@ -49,7 +49,7 @@ def still_water_2d(tank: np.ndarray, level: float, dx: float, fluid: dict, wall_
     Wall particles along the tank's true sides (``wall_layers`` layers); the water's region is the tank below the
     level (:func:`warpfree.geometry.clip_polygon`), filled with a clearance of dx/2. With ``relax``, the
     particles are relaxed to a uniform concentration against the walls and the empty space above
-    (:func:`warpfree.relaxation.relax_particles`), each then standing for the region's area over their count (a
+    (:func:`warpfree.solvers.wcsph.relaxation.relax_particles`), each then standing for the region's area over their count (a
     tilted tank's lattice fill holds up to 10 % fewer than area/dx²: with the mass of dx² the water would stand on
     a pressure 7 % too high); the densities are hydrostatic; with ``settle_periods`` > 0 the
     water then settles in its own discretisation (:func:`settle_water`). ``fluid``: the other
@@ -57,8 +57,8 @@ def still_water_2d(tank: np.ndarray, level: float, dx: float, fluid: dict, wall_
     Returns (solver, the water's polygon, the settling report or None).
     """
     from warpfree.geometry import clip_polygon, fill_polygon, polygon_area
-    from warpfree.relaxation import relax_particles
-    from warpfree.surface_layers import surface_layers
+    from warpfree.solvers.wcsph.relaxation import relax_particles
+    from warpfree.solvers.wcsph.surface_layers import surface_layers
 
     from .model import FluidParams
     from .solver import WCSPHSolver
@@ -92,8 +92,8 @@ def box_2d(width: float, height: float) -> np.ndarray:
 
 def box_walls_2d(width: float, height: float, dx: float, layers: int) -> np.ndarray:
     """Boundary particles in ``layers`` layers outside the rectangle [0, width] x [0, height], layer k at
-    (k + 1/2) dx from its sides (:func:`warpfree.surface_layers.surface_layers`)."""
-    from warpfree.surface_layers import surface_layers
+    (k + 1/2) dx from its sides (:func:`warpfree.solvers.wcsph.surface_layers.surface_layers`)."""
+    from warpfree.solvers.wcsph.surface_layers import surface_layers
 
     return surface_layers(box_2d(width, height), dx, layers, "outside")
 
@@ -107,12 +107,12 @@ def walls_from_section(mesh, plane_origin, plane_normal, dx: float, layers: int)
     """2D boundary particles from the cross-section of a 3D container mesh (a path or trimesh mesh).
 
     The section's polygons (see :func:`warpfree.geometry.mesh_section` for the in-plane axes) get ``layers``
-    layers outside them along their true edges (:func:`warpfree.surface_layers.surface_layers`, any
+    layers outside them along their true edges (:func:`warpfree.solvers.wcsph.surface_layers.surface_layers`, any
     orientation). Returns (walls (N, 2), the polygons) — the polygons are the containers to check the fluid
     against and to fill (``fill_polygon(..., clearance=dx/2)``).
     """
     from warpfree.geometry import load_mesh, mesh_section
-    from warpfree.surface_layers import surface_layers
+    from warpfree.solvers.wcsph.surface_layers import surface_layers
 
     polygons = mesh_section(load_mesh(mesh), plane_origin, plane_normal)
     if not polygons:
@@ -124,7 +124,7 @@ def clear_of(points: np.ndarray, solid, clearance: float) -> np.ndarray:
     """The points at least ``clearance`` (m) outside ``solid`` (a watertight trimesh mesh or a 2D polygon):
     fluid filled around an obstacle, measured against its true surface on the device."""
     from warpfree.device import current_launcher
-    from warpfree.solids import Solids
+    from warpfree.solvers.wcsph.solids import Solids
 
     dim = 3 if not isinstance(solid, np.ndarray) else 2
     p3 = points if points.shape[1] == 3 else np.column_stack([points, np.zeros(len(points))])

@@ -22,8 +22,8 @@ from warpfree.kernels import wcsph as K
 from warpfree.neighbours import MovingNeighbours, NeighbourGrid, NeighbourList, empty_rows
 from warpfree.particles import ParticleSet, to_vec3
 from warpfree.reduce import Reduction
-from warpfree.kernels.solids import add_surface_penalty
-from warpfree.solids import Solids
+from warpfree.kernels.wcsph_solids import add_surface_penalty
+from warpfree.solvers.wcsph.solids import Solids
 from warpfree.solver import OutputSet, State, TimeDependentSolver
 
 from .model import FluidParams, WCSPHModel
@@ -73,7 +73,7 @@ class WCSPHSolver(TimeDependentSolver):
         surface (``warpfree.kernels.solids.add_surface_penalty``: it stores the kinetic energy of a particle at
         c0, so none crosses, and a fluid at rest dx/2 clear of the walls never feels it), beside the wall
         particles; and it is checked at every output against the surfaces themselves
-        (:class:`~warpfree.solids.Solids`): fluid inside a solid stops the run with the count and the depth.
+        (:class:`~warpfree.solvers.wcsph.solids.Solids`): fluid inside a solid stops the run with the count and the depth.
     """
 
     name = "wcsph"

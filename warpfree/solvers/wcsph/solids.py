@@ -15,10 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from .device import Launcher
-from .errors import ParameterError
-from .geometry import is_mesh
-from warpfree.kernels import solids as sk
+from warpfree.device import Launcher
+from warpfree.errors import ParameterError
+from warpfree.geometry import is_mesh
+from warpfree.kernels import wcsph_solids as sk
 
 __all__ = ["Solids", "Penetration"]
 

@@ -19,15 +19,15 @@ from dataclasses import dataclass, field
 import numpy as np
 import warp as wp
 
-from .device import Launcher, current_launcher
-from .errors import ParameterError, require_positive
-from .geometry import ccw_polygon, is_mesh
-from .neighbours import MovingNeighbours, empty_rows
-from .particles import to_vec3
-from .reduce import Reduction
+from warpfree.device import Launcher, current_launcher
+from warpfree.errors import ParameterError, require_positive
+from warpfree.geometry import ccw_polygon, is_mesh
+from warpfree.neighbours import MovingNeighbours, empty_rows
+from warpfree.particles import to_vec3
+from warpfree.reduce import Reduction
 from .solids import Solids
-from .space import Space
-from warpfree.kernels import relaxation as rk
+from warpfree.space import Space
+from warpfree.kernels import wcsph_relaxation as rk
 from warpfree.kernels.smoothing import SIGMA, kernel_id, kernel_profile, support_factor
 
 __all__ = ["Relaxation", "free_boundary_points", "relax_particles"]

@@ -15,7 +15,7 @@ lattice is anchored (a lattice anchored elsewhere puts the wall up to dx behind 
 
 Points that fall where the wall side closes in (concave corners, overlaps of two faces' layers: closer
 to the surface than their layer), or on the wrong side, are removed, measured against the true surface
-on the device (``warpfree.solids``); points closer than 0.6 dx to one kept before them are merged. The
+on the device (``warpfree.solvers.wcsph.solids``); points closer than 0.6 dx to one kept before them are merged. The
 result is a set whose volume per particle is dx^dim to within the fitted spacings.
 """
 
@@ -26,13 +26,13 @@ import math
 import numpy as np
 import warp as wp
 
-from .device import current_launcher
-from .errors import ParameterError, require_integer, require_memory, require_positive
-from .geometry import ccw_polygon, is_mesh
-from .neighbours import NeighbourGrid, NeighbourList
-from .particles import to_vec3
+from warpfree.device import current_launcher
+from warpfree.errors import ParameterError, require_integer, require_memory, require_positive
+from warpfree.geometry import ccw_polygon, is_mesh
+from warpfree.neighbours import NeighbourGrid, NeighbourList
+from warpfree.particles import to_vec3
 from .solids import Solids
-from .space import Space
+from warpfree.space import Space
 
 __all__ = ["surface_layers"]
 
