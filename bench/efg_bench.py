@@ -36,12 +36,12 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def _square_case(n_cells: int):
-    from warpfree.solvers.efg.layouts import random_grid_nodes
-    from warpfree.solvers.efg.model import EFGModel, MLSSettings
-    from warpfree.solvers.efg.quadrature import rectangle_cells
+    from warpfree.galerkin.node_layouts import random_grid_nodes
+    from warpfree.galerkin.mls import MLSModel, MLSSettings
+    from warpfree.galerkin.quadrature import rectangle_cells
 
     nodes = random_grid_nodes((0.0, 0.0), (1.0, 1.0), (n_cells, n_cells), seed=0).position
-    model = EFGModel(nodes, MLSSettings(d_max=2.0))
+    model = MLSModel(nodes, MLSSettings(d_max=2.0))
     return model, rectangle_cells((0.0, 0.0), (1.0, 1.0), (n_cells, n_cells), 2).position
 
 
@@ -109,7 +109,7 @@ def worker_assembly(cfg: dict) -> dict:
     device.use("cpu", cfg["threads"])
     sys.path.insert(0, str(ROOT / "scenes"))
     import efg_timoshenko
-    from warpfree.solvers.efg import assembly
+    from warpfree.galerkin import assembly
 
     solver = efg_timoshenko.beam_solver(cfg["cells_x"], cfg["cells_y"])
     model, cells = solver.model, solver.cells

@@ -2,7 +2,7 @@
 leapfrog push. Normalised units (ε0 = 1; charges in e, masses in m_e, lengths and times in the scene's units).
 
 Precision: float64 throughout (positions ``wp.vec2d``, MLS fits, charges, fields): the shape functions come from
-the same ill-conditioned moment matrices as EFG's (``kernels/efg.py``), and the deposit must keep the total
+the same ill-conditioned moment matrices as EFG's (``kernels/mls.py``), and the deposit must keep the total
 charge to round-off. Float32 ``wp.vec3`` copies of the positions serve only the ``wp.HashGrid`` queries.
 
 Per step (seed 002 §1.2 of the reference note):
@@ -29,7 +29,7 @@ Periodic boxes: the node grid holds the nodes' periodic images and the particle 
 
 import warp as wp
 
-from .efg import (MLSFit, NodeSet, basis, inside_support, mat66d, mls_fit, nearest_copy, node_weight, serving_node,
+from .mls import (MLSFit, NodeSet, basis, inside_support, mat66d, mls_fit, nearest_copy, node_weight, serving_node,
                   shape_value)
 from .space import Box2d, offset2d, wrap2d
 
@@ -63,7 +63,7 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
         fit: wp.array(dtype=MLSFit),
         count: wp.array(dtype=wp.int32),
     ):
-        """The MLS fit of particle i over the nodes whose support holds it (``kernels/efg.py``: the same algebra as
+        """The MLS fit of particle i over the nodes whose support holds it (``kernels/mls.py``: the same algebra as
         ``shape_functions``, in one pass: the basis is scaled by one length for every particle, 1/``inv_scale``, the
         nodes' mean support radius, where ``shape_functions`` takes each point's own mean; an MLS fit with a complete
         basis does not depend on that scale); ``count[i]``: those nodes (fewer than the basis terms: fit.rcond = 0)."""

@@ -19,7 +19,7 @@ Two forms of the same function:
 
 Precision: float32 positions (``wp.vec3``), as the HashGrid. Units: the scene's length unit. The float64 2D
 form (:class:`Box2d`, :func:`offset2d`) serves the MLS kernels (EFG nodes, PIC particles), whose moment matrices
-need float64 offsets (``kernels/efg.py``).
+need float64 offsets (``kernels/mls.py``).
 """
 
 import warp as wp

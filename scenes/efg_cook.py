@@ -27,10 +27,10 @@ import numpy as np
 from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
 from warpfree.run import OutputOptions, StaticRun
 from warpfree.solvers.efg.boundary import Essential, Natural
-from warpfree.solvers.efg.layouts import quadrilateral_nodes
-from warpfree.solvers.efg.model import EFGModel, MLSSettings
+from warpfree.galerkin.node_layouts import quadrilateral_nodes
+from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.solvers.efg.plots import plot_deformed
-from warpfree.solvers.efg.quadrature import polyline_points, quadrilateral_cells, structured_quadrilateral
+from warpfree.galerkin.quadrature import polyline_points, quadrilateral_cells, structured_quadrilateral
 from warpfree.solvers.efg.solver import ElasticitySolver
 from warpfree.validation import efg_cook as cook
 
@@ -52,7 +52,7 @@ def cook_solver(cells: int, layout: str = "regular", seed: int = 0, d_max: float
     nodes = quadrilateral_nodes(c, (cells, cells), seed=seed if layout == "random" else None,
                                 jitter=0.5 if layout == "random" else 0.0)
     x = nodes.position
-    model = EFGModel(x, MLSSettings(d_max=d_max))
+    model = MLSModel(x, MLSSettings(d_max=d_max))
     quad = quadrilateral_cells(structured_quadrilateral(c, (cells, cells)), gauss)
     left = x[np.abs(x[:, 0]) <= 1e-9 * 48.0]
     left = left[np.argsort(-left[:, 1])]                          # counter-clockwise: (0, 44) -> (0, 0)

@@ -19,10 +19,10 @@ import numpy as np
 from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
 from warpfree.run import OutputOptions, StaticRun
 from warpfree.solvers.efg.boundary import Essential, Natural
-from warpfree.solvers.efg.layouts import annulus_nodes
-from warpfree.solvers.efg.model import EFGModel, MLSSettings
+from warpfree.galerkin.node_layouts import annulus_nodes
+from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.solvers.efg.plots import plot_deformed
-from warpfree.solvers.efg.quadrature import annulus_cells, arc_points, polyline_points
+from warpfree.galerkin.quadrature import annulus_cells, arc_points, polyline_points
 from warpfree.solvers.efg.solver import ElasticitySolver
 from warpfree.solvers.nem import NEMModel
 from warpfree.validation import efg_cylinder as ring
@@ -55,7 +55,7 @@ def cylinder_solver(cells_r: int, cells_t: int, layout: str = "regular", seed: i
     symmetry = [Essential(bottom, zero, (False, True), name="symmetry_y0"),
                 Essential(left, zero, (True, False), name="symmetry_x0")]
     if model == "efg":
-        shapes = EFGModel(x, MLSSettings(d_max=d_max))
+        shapes = MLSModel(x, MLSSettings(d_max=d_max))
         cells = annulus_cells(a, b, 0.0, math.pi / 2, (cells_r, cells_t), gauss)
         pressure = Natural(arc_points((0, 0), a, 0.0, math.pi / 2, cells_t, 3, outward=False),
                            lambda q, n: ring.traction_on(q, n, plane="strain"), name="pressure")

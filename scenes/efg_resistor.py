@@ -39,9 +39,9 @@ import numpy as np
 from warpfree.errors import reported_as, require_integer, require_positive
 from warpfree.run import OutputOptions, StaticRun
 from warpfree.solvers.efg.boundary import Essential, Free, Interface
-from warpfree.solvers.efg.layouts import grid_nodes
-from warpfree.solvers.efg.model import EFGModel, MLSSettings
-from warpfree.solvers.efg.quadrature import QuadraturePoints, polyline_points, rectangle_cells, segment_points
+from warpfree.galerkin.node_layouts import grid_nodes
+from warpfree.galerkin.mls import MLSModel, MLSSettings
+from warpfree.galerkin.quadrature import QuadraturePoints, polyline_points, rectangle_cells, segment_points
 from warpfree.solvers.efg.solver import PoissonSolver
 from warpfree.validation import efg_resistor as ref
 
@@ -75,7 +75,7 @@ def resistor_solver(per_mm: int = 13, d_max: float = 1.8, weight: str = "cubic_s
     on_interface = (np.abs(nodes[:, 1] - MM) <= tol) & (nodes[:, 0] >= MM - tol) & (nodes[:, 0] <= 2 * MM + tol)
     material = np.where(nodes[:, 1] > MM + tol, 1, 0)
     material[on_interface] = -1
-    model = EFGModel(nodes, MLSSettings(basis=basis, weight=weight, d_max=d_max),
+    model = MLSModel(nodes, MLSSettings(basis=basis, weight=weight, d_max=d_max),
                      node_material=material if truncation else None)
     cells = _merge([rectangle_cells((0.0, 0.0), (3 * MM, MM), (3 * n, n), gauss),
                     rectangle_cells((MM, MM), (2 * MM, 2 * MM), (n, n), gauss)])

@@ -24,10 +24,10 @@ import numpy as np
 from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
 from warpfree.run import OutputOptions, StaticRun
 from warpfree.solvers.efg.boundary import Essential, Natural
-from warpfree.solvers.efg.layouts import box_sides, grid_nodes, random_grid_nodes
-from warpfree.solvers.efg.model import EFGModel, MLSSettings
+from warpfree.galerkin.node_layouts import box_sides, grid_nodes, random_grid_nodes
+from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.solvers.efg.plots import plot_deformed
-from warpfree.solvers.efg.quadrature import polyline_points, rectangle_cells
+from warpfree.galerkin.quadrature import polyline_points, rectangle_cells
 from warpfree.solvers.efg.solver import ElasticitySolver
 from warpfree.solvers.nem import NEMModel
 from warpfree.validation import efg_timoshenko as beam
@@ -57,7 +57,7 @@ def beam_solver(cells_x: int, cells_y: int, layout: str = "regular", seed: int =
         shapes, method = NEMModel(x), "direct"
         cells = shapes.integration_cells()
     elif model == "efg":
-        shapes = EFGModel(x, MLSSettings(basis=basis, weight=weight, d_max=d_max))
+        shapes = MLSModel(x, MLSSettings(basis=basis, weight=weight, d_max=d_max))
         cells = rectangle_cells(lower, upper, (cells_x, cells_y), gauss)
     else:
         raise ParameterError("model", f"must be 'efg' or 'nem', got {model!r}")

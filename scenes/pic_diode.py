@@ -25,7 +25,7 @@ import numpy as np
 from warpfree.errors import reported_as, require_integer, require_positive
 from warpfree.io.frames import plot_series
 from warpfree.run import OutputOptions
-from warpfree.solvers.efg.model import EFGModel, MLSSettings
+from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.solvers.pic import Injection, PICSolver, PlasmaPoisson, Species
 from warpfree.solvers.pic.scene_tools import POTENTIAL_FRAMES, lattice_nodes, plot_history, walled_box, write_history
 from warpfree.time_loop import TimeLoop
@@ -52,7 +52,7 @@ def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5
     with reported_as(node_spacing="node_spacing, width, gap"):
         space = walled_box(width, gap)
         nodes = lattice_nodes(space, node_spacing)
-    model = EFGModel(nodes, MLSSettings(d_max=d_max), space=space)
+    model = MLSModel(nodes, MLSSettings(d_max=d_max), space=space)
     field = PlasmaPoisson(model, walls=(0.0, voltage))
     flux = injected_fraction * child_langmuir_flux(voltage, gap)
     v0 = injection_speed

@@ -17,7 +17,7 @@ import numpy as np
 
 from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
 from warpfree.run import OutputOptions
-from warpfree.solvers.efg.model import EFGModel, MLSSettings
+from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.solvers.pic import PICSolver, PlasmaPoisson, Species, load_species, random_positions
 from warpfree.solvers.pic.scene_tools import (POTENTIAL_FRAMES, lattice_nodes, momentum_change, periodic_box,
                                               plot_history, relative_drift, write_history)
@@ -47,7 +47,7 @@ def build(box: tuple = (64.0, 128.0), node_spacing: float = 1.0, d_max: float = 
     with reported_as(length_x="box", length_y="box", node_spacing="node_spacing, box"):
         space = periodic_box(lx, ly)
         nodes = lattice_nodes(space, node_spacing)
-    model = EFGModel(nodes, MLSSettings(d_max=d_max), space=space)
+    model = MLSModel(nodes, MLSSettings(d_max=d_max), space=space)
     field = PlasmaPoisson(model)
     rng = np.random.default_rng(require_integer("seed", seed, minimum=0))
     count = particles_per_node * nodes.shape[0]

@@ -17,7 +17,7 @@ import numpy as np
 
 from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
 from warpfree.run import OutputOptions
-from warpfree.solvers.efg.model import EFGModel, MLSSettings
+from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.solvers.pic import PICSolver, PlasmaPoisson, Species, lattice_positions, load_species
 from warpfree.solvers.pic.scene_tools import (POTENTIAL_FRAMES, lattice_nodes, momentum_change, periodic_box,
                                               plot_history, relative_drift, write_history)
@@ -52,7 +52,7 @@ def build(beam_speed: float = 1.0, length_y: float = 4.0, node_spacing: float = 
     with reported_as(length_y="length_y", node_spacing="node_spacing, beam_speed, length_y"):
         space = periodic_box(length, length_y)
         nodes = lattice_nodes(space, node_spacing)
-    model = EFGModel(nodes, MLSSettings(d_max=d_max), space=space)
+    model = MLSModel(nodes, MLSSettings(d_max=d_max), space=space)
     field = PlasmaPoisson(model)
     counts = [int(round(space.length[a] / node_spacing)) * particles_per_node for a in range(2)]
     loads = []

@@ -13,11 +13,11 @@ from warpfree.cli import main
 from warpfree.scene_loader import load_scene
 from warpfree.device import Launcher
 from warpfree.errors import ParameterError
-from warpfree.solvers.efg import assembly
+from warpfree.galerkin import assembly
 from warpfree.solvers.efg.boundary import Essential
-from warpfree.solvers.efg.layouts import box_sides, grid_nodes, random_grid_nodes
-from warpfree.solvers.efg.model import EFGModel, MLSSettings
-from warpfree.solvers.efg.quadrature import rectangle_cells
+from warpfree.galerkin.node_layouts import box_sides, grid_nodes, random_grid_nodes
+from warpfree.galerkin.mls import MLSModel, MLSSettings
+from warpfree.galerkin.quadrature import rectangle_cells
 from warpfree.solvers.efg.solver import ElasticitySolver, PoissonSolver
 
 
@@ -41,7 +41,7 @@ def sample_points(n=150, seed=0):
     ("quadratic", "gaussian", "rectangular"), ("quadratic", "singular", "circular")])
 def test_mls_partition_of_unity_reproduction_and_gradients(launcher, basis, weight, support):
     nodes = random_grid_nodes((0.0, 0.0), (1.0, 1.0), (10, 10), seed=3).position
-    model = EFGModel(nodes, MLSSettings(basis=basis, weight=weight, support=support,
+    model = MLSModel(nodes, MLSSettings(basis=basis, weight=weight, support=support,
                                         d_max=3.0 if basis == "quadratic" else 2.0), launcher=launcher)
     pts = sample_points()
     shape = model.shape_at(pts)
@@ -67,7 +67,7 @@ def test_mls_partition_of_unity_reproduction_and_gradients(launcher, basis, weig
 
 def test_support_size_is_the_rank_th_nearest_distance_and_rows_match_brute_force(launcher):
     nodes = random_grid_nodes((0.0, 0.0), (2.0, 1.0), (20, 10), seed=5).position
-    model = EFGModel(nodes, MLSSettings(d_max=2.2, rank=5), launcher=launcher)
+    model = MLSModel(nodes, MLSSettings(d_max=2.2, rank=5), launcher=launcher)
     kth = cKDTree(nodes).query(nodes, k=6)[0][:, 5]
     assert np.allclose(model.spacing, kth, rtol=0, atol=1e-12)
     pts = np.random.default_rng(1).uniform((0, 0), (2, 1), (300, 2))
@@ -82,10 +82,10 @@ def test_support_size_is_the_rank_th_nearest_distance_and_rows_match_brute_force
 
 def test_ill_conditioned_moment_matrix_is_reported_with_point_and_count(launcher):
     line = np.c_[np.linspace(0.0, 1.0, 11), np.zeros(11)]
-    model = EFGModel(line, MLSSettings(d_max=2.0, rank=2), launcher=launcher)
+    model = MLSModel(line, MLSSettings(d_max=2.0, rank=2), launcher=launcher)
     with pytest.raises(ParameterError, match=r"support: the moment matrix at point 0 \(0.5, 0.0\d*\), \d+ nodes"):
         model.shape_at(np.array([[0.5, 0.01]]))
-    grid = EFGModel(unit_grid(), MLSSettings(d_max=1.2), launcher=launcher)
+    grid = MLSModel(unit_grid(), MLSSettings(d_max=1.2), launcher=launcher)
     with pytest.raises(ParameterError, match=r"support: point 0 at \(3, 3\) lies in the support of 0 node"):
         grid.shape_at(np.array([[3.0, 3.0]]))
 
@@ -100,7 +100,7 @@ def _square_sides(nodes):
 
 
 def _patch_error(launcher, nodes, integration, gauss=2, method="lagrange", weight="cubic_spline"):
-    model = EFGModel(nodes, MLSSettings(d_max=2.0, weight=weight), launcher=launcher)
+    model = MLSModel(nodes, MLSSettings(d_max=2.0, weight=weight), launcher=launcher)
     solver = PoissonSolver(model, rectangle_cells((0, 0), (1, 1), (10, 10), gauss), method=method,
                            essential=[Essential(v, _linear, (True,)) for v in _square_sides(nodes)],
                            integration=integration)
@@ -125,7 +125,7 @@ def test_penalty_and_direct_substitution_impose_the_boundary(launcher):
     shape functions puts ū exactly on the boundary nodes (the interior misses the neglected boundary term, 5e-5)."""
     assert _patch_error(launcher, unit_grid(), "consistent", method="penalty") < 1e-6
     nodes = unit_grid()
-    model = EFGModel(nodes, MLSSettings(d_max=2.0, weight="singular"), launcher=launcher)
+    model = MLSModel(nodes, MLSSettings(d_max=2.0, weight="singular"), launcher=launcher)
     solver = PoissonSolver(model, rectangle_cells((0, 0), (1, 1), (10, 10), 2), method="direct",
                            essential=[Essential(v, _linear, (True,)) for v in _square_sides(nodes)])
     solver.solve()
@@ -138,7 +138,7 @@ def test_assembly_is_bitwise_identical_for_any_thread_count():
     nodes = random_grid_nodes((0, 0), (1, 1), (12, 12), seed=4).position
     mats = []
     for threads in (1, 2, 3):
-        model = EFGModel(nodes, MLSSettings(d_max=2.5), launcher=Launcher("cpu", threads, 1))
+        model = MLSModel(nodes, MLSSettings(d_max=2.5), launcher=Launcher("cpu", threads, 1))
         cells = rectangle_cells((0, 0), (1, 1), (12, 12), 2)
         clamped = Essential(nodes[nodes[:, 0] < 1e-12], lambda p: 0 * p)
         solver = ElasticitySolver(model, cells, 1.0, 0.3, essential=[clamped],
@@ -200,8 +200,8 @@ def test_timoshenko_cli_writes_vtu_frame_plots_and_summary(tmp_path):
     (lambda: MLSSettings(basis="cubic"), "basis"),
     (lambda: MLSSettings(weight="wendland"), "weight"),
     (lambda: MLSSettings(rank=0), "rank"),
-    (lambda: EFGModel(np.array([[0.0, 0.0], [1.0, 0.0]])), "nodes"),
-    (lambda: EFGModel(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, np.nan]])), "nodes"),
+    (lambda: MLSModel(np.array([[0.0, 0.0], [1.0, 0.0]])), "nodes"),
+    (lambda: MLSModel(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, np.nan]])), "nodes"),
 ])
 def test_bad_mls_input_names_the_parameter(build, name):
     with pytest.raises(ParameterError) as err:
@@ -217,7 +217,7 @@ def test_bad_mls_input_names_the_parameter(build, name):
 ])
 def test_bad_elasticity_input_names_the_parameter(launcher, kwargs, name):
     nodes = unit_grid(4)
-    model = EFGModel(nodes, MLSSettings(d_max=2.0), launcher=launcher)
+    model = MLSModel(nodes, MLSSettings(d_max=2.0), launcher=launcher)
     args = dict(young=1.0, poisson=0.3, plane="stress", essential=[Essential(nodes[nodes[:, 0] < 1e-12],
                                                                             lambda p: 0 * p)])
     args.update(kwargs)
@@ -228,7 +228,7 @@ def test_bad_elasticity_input_names_the_parameter(launcher, kwargs, name):
 
 def test_open_boundary_is_refused_for_consistent_integration(launcher):
     nodes = unit_grid(4)
-    model = EFGModel(nodes, MLSSettings(d_max=2.0), launcher=launcher)
+    model = MLSModel(nodes, MLSSettings(d_max=2.0), launcher=launcher)
     solver = ElasticitySolver(model, rectangle_cells((0, 0), (1, 1), (4, 4), 2), 1.0, 0.3,
                               essential=[Essential(nodes[nodes[:, 0] < 1e-12][::-1], lambda p: 0 * p)])
     with pytest.raises(ParameterError, match="free: the boundary pieces"):
@@ -268,7 +268,7 @@ def test_resolve_keeps_the_factorisation_and_the_boundary_values(launcher, metho
     """The PIC field solve re-solves with the same matrix: the same load gives the same solution (the boundary
     conditions' right-hand side, here ū = 1 + 2x + 3y, is kept), a doubled load adds the homogeneous response."""
     nodes = unit_grid(8)
-    model = EFGModel(nodes, MLSSettings(d_max=2.0, weight=weight), launcher=launcher)
+    model = MLSModel(nodes, MLSSettings(d_max=2.0, weight=weight), launcher=launcher)
     solver = PoissonSolver(model, rectangle_cells((0, 0), (1, 1), (8, 8), 2), method=method,
                            source=lambda p: np.sin(3 * p[:, 0]) + p[:, 1],
                            essential=[Essential(v, _linear, (True,)) for v in _square_sides(nodes)])
@@ -286,7 +286,7 @@ def test_resolve_keeps_the_factorisation_and_the_boundary_values(launcher, metho
 
 def test_node_outside_the_geometry_is_refused(launcher):
     nodes = np.vstack([unit_grid(4), [[1.3, 0.5]]])
-    model = EFGModel(nodes, MLSSettings(d_max=2.0), launcher=launcher)
+    model = MLSModel(nodes, MLSSettings(d_max=2.0), launcher=launcher)
     solver = PoissonSolver(model, rectangle_cells((0, 0), (1, 1), (4, 4), 2),
                            essential=[Essential(v, _linear, (True,)) for v in _square_sides(unit_grid(4))])
     with pytest.raises(ParameterError, match=r"nodes: node 25 at \(1.3, 0.5\) lies outside"):
@@ -316,7 +316,7 @@ def _layered_error(launcher, n, integration, interface_condition="nitsche"):
     """Max error of EFG with domain truncation on a layered conductor whose exact V is piecewise linear in y
     (σ1 V'_1 = σ2 V'_2 at y = 0.5; V = 0 at y = 0, 1 at y = 1, insulated sides); n x n nodes spacings."""
     from warpfree.solvers.efg.boundary import Free, Interface
-    from warpfree.solvers.efg.quadrature import polyline_points
+    from warpfree.galerkin.quadrature import polyline_points
 
     sigma = np.array([1.0, 4.0])
     slope_low = 1.0 / (0.5 + 0.5 * sigma[0] / sigma[1])
@@ -334,7 +334,7 @@ def _layered_error(launcher, n, integration, interface_condition="nitsche"):
     material[np.abs(nodes[:, 1] - 0.5) < 1e-12] = -1
     cells = rectangle_cells((0, 0), (1, 1), (n, n), 2)
     sides = _square_sides(nodes)
-    model = EFGModel(nodes, MLSSettings(d_max=2.0), node_material=material, launcher=launcher)
+    model = MLSModel(nodes, MLSSettings(d_max=2.0), node_material=material, launcher=launcher)
     upper = (np.arange(n * n) // n >= n // 2).astype(int)
     solver = PoissonSolver(model, cells, conductivity=sigma, cell_material=upper,
                            essential=[Essential(sides[0], exact, (True,), material=0),

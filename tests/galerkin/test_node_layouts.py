@@ -1,4 +1,4 @@
-"""EFG node layouts (warpfree.solvers.efg.layouts): regular and stratified-random grids, Cook, ring sector."""
+"""EFG node layouts (warpfree.galerkin.node_layouts): regular and stratified-random grids, Cook, ring sector."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from warpfree.errors import ParameterError
-from warpfree.solvers.efg.layouts import (annulus_nodes, box_sides, grid_nodes, nodes_on, quadrilateral_nodes,
+from warpfree.galerkin.node_layouts import (annulus_nodes, box_sides, grid_nodes, nodes_on, quadrilateral_nodes,
                                           random_grid_nodes)
 
 LOWER, UPPER, CELLS = np.array([-1.0, 0.5]), np.array([3.0, 2.5]), (8, 5)

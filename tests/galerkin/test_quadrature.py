@@ -1,4 +1,4 @@
-"""Background quadrature for EFG/NEM (warpfree.solvers.efg.quadrature): exactness, areas, lengths, normals, checks."""
+"""Background quadrature for EFG/NEM (warpfree.galerkin.quadrature): exactness, areas, lengths, normals, checks."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from warpfree.errors import ParameterError
-from warpfree.solvers.efg.quadrature import (TRIANGLE_DEGREES, annulus_cells, arc_points, gauss_legendre,
+from warpfree.galerkin.quadrature import (TRIANGLE_DEGREES, annulus_cells, arc_points, gauss_legendre,
                                              polyline_points, quadrilateral_cells, rectangle_cells, segment_points,
                                              structured_quadrilateral, triangle_cells, triangle_rule)
 

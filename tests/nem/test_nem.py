@@ -12,7 +12,7 @@ from warpfree.device import Launcher
 from warpfree.errors import ParameterError
 from warpfree.kernels import nem as nk
 from warpfree.solvers.efg.boundary import Essential
-from warpfree.solvers.efg.layouts import annulus_nodes, box_sides, grid_nodes, random_grid_nodes
+from warpfree.galerkin.node_layouts import annulus_nodes, box_sides, grid_nodes, random_grid_nodes
 from warpfree.solvers.efg.solver import ElasticitySolver, PoissonSolver
 from warpfree.solvers.nem.model import NEMModel, _inside_polygon
 

@@ -8,7 +8,7 @@ import pytest
 
 from warpfree.device import Launcher
 from warpfree.errors import ParameterError
-from warpfree.solvers.efg.model import EFGModel, MLSSettings
+from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.solvers.pic import PlasmaPoisson, PICSolver, Species, lattice_positions, load_species, random_positions
 from warpfree.solvers.pic.scene_tools import lattice_nodes, periodic_box, walled_box
 from warpfree.space import Space
@@ -37,10 +37,10 @@ def test_periodic_shape_functions_equal_the_tiled_free_model():
     rng = np.random.default_rng(3)
     space = periodic_box(4.0, 3.0)
     nodes = _random_nodes(space, 8, rng)
-    periodic = EFGModel(nodes, MLSSettings(d_max=2.0), space=space)
+    periodic = MLSModel(nodes, MLSSettings(d_max=2.0), space=space)
     shifts = [(sx * 4.0, sy * 3.0) for sx in (-1, 0, 1) for sy in (-1, 0, 1)]
     tiled = np.concatenate([nodes + s for s in shifts])
-    free = EFGModel(tiled, MLSSettings(d_max=2.0))
+    free = MLSModel(tiled, MLSSettings(d_max=2.0))
     free.spacing[:] = np.tile(periodic.spacing, len(shifts))  # the tiled copies' own c_I (outer copies have
     free.support_np[:] = np.tile(periodic.support_np, (len(shifts), 1))  # no neighbours beyond the tiling)
     free.support.assign(free.support_np)
@@ -62,7 +62,7 @@ def test_deposit_conserves_charge_and_equals_the_shape_matrix():
     Σ_p q_p to round-off (partition of unity)."""
     rng = np.random.default_rng(5)
     space = periodic_box(6.0, 4.0)
-    model = EFGModel(_random_nodes(space, 12, rng), MLSSettings(d_max=2.2), space=space)
+    model = MLSModel(_random_nodes(space, 12, rng), MLSSettings(d_max=2.2), space=space)
     solver = _thermal(space, model, rng)
     q = solver.macro_charge_np[solver.state.species.numpy()]
     phi = model.shape_at(solver.state.position.numpy()).matrix()
@@ -78,7 +78,7 @@ def test_energy_gather_equals_minus_the_potential_gradient():
     """gather='energy': E_p = -Σ_I u_I ∇φ_I(x_p) (eq 4.5), checked against the EFG gradient matrices."""
     rng = np.random.default_rng(7)
     space = periodic_box(5.0, 5.0)
-    model = EFGModel(lattice_nodes(space, 0.5), MLSSettings(d_max=2.0), space=space)
+    model = MLSModel(lattice_nodes(space, 0.5), MLSSettings(d_max=2.0), space=space)
     solver = _thermal(space, model, rng, gather="energy")
     gx, gy = model.shape_at(solver.state.position.numpy()).gradient_matrices()
     expected = -np.c_[gx @ solver.potential, gy @ solver.potential]
@@ -88,7 +88,7 @@ def test_energy_gather_equals_minus_the_potential_gradient():
 def test_poisson_solve_reproduces_a_sine_potential():
     """-∇²u = ρ with ρ = sin(kx) in the periodic box: u = sin(kx)/k² (the field solve alone, through Q = ∫ φ ρ)."""
     space = periodic_box(2 * math.pi, 2.0)
-    model = EFGModel(lattice_nodes(space, 2 * math.pi / 40), MLSSettings(d_max=2.0), space=space)
+    model = MLSModel(lattice_nodes(space, 2 * math.pi / 40), MLSSettings(d_max=2.0), space=space)
     field = PlasmaPoisson(model)
     g = field.gauss
     rho = np.sin(g.position[:, 0])
@@ -105,7 +105,7 @@ def test_self_force_vanishes_with_the_momentum_gather(spacing):
     a self-force of the neighbour's order (documented in ``warpfree.solvers.pic.field``)."""
     side = 8.0
     space = periodic_box(side, side)
-    model = EFGModel(lattice_nodes(space, spacing), MLSSettings(d_max=2.0), space=space)
+    model = MLSModel(lattice_nodes(space, spacing), MLSSettings(d_max=2.0), space=space)
     field = PlasmaPoisson(model)
     area = side * side
     neighbour = 1.0 / (2.0 * math.pi)     # q²/(2π ε0 r) at r = 1 (line charges)
@@ -129,7 +129,7 @@ def test_momentum_is_conserved_with_the_momentum_gather():
     at its initial value to round-off."""
     rng = np.random.default_rng(11)
     space = periodic_box(8.0, 6.0)
-    model = EFGModel(lattice_nodes(space, 0.5), MLSSettings(d_max=2.0), space=space)
+    model = MLSModel(lattice_nodes(space, 0.5), MLSSettings(d_max=2.0), space=space)
     solver = _thermal(space, model, rng)
     for _ in range(20):
         solver.step(solver.dt)
@@ -146,9 +146,9 @@ def test_momentum_gather_keeps_momentum_and_no_self_force_on_jittered_nodes():
     rng = np.random.default_rng(5)
     space = periodic_box(8.0, 6.0)
     lattice = lattice_nodes(space, 0.5)
-    assert not PlasmaPoisson(EFGModel(lattice, MLSSettings(d_max=2.0), space=space)).antisymmetrise
+    assert not PlasmaPoisson(MLSModel(lattice, MLSSettings(d_max=2.0), space=space)).antisymmetrise
     nodes = np.mod(lattice + 0.1 * (rng.random(lattice.shape) - 0.5), space.length[:2])
-    model = EFGModel(nodes, MLSSettings(d_max=2.0), space=space)
+    model = MLSModel(nodes, MLSSettings(d_max=2.0), space=space)
     field = PlasmaPoisson(model)
     assert field.antisymmetrise
     neighbour = 1.0 / (2.0 * math.pi)
@@ -169,7 +169,7 @@ def test_threads_give_bitwise_identical_runs():
         rng = np.random.default_rng(rng_state)
         space = periodic_box(6.0, 4.0)
         launcher = Launcher("cpu", threads)
-        model = EFGModel(lattice_nodes(space, 0.5), MLSSettings(d_max=2.0), space=space, launcher=launcher)
+        model = MLSModel(lattice_nodes(space, 0.5), MLSSettings(d_max=2.0), space=space, launcher=launcher)
         solver = _thermal(space, model, rng)
         for _ in range(5):
             solver.step(solver.dt)
@@ -223,7 +223,7 @@ def test_validation_references():
 
 def test_warnings_name_the_heating_causes():
     space = periodic_box(8.0, 8.0)
-    model = EFGModel(lattice_nodes(space, 1.0), MLSSettings(d_max=2.0), space=space)
+    model = MLSModel(lattice_nodes(space, 1.0), MLSSettings(d_max=2.0), space=space)
     field = PlasmaPoisson(model)
     pos = lattice_positions(space, (16, 16))
     rng = np.random.default_rng(0)
@@ -247,14 +247,14 @@ def test_warnings_name_the_heating_causes():
     (lambda s, f, p: PICSolver(f, [load_species(Species("e", -1.0, 1.0, 1.0), s, p)], 0.1, gather="x"), "gather"),
     (lambda s, f, p: PICSolver(f, [load_species(Species("e", -1.0, 1.0, 1.0), s, p)], 0.1,
                                magnetic_field=math.nan), "magnetic_field"),
-    (lambda s, f, p: EFGModel(lattice_nodes(s, 1.0), MLSSettings(d_max=4.5), space=s), "d_max"),
-    (lambda s, f, p: EFGModel(lattice_nodes(s, 1.0) + [8.5, 0.0], MLSSettings(), space=s), "nodes"),
-    (lambda s, f, p: PlasmaPoisson(EFGModel(lattice_nodes(s, 1.0), MLSSettings(), space=Space(
+    (lambda s, f, p: MLSModel(lattice_nodes(s, 1.0), MLSSettings(d_max=4.5), space=s), "d_max"),
+    (lambda s, f, p: MLSModel(lattice_nodes(s, 1.0) + [8.5, 0.0], MLSSettings(), space=s), "nodes"),
+    (lambda s, f, p: PlasmaPoisson(MLSModel(lattice_nodes(s, 1.0), MLSSettings(), space=Space(
         2, (0, 0, 0), (8, 8, 1), periodic=(False, True, False)))), "space"),
 ])
 def test_bad_input_names_the_parameter(make, name):
     space = periodic_box(8.0, 8.0)
-    field = PlasmaPoisson(EFGModel(lattice_nodes(space, 1.0), MLSSettings(d_max=2.0), space=space))
+    field = PlasmaPoisson(MLSModel(lattice_nodes(space, 1.0), MLSSettings(d_max=2.0), space=space))
     pos = lattice_positions(space, (16, 16))
     with pytest.raises(ParameterError) as err:
         make(space, field, pos)
@@ -268,7 +268,7 @@ def test_a_hole_in_the_nodes_is_refused():
     nodes = np.array([[x, y] for x in np.arange(0.0, 8.0, 1.0) for y in np.arange(0.0, 8.0, 1.0)
                       if not (3.0 <= x <= 5.0 and 3.0 <= y <= 5.0)])           # a hole in the node lattice
     with pytest.raises(ParameterError, match=r"lies in the support of \d node") as err:
-        PlasmaPoisson(EFGModel(nodes, MLSSettings(d_max=1.2), space=space), cells=(8, 8))
+        PlasmaPoisson(MLSModel(nodes, MLSSettings(d_max=1.2), space=space), cells=(8, 8))
     assert err.value.name == "support"
 
 
@@ -277,7 +277,7 @@ def test_boris_push_gyrates_at_the_discrete_cyclotron_frequency():
     θ = 2 atan(ω_c Δt / 2) per step and keeps its speed (Boris 1970): its positions are the vertices of a regular
     polygon of side v Δt, circumradius v Δt / (2 sin(θ/2)) = v/ω_c (1 + O(Δt²))."""
     space = periodic_box(8.0, 8.0)
-    field = PlasmaPoisson(EFGModel(lattice_nodes(space, 0.5), MLSSettings(d_max=2.0), space=space))
+    field = PlasmaPoisson(MLSModel(lattice_nodes(space, 0.5), MLSSettings(d_max=2.0), space=space))
     bz, dt = 2.0, 0.1
     load = load_species(Species("e", -1.0, 1.0, 1.0 / 64.0), space, np.array([[4.0, 4.0]]),
                         velocity=np.array([[0.5, 0.0]]))
@@ -324,7 +324,7 @@ def test_cli_takes_tuples_and_names_a_bad_one():
 
 def _walled(spacing, side=4.0):
     space = walled_box(side, side)
-    return space, EFGModel(lattice_nodes(space, spacing), MLSSettings(d_max=2.0), space=space)
+    return space, MLSModel(lattice_nodes(space, spacing), MLSSettings(d_max=2.0), space=space)
 
 
 def test_grounded_walls_around_a_charged_slab_give_the_parabola():
@@ -375,7 +375,7 @@ def test_reflecting_walls_keep_a_warm_plasma_inside_and_its_energy():
                                                    ((False, True, False), None, "space")])
 def test_walls_must_match_the_space(periodic, walls, name):
     space = Space(2, (0.0, 0.0, 0.0), (4.0, 4.0, 1.0), periodic=periodic)
-    model = EFGModel(lattice_nodes(space, 0.5), MLSSettings(d_max=2.0), space=space)
+    model = MLSModel(lattice_nodes(space, 0.5), MLSSettings(d_max=2.0), space=space)
     with pytest.raises(ParameterError) as err:
         PlasmaPoisson(model, walls=walls)
     assert err.value.name == name

@@ -11,7 +11,7 @@ import pytest
 from warpfree import device
 from warpfree.scene_loader import load_scene
 from warpfree.errors import ParameterError
-from warpfree.solvers.efg.model import EFGModel, MLSSettings
+from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.solvers.pic import Injection, PICSolver, PlasmaPoisson, Species, load_species, random_positions
 from warpfree.solvers.pic.scene_tools import lattice_nodes, periodic_box, walled_box
 from warpfree.validation.pic_diode import cathode_gradient, child_langmuir_flux, steady_potential
@@ -24,7 +24,7 @@ def _diode(**kw):
 
 def _walled_field(width=1.0, gap=1.0, spacing=1.0 / 16.0, walls=(0.0, 0.0)):
     space = walled_box(width, gap)
-    model = EFGModel(lattice_nodes(space, spacing), MLSSettings(d_max=2.0), space=space)
+    model = MLSModel(lattice_nodes(space, spacing), MLSSettings(d_max=2.0), space=space)
     return space, PlasmaPoisson(model, walls=walls)
 
 
@@ -149,7 +149,7 @@ def test_open_boundary_input_is_refused_with_the_parameter_named():
     with pytest.raises(ParameterError, match="seed"):
         Injection(beam, "lower", 10.0, seed=2 ** 31)
     box = periodic_box(1.0, 1.0)
-    periodic = PlasmaPoisson(EFGModel(lattice_nodes(box, 0.125), MLSSettings(d_max=2.0), space=box))
+    periodic = PlasmaPoisson(MLSModel(lattice_nodes(box, 0.125), MLSSettings(d_max=2.0), space=box))
     with pytest.raises(ParameterError, match="injections"):
         PICSolver(periodic, [], 0.1, injections=[Injection(beam, "lower")])
     with pytest.raises(ParameterError, match="particle_walls"):

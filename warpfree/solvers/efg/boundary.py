@@ -21,7 +21,7 @@ import numpy as np
 
 from warpfree.errors import ParameterError
 
-from .quadrature import BoundaryPoints, segment_points
+from warpfree.galerkin.quadrature import BoundaryPoints, segment_points
 
 __all__ = ["Essential", "Natural", "Free", "Interface", "EssentialPoints", "essential_points"]
 

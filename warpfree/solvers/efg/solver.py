@@ -1,7 +1,7 @@
 """EFG static solvers: scalar Poisson/conduction and 2D linear elasticity, through the core's run shell.
 
-Both take an :class:`~warpfree.solvers.efg.model.EFGModel` (nodes, supports, MLS settings), integration points
-(:class:`~warpfree.solvers.efg.quadrature.QuadraturePoints`: background cells or triangles), boundary conditions
+Both take a shape-function model (:class:`~warpfree.galerkin.shapes.ShapeModel`: MLS for EFG, or NEM's), integration
+points (:class:`~warpfree.galerkin.quadrature.QuadraturePoints`: background cells or triangles), boundary conditions
 (:mod:`~warpfree.solvers.efg.boundary`) and materials, and ``solve()`` in timed phases: "shape functions" (at the
 Gauss points), "assembly", "boundary", "factorisation", "solve". The system is factorised once
 (:class:`~warpfree.sparse.FactorisedSystem`, SciPy's SuperLU) and kept: :meth:`EFGSolver.resolve` solves again for
@@ -15,7 +15,7 @@ Problems:
   points and nodes carry material indices so that nodes serve only their own material (seed 002 §3.3).
 - :class:`ElasticitySolver`: ∇·σ + b = 0, σ = D ε (seed 003 eqs 3.34-3.38), plane stress or plane strain.
 
-float64 throughout (``kernels/efg.py``). Units: the caller's, consistently (SI or any consistent set).
+float64 throughout (``kernels/mls.py``, ``kernels/galerkin.py``, ``kernels/efg.py``). Units: the caller's, consistently (SI or any consistent set).
 """
 
 from __future__ import annotations
@@ -30,11 +30,14 @@ from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.solver import OutputSet, StaticSolver
 from warpfree.sparse import FactorisedSystem, PrescribedValues
 
-from . import assembly
+from warpfree.galerkin import assembly
+from warpfree.galerkin.consistent_integration import consistent_test_gradients
+from warpfree.galerkin.quadrature import BoundaryPoints, QuadraturePoints
+from warpfree.galerkin.shapes import ShapeData, ShapeModel
+
+from . import boundary_terms
 from .boundary import Essential, Free, Interface, Natural, essential_points, nodes_on_polyline
-from .model import EFGModel, ShapeData
 from .plots import von_mises
-from .quadrature import BoundaryPoints, QuadraturePoints
 
 __all__ = ["EFGSolver", "PoissonSolver", "ElasticitySolver", "elasticity_matrix", "METHODS"]
 
@@ -65,17 +68,17 @@ def elasticity_matrix(young: float, poisson: float, plane: str) -> np.ndarray:
 class EFGSolver(StaticSolver):
     """What both problems share: shape functions at the Gauss points, boundary conditions, factorise, solve.
 
-    model: the :class:`EFGModel`; cells: Gauss points of the domain (``cell`` indices select materials);
+    model: the :class:`~warpfree.galerkin.shapes.ShapeModel`; cells: Gauss points of the domain (``cell`` indices select materials);
     essential / natural: boundary conditions; free: the rest of the boundary (:class:`Free` pieces or
     BoundaryPoints: traction-free or insulated, no load, but part of the boundary integral of consistent
     integration); interfaces: material interfaces (:class:`Interface`, with consistent integration and several
     materials, which then needs every piece's ``material``); method: "lagrange",
     "penalty" or "direct" (module ``boundary``); penalty: α as a multiple of the largest diagonal entry of K per
     unit boundary weight; integration: "consistent" (test gradients corrected so that the discrete divergence
-    theorem holds, ``assembly.consistent_test_gradients``: linear fields exact; needs essential + natural + free to
+    theorem holds, ``consistent_test_gradients``: linear fields exact; needs essential + natural + free to
     cover the whole boundary) or "gauss" (plain Gauss quadrature, the thesis's); interface_condition: "nitsche"
     (the interface term of the weak form that domain truncation drops, its symmetric partner and a penalty
-    ``nitsche_penalty`` · k_max / h: a conforming interface, ``assembly.interface_matrix``) or "none" (truncation
+    ``nitsche_penalty`` · k_max / h: a conforming interface, ``boundary_terms.interface_matrix``) or "none" (truncation
     alone, seed 002's).
     """
 
@@ -83,7 +86,7 @@ class EFGSolver(StaticSolver):
     work_unit: ClassVar[str] = "Gauss points"
     components: ClassVar[int] = 1
 
-    def __init__(self, model: EFGModel, cells: QuadraturePoints, essential: list[Essential] | None = None,
+    def __init__(self, model: ShapeModel, cells: QuadraturePoints, essential: list[Essential] | None = None,
                  natural: list[Natural] | None = None, method: str = "lagrange", penalty: float = 1e7,
                  cell_material=None, free: list | None = None, interfaces: list[Interface] | None = None,
                  integration: str = "consistent", interface_condition: str = "nitsche", nitsche_penalty: float = 20.0):
@@ -157,7 +160,7 @@ class EFGSolver(StaticSolver):
                 pieces = self._boundary_pieces(essential, natural)
                 self._check_closed(pieces)
                 self._check_nodes_inside([p for _, p, _ in pieces])
-                test, self.correction = assembly.consistent_test_gradients(
+                test, self.correction = consistent_test_gradients(
                     model, self.shape, self.cells.weight, [(sh, p.weight, p.normal, r) for sh, p, r in pieces],
                     self.point_material)
         with self.phases("assembly"):
@@ -289,7 +292,7 @@ class EFGSolver(StaticSolver):
             if shape.counts.min() == 0:
                 raise ParameterError(f"{b.name}.vertices", "part of this boundary lies outside every node's support")
             if self.method == "lagrange":
-                G = assembly.multiplier_matrix(model, shape, ep.points.weight, ep.multiplier, ep.hat, c, b.constrained,
+                G = boundary_terms.multiplier_matrix(model, shape, ep.points.weight, ep.multiplier, ep.hat, c, b.constrained,
                                                ep.n_multipliers)
                 q = np.zeros((ep.n_multipliers, c))
                 for e in range(2):
@@ -298,7 +301,7 @@ class EFGSolver(StaticSolver):
                 blocks.append(G[:, keep])
                 rhs_parts.append(q.reshape(-1)[keep])
             else:
-                M = assembly.boundary_mass_matrix(model, shape, ep.points.weight, c, b.constrained)
+                M = boundary_terms.boundary_mass_matrix(model, shape, ep.points.weight, c, b.constrained)
                 mask = np.asarray(b.constrained, dtype=float)[None, :]
                 fb = assembly.load_vector(model, shape, ep.prescribed * mask * ep.points.weight[:, None])
                 mass = M if mass is None else mass + M
@@ -364,7 +367,7 @@ class PoissonSolver(EFGSolver):
     name: ClassVar[str] = "efg_poisson"
     components: ClassVar[int] = 1
 
-    def __init__(self, model: EFGModel, cells: QuadraturePoints, conductivity=1.0,
+    def __init__(self, model: ShapeModel, cells: QuadraturePoints, conductivity=1.0,
                  source: Callable[[np.ndarray], np.ndarray] | None = None, **kwargs):
         super().__init__(model, cells, **kwargs)
         k = np.atleast_1d(np.asarray(conductivity, dtype=np.float64))
@@ -381,7 +384,7 @@ class PoissonSolver(EFGSolver):
         self.source = source
 
     def interface_stiffness(self) -> sp.csr_matrix:
-        """Σ over ``interfaces`` of the symmetric Nitsche terms (``assembly.interface_matrix``), α = β k_max / h with
+        """Σ over ``interfaces`` of the symmetric Nitsche terms (``boundary_terms.interface_matrix``), α = β k_max / h with
         h the median node spacing."""
         h = float(np.median(self.model.spacing))
         K = sp.csr_matrix((self.model.node_count, self.model.node_count))
@@ -389,7 +392,7 @@ class PoissonSolver(EFGSolver):
             p = face.points
             a, b = self._interface_shapes(face)
             ka, kb = self.conductivity[face.inside], self.conductivity[face.outside]
-            K = K + assembly.interface_matrix(self.model, a, b, p.normal, p.weight, ka, kb,
+            K = K + boundary_terms.interface_matrix(self.model, a, b, p.normal, p.weight, ka, kb,
                                               self.nitsche_penalty * max(ka, kb) / h)
         return K
 
@@ -430,7 +433,7 @@ class ElasticitySolver(EFGSolver):
     name: ClassVar[str] = "efg_elasticity"
     components: ClassVar[int] = 2
 
-    def __init__(self, model: EFGModel, cells: QuadraturePoints, young: float, poisson: float, plane: str = "stress",
+    def __init__(self, model: ShapeModel, cells: QuadraturePoints, young: float, poisson: float, plane: str = "stress",
                  body: Callable[[np.ndarray], np.ndarray] | None = None, **kwargs):
         self.D = elasticity_matrix(young, poisson, plane)
         self.young, self.poisson, self.plane = float(young), float(poisson), plane

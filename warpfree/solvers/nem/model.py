@@ -1,9 +1,10 @@
 """The NEM model: nodes, their Delaunay triangulation and Laplace shape functions at any set of points (seed 003 §3.4).
 
-A :class:`NEMModel` is a drop-in for :class:`~warpfree.solvers.efg.model.EFGModel` in the EFG solvers
+A :class:`NEMModel` is a :class:`~warpfree.galerkin.shapes.ShapeModel`, as the MLS model is, for the EFG solvers
 (``warpfree.solvers.efg.solver``): it has ``launcher``, ``node_count``, ``nodes_np``, ``spacing`` (per node),
 ``settings.interpolating`` (True), ``node_material`` (all -1), :meth:`shape_at` returning a
-:class:`~warpfree.solvers.efg.model.ShapeData`, :meth:`evaluate` and :meth:`describe`; and, NEM's own,
+:class:`~warpfree.galerkin.shapes.ShapeData`, :meth:`evaluate` (its nodal parameters are nodal values: the
+Laplace functions interpolate) and :meth:`describe`; and, NEM's own,
 :meth:`integration_cells`: Gauss points on the Delaunay triangles (the thesis: 3 points per triangle, degree 2).
 
 Shape functions: Laplace / non-Sibsonian (Belikov et al. 1997; Sukumar et al. 2001), seed 003 eqs 3.45-3.46,
@@ -47,8 +48,8 @@ from warpfree.device import Launcher, current_launcher
 from warpfree.errors import ParameterError
 from warpfree.kernels import nem as nk
 from warpfree.kernels.neighbours import NeighbourRows
-from warpfree.solvers.efg.model import ShapeData, _materials, _points2, evaluate_nodal
-from warpfree.solvers.efg.quadrature import QuadraturePoints, triangle_cells
+from warpfree.galerkin.quadrature import QuadraturePoints, triangle_cells
+from warpfree.galerkin.shapes import ShapeData, ShapeModel, material_array, points2d
 
 __all__ = ["NEMModel", "NEMSettings"]
 
@@ -101,7 +102,7 @@ def _domain(domain) -> np.ndarray:
     return d
 
 
-class NEMModel:
+class NEMModel(ShapeModel):
     """Nodes, their Delaunay triangulation and Laplace shape functions (module docstring).
 
     nodes: (n, 2) positions (m), n >= 3, distinct, not all collinear; domain: optional counter-clockwise polygon
@@ -113,7 +114,7 @@ class NEMModel:
         self.settings = NEMSettings()
         self.launcher = launcher or current_launcher()
         dev = self.launcher.device
-        self.nodes_np = _points2(nodes, "nodes")
+        self.nodes_np = points2d(nodes, "nodes")
         n = self.node_count = self.nodes_np.shape[0]
         if n < 3:
             raise ParameterError("nodes", f"needs at least 3 nodes for a triangulation, got {n}")
@@ -130,7 +131,7 @@ class NEMModel:
         self.domain = None if domain is None else _domain(domain)
         self._build_triangles()
         self.nodes = wp.array(self.nodes_np, dtype=wp.vec2d, device=dev)
-        self.node_material = _materials(None, n, "node_material", dev)
+        self.node_material = material_array(None, n, "node_material", dev)
         self.mesh = nk.Triangulation()
         self.mesh.nodes = self.nodes
         self.mesh.triangles = wp.array(self.triangles.astype(np.int32), dtype=wp.vec3i, device=dev)
@@ -200,7 +201,7 @@ class NEMModel:
         the points it misses (a removed triangle, or a rounding error outside the hull) the best of the kept
         triangles around their 4 nearest nodes within LOCATE_TOL. Raises ParameterError(name) naming the first
         point outside every kept triangle."""
-        p = _points2(points, name)
+        p = points2d(points, name)
         found = np.asarray(self.delaunay.find_simplex(p), dtype=np.int64)
         t = np.where(found >= 0, self.kept_of[found], -1)
         miss = np.flatnonzero(t < 0)
@@ -235,9 +236,9 @@ class NEMModel:
         with φ_i and ∇φ_i (float64). ``material`` is checked and otherwise ignored: every node serves every
         material (node_material is -1). ``rcond`` is 1 at every point (no moment matrix). Raises ParameterError
         (``name``) naming the first point outside the domain or whose cavity overflows the kernel's fixed sizes."""
-        p = _points2(points, name)
+        p = points2d(points, name)
         n, dev, L = p.shape[0], self.launcher.device, self.launcher
-        _materials(material, n, "material", dev)
+        material_array(material, n, "material", dev)
         triangle = wp.array(self.locate(p, name), dtype=wp.int32, device=dev)
         points64 = wp.array(p, dtype=wp.vec2d, device=dev)
         rows = NeighbourRows()
@@ -268,11 +269,6 @@ class NEMModel:
             i = int(bad[0])
             raise ParameterError(name, f"{name} {i} at ({p[i, 0]:.6g}, {p[i, 1]:.6g}) {_STATUS[int(status[i])]} "
                                        f"({bad.size} such points)")
-
-    def evaluate(self, nodal, shape: ShapeData, components: int = 1) -> tuple[np.ndarray, np.ndarray]:
-        """(u^h (n, components), ∇u^h (n, components, 2)) at the points of ``shape`` from nodal values ``nodal``
-        (node count × components, node-major: u_{cI+k}; Laplace functions interpolate, so these are nodal values)."""
-        return evaluate_nodal(self.launcher, self.node_count, nodal, shape, components)
 
     def integration_cells(self, degree: int = 2) -> QuadraturePoints:
         """Gauss points on the kept Delaunay triangles (``triangle_cells``): degree 2 = 3 points per triangle, the

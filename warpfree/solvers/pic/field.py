@@ -2,7 +2,7 @@
 periodic along y or closed by two walls of given potential (grounded walls, electrodes), factorised once.
 
 -∇²u = ρ (ε0 = 1; the reference note's sign convention, E = -∇u). With the EFG shape functions φ_I of an
-:class:`~warpfree.solvers.efg.EFGModel` over a periodic :class:`~warpfree.space.Space`:
+:class:`~warpfree.galerkin.mls.MLSModel` over a periodic :class:`~warpfree.space.Space`:
 
     K u + m λ = b,   mᵀ u = 0,   K_IJ = ∫ ∇φ_I·∇φ_J dΩ,   m_I = ∫ φ_I dΩ,   b_I = Q_I + ρ_bg m_I
 
@@ -17,7 +17,7 @@ node (K u + Cᵀλ = b, C u = V with C_cI = φ_I(x_c)); λ_c approximates the wa
 K is integrated with plain Gauss quadrature on rectangular cells, not the consistent integration of the static
 scenes: a symmetric K with the deposit's own φ_I makes the scheme energy-conserving in the time-continuous limit
 (the field energy W = ½ uᵀ K u changes by exactly the work -Σ_p q_p E(x_p)·v_p, Lewis 1970), which a
-Petrov-Galerkin K would break. float64 (see ``kernels/efg.py``).
+Petrov-Galerkin K would break. float64 (see ``kernels/mls.py``).
 
 Two gathers (:class:`~.solver.PICSolver` ``gather=``):
 
@@ -46,9 +46,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from warpfree.errors import ParameterError, require_finite
-from warpfree.solvers.efg.assembly import conduction_matrix
-from warpfree.solvers.efg.model import EFGModel
-from warpfree.solvers.efg.quadrature import rectangle_cells
+from warpfree.galerkin.assembly import conduction_matrix
+from warpfree.galerkin.mls import MLSModel
+from warpfree.galerkin.quadrature import rectangle_cells
 from warpfree.sparse import FactorisedSystem, PrescribedValues
 
 __all__ = ["PlasmaPoisson", "ANTISYMMETRY_TOLERANCE"]
@@ -65,7 +65,7 @@ class PlasmaPoisson:
     upper) when y is not periodic (the model's nodes must then include both wall rows).
     """
 
-    def __init__(self, model: EFGModel, cells: tuple[int, int] | None = None, order: int = 4,
+    def __init__(self, model: MLSModel, cells: tuple[int, int] | None = None, order: int = 4,
                  walls: tuple[float, float] | None = None):
         space = model.space
         if not space.periodic[0]:
@@ -118,7 +118,7 @@ class PlasmaPoisson:
             worst = max(worst, abs(float(r @ v)) / max(np.linalg.norm(r) * np.linalg.norm(v), 1e-300))
         return worst
 
-    def _wall_rows(self, model: EFGModel) -> tuple[sp.csr_matrix, np.ndarray]:
+    def _wall_rows(self, model: MLSModel) -> tuple[sp.csr_matrix, np.ndarray]:
         """C (collocation points × N) and the wall potentials at them: one point on each wall under every node of
         the lower wall's row."""
         lo, hi = self.lower[1], self.lower[1] + self.length[1]

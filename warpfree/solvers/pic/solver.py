@@ -35,12 +35,12 @@ import warp as wp
 
 from warpfree.device import Launcher
 from warpfree.errors import ParameterError, RunError, require_finite, require_positive
-from warpfree.kernels import efg as ek
+from warpfree.kernels import mls as mk
 from warpfree.kernels import pic as pk
 from warpfree.neighbours import NeighbourGrid
 from warpfree.reduce import Reduction
 from warpfree.solver import OutputSet, State, StepRule, TimeDependentSolver
-from warpfree.solvers.efg.model import RCOND_LIMIT, EFGModel
+from warpfree.galerkin.mls import RCOND_LIMIT, MLSModel
 
 from .field import PlasmaPoisson
 from .injection import Injection
@@ -126,7 +126,7 @@ class PICSolver(TimeDependentSolver):
 
     Parameters
     ----------
-    field: :class:`~.field.PlasmaPoisson` (holds the :class:`~warpfree.solvers.efg.EFGModel`).
+    field: :class:`~.field.PlasmaPoisson` (holds the :class:`~warpfree.galerkin.mls.MLSModel`).
     loads: the species and their macro-particles (:func:`~.species.load_species`).
     dt: the time step (ω_pe⁻¹ units); ω_pe Δt must be < 2.
     background_density: uniform immobile charge density (e n_ref); default: the one that makes the plasma neutral.
@@ -149,7 +149,7 @@ class PICSolver(TimeDependentSolver):
                  background_density: float | None = None, modes=((1, 0),), gather: str = "momentum",
                  magnetic_field: float = 0.0, particle_walls="reflect", injections: list[Injection] = (),
                  average_from: float | None = None, launcher: Launcher | None = None):
-        model: EFGModel = field.model
+        model: MLSModel = field.model
         super().__init__(model, launcher or model.launcher)
         self.field = field
         self.loads = list(loads)
@@ -273,7 +273,7 @@ class PICSolver(TimeDependentSolver):
         self._sort_order = wp.zeros(2 * capacity, dtype=wp.int32, device=dev)
         self._scratch = {name: wp.zeros(capacity, dtype=getattr(self.state, name).dtype, device=dev)
                          for name in PARTICLE_ARRAYS}
-        self.fit = wp.zeros(capacity, dtype=ek.MLSFit, device=dev)
+        self.fit = wp.zeros(capacity, dtype=mk.MLSFit, device=dev)
         self.node_count_of = wp.zeros(capacity, dtype=wp.int32, device=dev)
         self._flags = wp.zeros(capacity, dtype=wp.int32, device=dev)
         self.e_field = wp.zeros(capacity, dtype=wp.vec2d, device=dev)

@@ -1,9 +1,10 @@
-"""The EFG model: nodes, their supports and MLS shape functions at any set of points (seeds 003 and 002).
+"""The MLS model: nodes, their supports and MLS shape functions at any set of points (seeds 003 and 002), the shape
+functions of EFG and of the PIC field solve.
 
-An :class:`EFGModel` holds what does not change once built: the nodes (float64), their materials, the MLS
+An :class:`MLSModel` (a :class:`~warpfree.galerkin.shapes.ShapeModel`) holds what does not change once built: the nodes (float64), their materials, the MLS
 settings (:class:`MLSSettings`), each node's support (half-widths R_I = d_max · c_I, with c_I the distance to its
 ``rank``-th nearest node, seed 003 §4.1.1 and eqs 3.33 / seed 002 eq 4.1) and a ``wp.HashGrid`` over the nodes.
-:meth:`EFGModel.shape_at` gives the shape functions and their gradients at any points (Gauss points, plotting
+:meth:`MLSModel.shape_at` gives the shape functions and their gradients at any points (Gauss points, plotting
 points, plasma particles) as a :class:`ShapeData`: CSR rows of the nodes whose support holds each point, with
 φ_I and ∇φ_I per entry. Another solver (the PIC field solve) holds the model and asks it for shape data.
 
@@ -13,7 +14,7 @@ image (``kernels/space.py: offset2d``), so supports, shape functions and assembl
 node near one face serves points near the opposite face, as its image would.
 
 A point whose moment matrix cannot be inverted (fewer nodes than basis terms, or nodes on a line for the linear
-basis) is refused with its position and node count, never inverted blindly (``kernels/efg.py`` has the
+basis) is refused with its position and node count, never inverted blindly (``kernels/mls.py`` has the
 algebra; float64 throughout, see there).
 """
 
@@ -23,17 +24,18 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 import warp as wp
 
 from warpfree.device import Launcher, current_launcher
-from warpfree.errors import ParameterError, require_positive
-from warpfree.kernels import efg as ek
+from warpfree.errors import ParameterError, require_integer, require_positive
+from warpfree.kernels import mls as mk
 from warpfree.kernels import neighbours as nk
 from warpfree.neighbours import NeighbourGrid
 from warpfree.space import Space
 
-__all__ = ["MLSSettings", "EFGModel", "ShapeData", "evaluate_nodal", "BASES", "WEIGHTS", "RCOND_LIMIT"]
+from .shapes import ShapeData, ShapeModel, material_array, points2d, vec3_points
+
+__all__ = ["MLSSettings", "MLSModel", "BASES", "WEIGHTS", "RCOND_LIMIT"]
 
 BASES = {"linear": 3, "quadratic": 6}
 WEIGHTS = {"cubic_spline": 0, "quartic": 1, "gaussian": 2, "singular": 3}
@@ -69,16 +71,14 @@ class MLSSettings:
         if d <= 1.0:
             raise ParameterError("d_max", f"must be > 1 (a support no wider than the distance to the nearest nodes "
                                           f"cannot hold the {BASES[self.basis]} nodes the basis needs), got {d}")
-        if isinstance(self.rank, bool) or not isinstance(self.rank, (int, np.integer)) \
-                or not 1 <= self.rank <= ek.MAX_RANK:
-            raise ParameterError("rank", f"must be an integer from 1 to {ek.MAX_RANK}, got {self.rank!r}")
+        require_integer("rank", self.rank, minimum=1, maximum=mk.MAX_RANK)
 
     @property
     def terms(self) -> int:
         return BASES[self.basis]
 
-    def params(self) -> ek.MLSParams:
-        p = ek.MLSParams()
+    def params(self) -> mk.MLSParams:
+        p = mk.MLSParams()
         p.terms = self.terms
         p.weight = WEIGHTS[self.weight]
         p.rectangular = int(self.support == "rectangular")
@@ -90,83 +90,7 @@ class MLSSettings:
         return self.weight == "singular"
 
 
-class ShapeData:
-    """Shape functions at ``n`` points: row i lists the nodes whose support holds point i (``rows``, a
-    :class:`~warpfree.kernels.neighbours.NeighbourRows`), ``phi`` and ``dphi`` (float64, ``wp.vec2d``) per entry,
-    ``counts`` (host copy) and ``rcond`` per point."""
-
-    def __init__(self, points: np.ndarray, rows: nk.NeighbourRows, counts: np.ndarray, n_entries: int,
-                 phi: wp.array, dphi: wp.array, rcond: wp.array, n_nodes: int):
-        self.points = points
-        self.rows = rows
-        self.counts = counts
-        self.n_entries = n_entries
-        self.phi = phi
-        self.dphi = dphi
-        self.rcond = rcond
-        self.n_nodes = n_nodes
-
-    @property
-    def n(self) -> int:
-        return self.points.shape[0]
-
-    def _csr(self, data: np.ndarray) -> sp.csr_matrix:
-        offsets = np.zeros(self.n + 1, dtype=np.int64)
-        np.cumsum(self.counts, out=offsets[1:])
-        index = self.rows.index.numpy()[: self.n_entries]
-        return sp.csr_matrix((data, index, offsets), shape=(self.n, self.n_nodes))
-
-    def matrix(self) -> sp.csr_matrix:
-        """Φ (n points × n nodes): u^h(points) = Φ u."""
-        return self._csr(self.phi.numpy()[: self.n_entries])
-
-    def gradient_matrices(self) -> tuple[sp.csr_matrix, sp.csr_matrix]:
-        """(∂Φ/∂x, ∂Φ/∂y): ∇u^h(points) = (Φ_x u, Φ_y u)."""
-        d = self.dphi.numpy()[: self.n_entries]
-        return self._csr(d[:, 0]), self._csr(d[:, 1])
-
-
-def _points2(points, name: str) -> np.ndarray:
-    p = np.asarray(points, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] < 2 or p.shape[0] == 0:
-        raise ParameterError(name, f"must be a non-empty (n, 2) array of points, got shape {p.shape}")
-    p = np.ascontiguousarray(p[:, :2])
-    if not np.all(np.isfinite(p)):
-        bad = int(np.flatnonzero(~np.all(np.isfinite(p), axis=1))[0])
-        raise ParameterError(name, f"point {bad} is not finite: {p[bad].tolist()}")
-    return p
-
-
-def _vec3(points: np.ndarray, device: str) -> wp.array:
-    p3 = np.zeros((points.shape[0], 3), dtype=np.float32)
-    p3[:, :2] = points
-    return wp.array(p3, dtype=wp.vec3, device=device)
-
-
-def _materials(values, n: int, name: str, device: str) -> wp.array:
-    m = np.full(n, -1, dtype=np.int32) if values is None else np.asarray(values)
-    if m.shape != (n,) or not np.issubdtype(m.dtype, np.integer) or np.any(m < -1):
-        raise ParameterError(name, f"must be {n} integers >= -1 (-1: sees / is seen by every material)")
-    return wp.array(m.astype(np.int32), dtype=wp.int32, device=device)
-
-
-def evaluate_nodal(launcher: Launcher, node_count: int, nodal, shape: ShapeData,
-                   components: int = 1) -> tuple[np.ndarray, np.ndarray]:
-    """u^h_k = Σ_I φ_I u_{cI+k} and its gradient at the points of ``shape`` (any model's shape data): (n,
-    components) and (n, components, 2) from ``nodal`` (node count × components, node-major)."""
-    dev = launcher.device
-    u = np.ascontiguousarray(np.asarray(nodal, dtype=np.float64).reshape(-1))
-    if u.size != components * node_count:
-        raise ParameterError("nodal", f"needs {components * node_count} values, got {u.size}")
-    value = wp.zeros(shape.n * components, dtype=wp.float64, device=dev)
-    grad = wp.zeros(shape.n * components, dtype=wp.vec2d, device=dev)
-    launcher.launch(ek.evaluate_field, shape.n, [shape.rows, shape.phi, shape.dphi,
-                                                 wp.array(u, dtype=wp.float64, device=dev), components, value, grad],
-                    once=True)
-    return value.numpy().reshape(shape.n, components), grad.numpy().reshape(shape.n, components, 2)
-
-
-class EFGModel:
+class MLSModel(ShapeModel):
     """Nodes, supports and shape functions (module docstring).
 
     nodes: (n, 2) positions; settings: :class:`MLSSettings`; node_material: (n,) ints, -1 for a node that serves
@@ -181,10 +105,10 @@ class EFGModel:
         self.launcher = launcher or current_launcher()
         self.space = space or Space.free(2)
         if self.space.dim != 2:
-            raise ParameterError("space", f"EFG is 2D, got a {self.space.dim}D space")
+            raise ParameterError("space", f"the MLS model is 2D, got a {self.space.dim}D space")
         self.box = self.space.box2d
         dev = self.launcher.device
-        self.nodes_np = _points2(nodes, "nodes")
+        self.nodes_np = points2d(nodes, "nodes")
         if self.space.is_periodic:
             self._require_inside(self.nodes_np, "nodes", "node")
         n = self.node_count = self.nodes_np.shape[0]
@@ -192,8 +116,8 @@ class EFGModel:
             raise ParameterError("nodes", f"{n} nodes cannot carry the {self.settings.basis} basis "
                                           f"({self.settings.terms} terms)")
         self.nodes = wp.array(self.nodes_np, dtype=wp.vec2d, device=dev)
-        self.nodes32 = _vec3(self.nodes_np, dev)
-        self.node_material = _materials(node_material, n, "node_material", dev)
+        self.nodes32 = vec3_points(self.nodes_np, dev)
+        self.node_material = material_array(node_material, n, "node_material", dev)
         self.spacing = self._rank_distance()
         half = self.settings.d_max * self.spacing
         self.support_np = np.stack([half, half], axis=1)
@@ -210,9 +134,9 @@ class EFGModel:
         self.grid = NeighbourGrid(self.launcher, self.reach, self.space, self.nodes32)
         self._params = self.settings.params()
 
-    def node_set(self) -> ek.NodeSet:
-        """The nodes as kernels read them (``kernels/efg.py: NodeSet``)."""
-        ns = ek.NodeSet()
+    def node_set(self) -> mk.NodeSet:
+        """The nodes as kernels read them (``kernels/mls.py: NodeSet``)."""
+        ns = mk.NodeSet()
         ns.grid = self.grid.id
         ns.grid_points = self.grid.points
         ns.source_id = self.grid.source_id
@@ -249,7 +173,7 @@ class EFGModel:
         for _ in range(60):
             radius = min(radius, room)
             grid = NeighbourGrid(self.launcher, radius, self.space, self.nodes32)
-            self.launcher.launch(ek.kth_nearest, x.shape[0], [grid.id, grid.points, grid.source_id, self.box,
+            self.launcher.launch(mk.kth_nearest, x.shape[0], [grid.id, grid.points, grid.source_id, self.box,
                                                               self.nodes32, self.nodes, self.settings.rank, radius,
                                                               distance], once=True)
             d = distance.numpy()
@@ -267,24 +191,24 @@ class EFGModel:
 
     def support_rows(self, points, material=None, name: str = "point", brute_force: bool = False):
         """(float64 points, rows, counts, entries): for each point the nodes whose support holds it and whose
-        material it sees (``kernels/efg.py: support_rows``; ``brute_force``: every node tested, for checks and the
+        material it sees (``kernels/mls.py: support_rows``; ``brute_force``: every node tested, for checks and the
         search benchmark)."""
-        p = _points2(points, name)
+        p = points2d(points, name)
         if self.space.is_periodic:
             self._require_inside(p, "points", name)
         n, dev, L = p.shape[0], self.launcher.device, self.launcher
         points64 = wp.array(p, dtype=wp.vec2d, device=dev)
-        mat = _materials(material, n, "material", dev)
+        mat = material_array(material, n, "material", dev)
         rows = nk.NeighbourRows()
         rows.start = wp.zeros(n, dtype=wp.int32, device=dev)
         rows.count = wp.zeros(n, dtype=wp.int32, device=dev)
         rows.index = wp.zeros(1, dtype=wp.int32, device=dev)
         if brute_force:
-            kernel, args = ek.support_rows_brute, [self.node_count, self.box, points64, mat, self.nodes, self.support,
+            kernel, args = mk.support_rows_brute, [self.node_count, self.box, points64, mat, self.nodes, self.support,
                                                     self.node_material, self._params]
         else:
-            kernel, args = ek.support_rows, [self.grid.id, self.grid.points, self.grid.source_id, self.box, self.reach,
-                                             _vec3(p, dev), points64, mat, self.nodes,
+            kernel, args = mk.support_rows, [self.grid.id, self.grid.points, self.grid.source_id, self.box, self.reach,
+                                             vec3_points(p, dev), points64, mat, self.nodes,
                                              self.support, self.node_material, self._params]
         L.launch(kernel, n, args + [0, rows], once=True)
         counts = rows.count.numpy().astype(np.int64)
@@ -306,7 +230,7 @@ class EFGModel:
         phi = wp.zeros(max(total, 1), dtype=wp.float64, device=dev)
         dphi = wp.zeros(max(total, 1), dtype=wp.vec2d, device=dev)
         rcond = wp.zeros(n, dtype=wp.float64, device=dev)
-        self.launcher.launch(ek.shape_functions, n, [self.box, points64, rows, self.nodes, self.support, self._params,
+        self.launcher.launch(mk.shape_functions, n, [self.box, points64, rows, self.nodes, self.support, self._params,
                                                      phi, dphi, rcond], once=True)
         self._check(p, counts, rcond.numpy(), name)
         return ShapeData(p, rows, counts, total, phi, dphi, rcond, self.node_count)
@@ -327,11 +251,6 @@ class EFGModel:
                                             f"{counts[i]} nodes, is ill-conditioned (scaled pivot {rcond[i]:.1e} < "
                                             f"{RCOND_LIMIT:.0e}; nodes on a line?) at {bad.size} point(s): raise "
                                             f"d_max (now {self.settings.d_max}) or move nodes")
-
-    def evaluate(self, nodal, shape: ShapeData, components: int = 1) -> tuple[np.ndarray, np.ndarray]:
-        """(u^h (n, components), ∇u^h (n, components, 2)) at the points of ``shape`` from nodal parameters
-        ``nodal`` (node count × components, node-major: u_{cI+k})."""
-        return evaluate_nodal(self.launcher, self.node_count, nodal, shape, components)
 
     def describe(self) -> dict:
         s = self.settings

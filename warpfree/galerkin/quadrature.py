@@ -50,7 +50,7 @@ class BoundaryPoints(NamedTuple):
     segment: np.ndarray  # (n,) int64: the segment (or arc piece) the point belongs to
 
 
-# --- input checks (also used by warpfree.solvers.efg.layouts) --------------------------------------------------
+# --- input checks (also used by warpfree.galerkin.node_layouts) --------------------------------------------------
 
 
 def _whole(name: str, value, minimum: int = 1) -> int:

@@ -17,7 +17,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from warpfree.errors import ParameterError, require_finite, require_memory
-from warpfree.solvers.efg.quadrature import (_angle_range, _box, _cell_counts, _convex_ccw, _finite_array,
+from warpfree.galerkin.quadrature import (_angle_range, _box, _cell_counts, _convex_ccw, _finite_array,
                                              _ring, _whole, bilinear_map)
 
 #: memory per node of a Galerkin solve, bytes, besides its Gauss points: coordinates, support radius and rows, the
@@ -112,7 +112,7 @@ def _box_layout(lo: np.ndarray, hi: np.ndarray, nx: int, ny: int, st: tuple[np.n
 
 
 def quadrilateral_nodes(corners, cells, seed: int | None = None, jitter: float = 0.0) -> NodeLayout:
-    """Nodes of the bilinear map (:func:`~warpfree.solvers.efg.quadrature.bilinear_map`) of a regular
+    """Nodes of the bilinear map (:func:`~warpfree.galerkin.quadrature.bilinear_map`) of a regular
     (nx+1)(ny+1) grid of [0, 1]² onto the convex quadrilateral ``corners`` (4, 2, counter-clockwise; Cook's
     membrane: (0, 0), (48, 44), (48, 60), (0, 44)), jittered in the parameter square as in :func:`random_grid_nodes`
     when ``jitter`` > 0 (then ``seed`` is required). The map takes the square's edges onto the straight edges."""

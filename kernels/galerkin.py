@@ -1,0 +1,238 @@
+"""Galerkin assembly kernels on shape-function rows (any shape model: MLS, NEM), shared by EFG and PIC: stiffness per
+Gauss point into slots or gathered by node rows, loads, consistent test gradients, field evaluation.
+
+Two race-free forms, bitwise the same for any thread count: every Gauss point writes its own slots (triplets, summed
+on the host by ``warpfree.sparse``), or every node gathers the Gauss points in its support and adds each pair into
+its own row of the matrix's pattern (no triplets). Unknowns are node-major: component k of node I is unknown
+``components·I + k``.
+
+Precision: float64 (the shape functions' precision, ``kernels/mls.py``). Units: the caller's.
+"""
+
+import warp as wp
+
+from .assembly import Loads, Triplets, write_load, write_triplet
+from .neighbours import NeighbourRows
+
+
+# --- every Gauss point writes its own slots ---------------------------------------------------------------------
+
+
+@wp.kernel
+def conduction_stiffness(
+    first: int,
+    rows: NeighbourRows,
+    test_dphi: wp.array(dtype=wp.vec2d),
+    dphi: wp.array(dtype=wp.vec2d),
+    weight: wp.array(dtype=wp.float64),
+    slot_start: wp.array(dtype=wp.int32),
+    out: Triplets,
+):
+    """K_IJ += w_g k_g ∇ψ_I·∇φ_J (seed 002 eq 3.9 with the material's k; ``weight`` holds w_g |J| k_g); ∇ψ: the test
+    gradients (corrected for consistent integration, or ∇φ itself)."""
+    g = first + wp.tid()
+    start = rows.start[g]
+    n = rows.count[g]
+    s0 = slot_start[g]
+    wg = weight[g]
+    for a in range(n):
+        ga = test_dphi[start + a]
+        ia = rows.index[start + a]
+        for b in range(n):
+            gb = dphi[start + b]
+            write_triplet(out, s0 + a * n + b, ia, rows.index[start + b], wg * (ga[0] * gb[0] + ga[1] * gb[1]))
+
+
+@wp.kernel
+def elastic_stiffness(
+    first: int,
+    rows: NeighbourRows,
+    test_dphi: wp.array(dtype=wp.vec2d),
+    dphi: wp.array(dtype=wp.vec2d),
+    weight: wp.array(dtype=wp.float64),
+    material: wp.array(dtype=wp.mat33d),
+    slot_start: wp.array(dtype=wp.int32),
+    out: Triplets,
+):
+    """K_IJ += w_g B̂_Iᵀ D B_J (seed 003 eq 3.35), B_I = [[φ,x 0] [0 φ,y] [φ,y φ,x]], B̂ from the test gradients
+    ``test_dphi``; unknowns (u_x, u_y) of node I at 2I, 2I + 1; four slots per node pair."""
+    g = first + wp.tid()
+    start = rows.start[g]
+    n = rows.count[g]
+    s0 = slot_start[g]
+    wg = weight[g]
+    dm = material[g]
+    for a in range(n):
+        ga = dphi[start + a]
+        ia = rows.index[start + a]
+        # D B_I (3 x 2), columns for u_x and u_y
+        c0 = wp.vec3d(dm[0, 0] * ga[0] + dm[0, 2] * ga[1], dm[1, 0] * ga[0] + dm[1, 2] * ga[1],
+                      dm[2, 0] * ga[0] + dm[2, 2] * ga[1])
+        c1 = wp.vec3d(dm[0, 1] * ga[1] + dm[0, 2] * ga[0], dm[1, 1] * ga[1] + dm[1, 2] * ga[0],
+                      dm[2, 1] * ga[1] + dm[2, 2] * ga[0])
+        for b in range(n):
+            gb = test_dphi[start + b]
+            ib = rows.index[start + b]
+            s = s0 + 4 * (a * n + b)
+            # (B̂_J)ᵀ D B_I: the test node J gives the row, the trial node I the column
+            write_triplet(out, s, 2 * ib, 2 * ia, wg * (gb[0] * c0[0] + gb[1] * c0[2]))
+            write_triplet(out, s + 1, 2 * ib, 2 * ia + 1, wg * (gb[0] * c1[0] + gb[1] * c1[2]))
+            write_triplet(out, s + 2, 2 * ib + 1, 2 * ia, wg * (gb[1] * c0[1] + gb[0] * c0[2]))
+            write_triplet(out, s + 3, 2 * ib + 1, 2 * ia + 1, wg * (gb[1] * c1[1] + gb[0] * c1[2]))
+
+
+@wp.kernel
+def corrected_gradients(
+    first: int,
+    rows: NeighbourRows,
+    dphi: wp.array(dtype=wp.vec2d),
+    point_material: wp.array(dtype=wp.int32),
+    materials: int,
+    correction: wp.array(dtype=wp.vec2d),
+    out: wp.array(dtype=wp.vec2d),
+):
+    """∇ψ_I(x_g) = ∇φ_I(x_g) + ξ_{I,m} at every entry of point g's row, m the point's material (variationally
+    consistent integration; one correction per node and material region, ``materials`` regions)."""
+    g = first + wp.tid()
+    start = rows.start[g]
+    m = point_material[g]
+    for a in range(rows.count[g]):
+        out[start + a] = dphi[start + a] + correction[rows.index[start + a] * materials + m]
+
+
+@wp.kernel
+def point_loads(
+    first: int,
+    rows: NeighbourRows,
+    phi: wp.array(dtype=wp.float64),
+    value: wp.array(dtype=wp.float64),
+    components: int,
+    slot_start: wp.array(dtype=wp.int32),
+    out: Loads,
+):
+    """f_{cI + k} += φ_I(x_g) v_{g,k} for k < ``components`` (``value`` holds w_g times the source, flux or
+    traction component k at index components·g + k): seed 003 eq 3.36 f_I, seed 002 eq 3.9 b_j."""
+    g = first + wp.tid()
+    start = rows.start[g]
+    n = rows.count[g]
+    s0 = slot_start[g]
+    for a in range(n):
+        ia = rows.index[start + a]
+        for k in range(components):
+            write_load(out, s0 + components * a + k, components * ia + k, phi[start + a] * value[components * g + k])
+
+
+@wp.kernel
+def evaluate_field(
+    first: int,
+    rows: NeighbourRows,
+    phi: wp.array(dtype=wp.float64),
+    dphi: wp.array(dtype=wp.vec2d),
+    nodal: wp.array(dtype=wp.float64),
+    components: int,
+    value: wp.array(dtype=wp.float64),
+    gradient: wp.array(dtype=wp.vec2d),
+):
+    """u^h_k(x_i) = Σ_I φ_I(x_i) u_{cI+k} and its gradient Σ_I ∇φ_I u_{cI+k} (seed 003 eq 3.28), k < components."""
+    i = first + wp.tid()
+    start = rows.start[i]
+    n = rows.count[i]
+    for k in range(components):
+        v = wp.float64(0.0)
+        gx = wp.float64(0.0)
+        gy = wp.float64(0.0)
+        for a in range(n):
+            u = nodal[components * rows.index[start + a] + k]
+            v = v + phi[start + a] * u
+            d = dphi[start + a]
+            gx = gx + d[0] * u
+            gy = gy + d[1] * u
+        value[components * i + k] = v
+        gradient[components * i + k] = wp.vec2d(gx, gy)
+
+
+# --- by node rows: each node gathers its Gauss points (no triplet sum) -------------------------------------------
+
+
+@wp.func
+def pattern_position(cols: wp.array(dtype=wp.int32), lo: int, hi: int, j: int) -> int:
+    """Position of column j in the sorted ``cols[lo:hi]`` of one pattern row (binary search; j is present)."""
+    a = lo
+    b = hi
+    while a < b:
+        m = (a + b) // 2
+        if cols[m] < j:
+            a = m + 1
+        else:
+            b = m
+    return a
+
+
+@wp.kernel
+def conduction_rows(
+    first: int,
+    rows: NeighbourRows,
+    node_entries: NeighbourRows,
+    entry_point: wp.array(dtype=wp.int32),
+    test_dphi: wp.array(dtype=wp.vec2d),
+    dphi: wp.array(dtype=wp.vec2d),
+    weight: wp.array(dtype=wp.float64),
+    pattern_start: wp.array(dtype=wp.int32),
+    pattern_cols: wp.array(dtype=wp.int32),
+    values: wp.array(dtype=wp.float64),
+):
+    """Row I of K_IJ = Σ_g w_g ∇ψ_I(x_g)·∇φ_J(x_g) (seed 002 eq 3.9): node I gathers the Gauss points g in its
+    support (``node_entries``: the row entries that hold I, in Gauss-point order; ``entry_point``: entry -> g) and
+    adds each pair into its slot of the CSR pattern (``pattern_start``/``pattern_cols``, sorted columns)."""
+    i = first + wp.tid()
+    lo = pattern_start[i]
+    hi = pattern_start[i + 1]
+    for k in range(node_entries.count[i]):
+        e = node_entries.index[node_entries.start[i] + k]
+        g = entry_point[e]
+        t = test_dphi[e]
+        wg = weight[g]
+        s = rows.start[g]
+        for b in range(rows.count[g]):
+            q = dphi[s + b]
+            pos = pattern_position(pattern_cols, lo, hi, rows.index[s + b])
+            values[pos] = values[pos] + wg * (t[0] * q[0] + t[1] * q[1])
+
+
+@wp.kernel
+def elastic_rows(
+    first: int,
+    rows: NeighbourRows,
+    node_entries: NeighbourRows,
+    entry_point: wp.array(dtype=wp.int32),
+    test_dphi: wp.array(dtype=wp.vec2d),
+    dphi: wp.array(dtype=wp.vec2d),
+    weight: wp.array(dtype=wp.float64),
+    material: wp.array(dtype=wp.mat33d),
+    pattern_start: wp.array(dtype=wp.int32),
+    pattern_cols: wp.array(dtype=wp.int32),
+    values: wp.array(dtype=wp.mat22d),
+):
+    """Block row I of K_IJ = Σ_g w_g B̂_Iᵀ D_g B_J (seed 003 eq 3.35), 2 x 2 blocks (row: component of the test node
+    I, column: of the trial node J), gathered as in :func:`conduction_rows`."""
+    i = first + wp.tid()
+    lo = pattern_start[i]
+    hi = pattern_start[i + 1]
+    for k in range(node_entries.count[i]):
+        e = node_entries.index[node_entries.start[i] + k]
+        g = entry_point[e]
+        t = test_dphi[e]
+        wg = weight[g]
+        dm = material[g]
+        s = rows.start[g]
+        for b in range(rows.count[g]):
+            q = dphi[s + b]
+            # D B_J, columns for u_x and u_y of J
+            c0 = wp.vec3d(dm[0, 0] * q[0] + dm[0, 2] * q[1], dm[1, 0] * q[0] + dm[1, 2] * q[1],
+                          dm[2, 0] * q[0] + dm[2, 2] * q[1])
+            c1 = wp.vec3d(dm[0, 1] * q[1] + dm[0, 2] * q[0], dm[1, 1] * q[1] + dm[1, 2] * q[0],
+                          dm[2, 1] * q[1] + dm[2, 2] * q[0])
+            block = wp.mat22d(t[0] * c0[0] + t[1] * c0[2], t[0] * c1[0] + t[1] * c1[2],
+                              t[1] * c0[1] + t[0] * c0[2], t[1] * c1[1] + t[0] * c1[2])
+            pos = pattern_position(pattern_cols, lo, hi, rows.index[s + b])
+            values[pos] = values[pos] + wg * block

@@ -1,0 +1,13 @@
+"""The meshfree-Galerkin floor: what EFG, NEM and the PIC field solve share.
+
+- :mod:`.shapes`: shape functions at points whatever model made them (:class:`~.shapes.ShapeData`), and what a
+  Galerkin solver needs of a model (:class:`~.shapes.ShapeModel`);
+- :mod:`.mls`: the MLS model (bases, weights, supports; seeds 003 and 002), the EFG and PIC shape functions;
+- :mod:`.quadrature`: integration cells and Gauss rules (rectangles, mapped quadrilaterals, ring sectors,
+  triangles, boundary segments and arcs);
+- :mod:`.consistent_integration`: test gradients that restore the discrete divergence theorem;
+- :mod:`.assembly`: stiffness matrices (node rows or triplets) and load vectors;
+- :mod:`.node_layouts`: regular and stratified-random node grids on boxes, quadrilaterals and ring sectors.
+
+Kernels: ``kernels/mls.py`` and ``kernels/galerkin.py``. float64 throughout.
+"""
