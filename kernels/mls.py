@@ -364,6 +364,44 @@ def solve_scaled(lo: mat66d, sc: vec6d, b: vec6d, terms: int) -> vec6d:
 
 
 @wp.struct
+class Moments:
+    """A point's moment matrix A = Σ_I w_I p_I p_Iᵀ and its derivatives ∂_x A = Σ_I ∂_x w_I p_I p_Iᵀ, ∂_y A (module
+    docstring; the leading terms × terms block)."""
+
+    a: mat66d
+    ax: mat66d
+    ay: mat66d
+
+
+def _node_adder(terms: int):
+    @wp.func
+    def add_node(m: Moments, w: wp.vec3d, p: vec6d) -> Moments:
+        """``m`` plus one node's share: weight and slopes ``w`` = (w_I, ∂_x w_I, ∂_y w_I), shifted basis ``p`` = p_I."""
+        a = m.a
+        ax = m.ax
+        ay = m.ay
+        for r in range(wp.static(terms)):
+            for c in range(wp.static(terms)):
+                pp = p[r] * p[c]
+                a[r, c] = a[r, c] + w[0] * pp
+                ax[r, c] = ax[r, c] + w[1] * pp
+                ay[r, c] = ay[r, c] + w[2] * pp
+        out = Moments()
+        out.a = a
+        out.ax = ax
+        out.ay = ay
+        return out
+
+    return add_node
+
+
+#: basis size -> ``add_node(m, w, p) -> Moments``, the moment accumulation of every MLS fit (shape functions here, the
+#: PIC particles' fits), made for each basis size at import so that its loops have constant bounds (the PIC fits
+#: run twice as long with the size read at run time)
+NODE_ADDERS = {terms: _node_adder(terms) for terms in (3, MAX_TERMS)}
+
+
+@wp.struct
 class MLSFit:
     """The γ-form of an MLS fit at one point (module docstring): γ = A⁻¹ p(0), its derivatives ∂γ/∂x and ∂γ/∂y,
     and ``rcond``, the smallest pivot of the Jacobi-scaled A (0: singular, γ not computed)."""
@@ -375,9 +413,12 @@ class MLSFit:
 
 
 @wp.func
-def mls_fit(a: mat66d, ax: mat66d, ay: mat66d, terms: int, inv_scale: wp.float64) -> MLSFit:
+def mls_fit(m: Moments, terms: int, inv_scale: wp.float64) -> MLSFit:
     """γ and ∂_a γ = A⁻¹ (e_{1+a}/s - ∂_a A γ) from the moment matrix A and its derivatives ∂_x A, ∂_y A."""
     fit = MLSFit()
+    a = m.a
+    ax = m.ax
+    ay = m.ay
     zero = wp.float64(0.0)
     # Jacobi scaling: A_s = S A S, S = diag(1/sqrt(A_rr)); solve A γ = b as A_s (S⁻¹γ) = S b
     sc = vec6d()
@@ -429,61 +470,65 @@ def shape_value(fit: MLSFit, w: wp.vec3d, p: vec6d, terms: int) -> wp.vec3d:
     return wp.vec3d(w[0] * gp, w[0] * gxp + w[1] * gp, w[0] * gyp + w[2] * gp)
 
 
-@wp.kernel
-def shape_functions(
-    first: int,
-    box: Box2d,
-    points: wp.array(dtype=wp.vec2d),
-    rows: NeighbourRows,
-    nodes: wp.array(dtype=wp.vec2d),
-    support: wp.array(dtype=wp.vec2d),
-    params: MLSParams,
-    phi: wp.array(dtype=wp.float64),
-    dphi: wp.array(dtype=wp.vec2d),
-    rcond: wp.array(dtype=wp.float64),
-):
-    """φ_I(x) and ∇φ_I(x) for every node I of point i's row (module docstring), written at the row's entries;
-    rcond[i]: the smallest pivot of the Jacobi-scaled moment matrix (0: singular, not inverted)."""
-    i = first + wp.tid()
-    x = points[i]
-    start = rows.start[i]
-    count = rows.count[i]
-    terms = params.terms
-    zero = wp.float64(0.0)
-    scale = zero
-    for k in range(count):
-        scale = scale + support[rows.index[start + k]][0]
-    if count == 0 or count < terms:
-        rcond[i] = zero
+_SHAPE_FUNCTIONS: dict = {}
+
+
+def shape_functions_kernel(basis_terms: int):
+    """The kernel ``shape_functions`` for a basis of ``basis_terms`` (3 linear, 6 quadratic; ``params.terms`` must
+    be the same), its moment loops of constant bounds (cached: one compile per basis size)."""
+    if basis_terms in _SHAPE_FUNCTIONS:
+        return _SHAPE_FUNCTIONS[basis_terms]
+    add_node = NODE_ADDERS[basis_terms]
+
+    @wp.kernel(module="unique")
+    def shape_functions(
+        first: int,
+        box: Box2d,
+        points: wp.array(dtype=wp.vec2d),
+        rows: NeighbourRows,
+        nodes: wp.array(dtype=wp.vec2d),
+        support: wp.array(dtype=wp.vec2d),
+        params: MLSParams,
+        phi: wp.array(dtype=wp.float64),
+        dphi: wp.array(dtype=wp.vec2d),
+        rcond: wp.array(dtype=wp.float64),
+    ):
+        """φ_I(x) and ∇φ_I(x) for every node I of point i's row (module docstring), written at the row's entries;
+        rcond[i]: the smallest pivot of the Jacobi-scaled moment matrix (0: singular, not inverted)."""
+        i = first + wp.tid()
+        x = points[i]
+        start = rows.start[i]
+        count = rows.count[i]
+        terms = wp.static(basis_terms)
+        zero = wp.float64(0.0)
+        scale = zero
         for k in range(count):
-            phi[start + k] = zero
-            dphi[start + k] = wp.vec2d(zero, zero)
-        return
-    inv_scale = wp.float64(count) / scale
-    a = mat66d()
-    ax = mat66d()
-    ay = mat66d()
-    for k in range(count):
-        j = rows.index[start + k]
-        d = offset2d(box, x, nodes[j])
-        w = node_weight(params, d, support[j])
-        p = basis(-d, inv_scale, terms)
-        for r in range(terms):
-            for c in range(terms):
-                pp = p[r] * p[c]
-                a[r, c] = a[r, c] + w[0] * pp
-                ax[r, c] = ax[r, c] + w[1] * pp
-                ay[r, c] = ay[r, c] + w[2] * pp
-    fit = mls_fit(a, ax, ay, terms, inv_scale)
-    rcond[i] = fit.rcond
-    if fit.rcond <= zero:
+            scale = scale + support[rows.index[start + k]][0]
+        if count == 0 or count < terms:
+            rcond[i] = zero
+            for k in range(count):
+                phi[start + k] = zero
+                dphi[start + k] = wp.vec2d(zero, zero)
+            return
+        inv_scale = wp.float64(count) / scale
+        moments = Moments()
         for k in range(count):
-            phi[start + k] = zero
-            dphi[start + k] = wp.vec2d(zero, zero)
-        return
-    for k in range(count):
-        j = rows.index[start + k]
-        d = offset2d(box, x, nodes[j])
-        v = shape_value(fit, node_weight(params, d, support[j]), basis(-d, inv_scale, terms), terms)
-        phi[start + k] = v[0]
-        dphi[start + k] = wp.vec2d(v[1], v[2])
+            j = rows.index[start + k]
+            d = offset2d(box, x, nodes[j])
+            moments = add_node(moments, node_weight(params, d, support[j]), basis(-d, inv_scale, terms))
+        fit = mls_fit(moments, terms, inv_scale)
+        rcond[i] = fit.rcond
+        if fit.rcond <= zero:
+            for k in range(count):
+                phi[start + k] = zero
+                dphi[start + k] = wp.vec2d(zero, zero)
+            return
+        for k in range(count):
+            j = rows.index[start + k]
+            d = offset2d(box, x, nodes[j])
+            v = shape_value(fit, node_weight(params, d, support[j]), basis(-d, inv_scale, terms), terms)
+            phi[start + k] = v[0]
+            dphi[start + k] = wp.vec2d(v[1], v[2])
+
+    _SHAPE_FUNCTIONS[basis_terms] = shape_functions
+    return shape_functions

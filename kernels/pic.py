@@ -29,8 +29,8 @@ Periodic boxes: the node grid holds the nodes' periodic images and the particle 
 
 import warp as wp
 
-from .mls import (MLSFit, NodeSet, basis, inside_support, mat66d, mls_fit, nearest_copy, node_weight, serving_node,
-                  shape_value)
+from .mls import (MLSFit, Moments, NodeSet, basis, inside_support, mls_fit, nearest_copy, node_weight,
+                  NODE_ADDERS, serving_node, shape_value)
 from .space import Box2d, offset2d, wrap2d
 
 
@@ -52,6 +52,7 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
     """:class:`MLSKernels` for ``basis_terms`` (cached: one compile per basis size)."""
     if basis_terms in _MLS_KERNELS:
         return _MLS_KERNELS[basis_terms]
+    add_node = NODE_ADDERS[basis_terms]
 
     @wp.kernel
     def particle_fits(
@@ -71,9 +72,7 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
         x = position[i]
         terms = wp.static(basis_terms)
         n = int(0)
-        a = mat66d()
-        ax = mat66d()
-        ay = mat66d()
+        moments = Moments()
         query = wp.hash_grid_query(ns.grid, position32[i], ns.reach)
         k = int(0)
         while wp.hash_grid_query_next(query, k):
@@ -82,20 +81,13 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
                 continue
             d = offset2d(ns.box, x, ns.nodes[j])
             n += 1
-            w = node_weight(ns.params, d, ns.support[j])
-            p = basis(-d, inv_scale, terms)
-            for r in range(terms):
-                for c in range(terms):
-                    pp = p[r] * p[c]
-                    a[r, c] = a[r, c] + w[0] * pp
-                    ax[r, c] = ax[r, c] + w[1] * pp
-                    ay[r, c] = ay[r, c] + w[2] * pp
+            moments = add_node(moments, node_weight(ns.params, d, ns.support[j]), basis(-d, inv_scale, terms))
         count[i] = n
         if n < terms:
             empty = MLSFit()
             fit[i] = empty
             return
-        fit[i] = mls_fit(a, ax, ay, terms, inv_scale)
+        fit[i] = mls_fit(moments, terms, inv_scale)
 
     @wp.kernel
     def deposit(

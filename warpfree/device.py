@@ -182,10 +182,11 @@ class Launcher:
         if n <= 0:
             return
         outputs = outputs or []
-        if kernel.module not in self._loaded:
-            # Compile/load once before threads race to do it (they would each compile the module).
+        if kernel not in self._loaded:
+            # Compile/load before threads race to do it (they would each compile the module, and a module that has
+            # grown a kernel since it was loaded, made by a factory, is loaded again: keyed by kernel, not module).
             wp.load_module(kernel.module, device=self.device)
-            self._loaded.add(kernel.module)
+            self._loaded.add(kernel)
         if self._pool is None:
             self._run(kernel, 0, n, inputs, outputs)
             return

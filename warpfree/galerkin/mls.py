@@ -230,8 +230,9 @@ class MLSModel(ShapeModel):
         phi = wp.zeros(max(total, 1), dtype=wp.float64, device=dev)
         dphi = wp.zeros(max(total, 1), dtype=wp.vec2d, device=dev)
         rcond = wp.zeros(n, dtype=wp.float64, device=dev)
-        self.launcher.launch(mk.shape_functions, n, [self.box, points64, rows, self.nodes, self.support, self._params,
-                                                     phi, dphi, rcond], once=True)
+        self.launcher.launch(mk.shape_functions_kernel(self.settings.terms), n,
+                             [self.box, points64, rows, self.nodes, self.support, self._params, phi, dphi, rcond],
+                             once=True)
         self._check(p, counts, rcond.numpy(), name)
         return ShapeData(p, rows, counts, total, phi, dphi, rcond, self.node_count)
 
