@@ -47,7 +47,7 @@ def worker(cfg: dict) -> dict:
     """Step cost of the dam break with the fluid stored in ``cfg['order']``."""
     import warpfree.device
     from warpfree.geometry import lattice_box
-    from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
+    from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
     from warpfree.solvers.wcsph.scene_tools import box_walls_2d, hydrostatic_density
 
     warpfree.device.use("cpu", cfg["threads"])
@@ -57,7 +57,7 @@ def worker(cfg: dict) -> dict:
                          lj_d=2.0 * g * height, lj_r0=0.75 * dx, container_lo=(0.0, 0.0, -1.0),
                          container_hi=(4.0, 4.0, 1.0))
     fluid = ordered_fluid(lattice_box((0.0, 0.0), (1.0, height), dx), cfg["order"], params.support * (1 + params.skin))
-    solver = WCSPHSolver(fluid, box_walls_2d(4.0, 4.0, dx, 3), params,
+    solver = WCSPHSolver(WCSPHModel(fluid, box_walls_2d(4.0, 4.0, dx, 3), params),
                          density=hydrostatic_density(fluid[:, 1], height, 1000.0, c0, g))
     res = common.time_solver(solver, solver.stable_dt(), cfg["steps"], 8, cfg["repeats"])
     res.update(order=cfg["order"], threads=solver.launcher.threads)

@@ -30,7 +30,7 @@ from warpfree.errors import ParameterError, reported_as
 from warpfree.solvers.wcsph.scene_tools import (box_2d, box_walls_2d, front_position, hydrostatic_density,
                                                  require_scene_values)
 from warpfree.run import OutputOptions
-from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
+from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.dam_break_2d import front_errors
 
@@ -66,8 +66,8 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
                          wall_artificial_viscosity=wall_artificial, lj_d=2.0 * g * height,
                          lj_r0=dx if boundary_model == "lennard_jones" else wall_safety * dx,
                          container_lo=(0.0, 0.0, -1.0), container_hi=(length, top, 1.0))
-        solver = WCSPHSolver(fluid, walls, fp, density=hydrostatic_density(fluid[:, 1], height, rho0, c0, g),
-                             containers=[box_2d(length, top)])
+        model = WCSPHModel(fluid, walls, fp, containers=[box_2d(length, top)])
+        solver = WCSPHSolver(model, density=hydrostatic_density(fluid[:, 1], height, rho0, c0, g))
 
     t_max = 2.5 if column_height == 2.0 else None  # the n² = 2 comparison stops at T = 2.5 (see README)
 

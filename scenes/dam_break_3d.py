@@ -29,7 +29,7 @@ from warpfree.solvers.wcsph.surface_layers import surface_layers
 from warpfree.errors import ParameterError, reported_as
 from warpfree.solvers.wcsph.scene_tools import clear_of, hydrostatic_density, require_scene_values
 from warpfree.run import OutputOptions
-from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
+from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
 from warpfree.time_loop import TimeLoop
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -76,8 +76,9 @@ def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
                          delta=delta, gravity=(0.0, 0.0, -g), cfl=cfl, lj_d=2.0 * g * column_height,
                          lj_r0=wall_safety * dx, container_lo=tuple(lo), container_hi=tuple(hi))
         density = hydrostatic_density(fluid[:, 2], lo[2] + column_height, rho0, c0, g)
-        solver = WCSPHSolver(fluid, walls, fp, density=density, containers=[tank], obstacle_boundary=obstacle_walls,
-                             obstacles=[obstacle] if obstacle is not None else [])
+        model = WCSPHModel(fluid, walls, fp, obstacle_boundary=obstacle_walls, containers=[tank],
+                           obstacles=[obstacle] if obstacle is not None else [])
+        solver = WCSPHSolver(model, density=density)
 
     probes = {"front": lambda s, t: float(s.fluid_positions()[:, 0].min())}
     if obstacle is not None:

@@ -33,7 +33,7 @@ from warpfree.errors import ParameterError, reported_as
 from warpfree.geometry import lattice_box
 from warpfree.kernels.smoothing import KERNELS
 from warpfree.run import OutputOptions
-from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
+from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
 from warpfree.solvers.wcsph.scene_tools import require_scene_values
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import poiseuille_2d as exact
@@ -90,7 +90,7 @@ def build(n: int = 40, width: float = 1.0e-3, channel_length: float = 1.0e-3, nu
                      delta=0.0, gravity=(force, 0.0, 0.0), boundary_model="dynamic", no_slip=True, cfl=cfl,
                      container_lo=(0.0, 0.0, -1.0), container_hi=(channel_length, width, 1.0),
                      periodic=(True, False, False))
-    solver = WCSPHSolver(fluid, walls, fp)
+    solver = WCSPHSolver(WCSPHModel(fluid, walls, fp))
     edges = np.linspace(0.0, width, bins + 1)
 
     cache = {"at": None, "values": {}}

@@ -35,7 +35,7 @@ from warpfree.errors import ParameterError, reported_as, require_integer, requir
 from warpfree.geometry import lattice_box
 from warpfree.kernels.smoothing import KERNELS
 from warpfree.run import OutputOptions
-from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
+from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
 from warpfree.solvers.wcsph.scene_tools import require_scene_values
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import taylor_green_2d as exact
@@ -85,7 +85,7 @@ def build(n: int = 50, length: float = 1.0, u0: float = 1.0, reynolds: float = 1
     fp = FluidParams(dim=2, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=rho0 * nu, alpha=alpha,
                      delta=delta, shifting=shifting, gravity=(0.0, 0.0, 0.0), cfl=cfl, container_lo=(0.0, 0.0, -1.0),
                      container_hi=(length, length, 1.0), periodic=(True, True, False))
-    solver = WCSPHSolver(fluid, np.zeros((0, 2)), fp,
+    solver = WCSPHSolver(WCSPHModel(fluid, np.zeros((0, 2)), fp),
                          density=exact.inverse_tait_density(exact.pressure(x, y, 0.0, u0, nu, length, rho0), rho0, c0),
                          velocity=exact.velocity(x, y, 0.0, u0, nu, length))
     mass = solver.fluid.numpy("mass").astype(np.float64)

@@ -5,7 +5,7 @@ import pytest
 
 from warpfree import device
 from warpfree.errors import ParameterError
-from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
+from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
 
 DX = 0.05
 SIDE = 20  # particles per side of the periodic box
@@ -24,7 +24,7 @@ def _solver(x, periodic_y=True, shifting=20.0, height=None):
                          container_hi=(SIDE * DX, 2.0 * height, 1.0), periodic=(True, periodic_y, False))
     if periodic_y:
         params.container_lo, params.container_hi = (0.0, 0.0, -1.0), (SIDE * DX, SIDE * DX, 1.0)
-    return WCSPHSolver(x, np.zeros((0, 2)), params)
+    return WCSPHSolver(WCSPHModel(x, np.zeros((0, 2)), params))
 
 
 def _steps(solver, n):

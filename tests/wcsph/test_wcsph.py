@@ -10,7 +10,7 @@ import pytest
 from warpfree import device
 from warpfree.scene_loader import load_scene
 from warpfree.errors import ParameterError, RunError
-from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
+from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
 
 G = 9.81
 
@@ -142,21 +142,21 @@ def _box_case(**overrides):
 def test_bad_physical_constants_name_the_parameter(field, value, match):
     x, p = _box_case(**{field: value})
     with pytest.raises(ParameterError, match=match):
-        WCSPHSolver(x, np.zeros((0, 2)), p)
+        WCSPHSolver(WCSPHModel(x, np.zeros((0, 2)), p))
 
 
 def test_h_too_small_reports_neighbour_count():
     x, p = _box_case(h_factor=0.9)
     with pytest.raises(ParameterError, match=r"h_factor.*\d+ neighbours"):
-        WCSPHSolver(x, np.zeros((0, 2)), p)
+        WCSPHSolver(WCSPHModel(x, np.zeros((0, 2)), p))
 
 
 def test_empty_fluid_and_fluid_outside_container():
     x, p = _box_case()
     with pytest.raises(ParameterError, match="fluid.*empty"):
-        WCSPHSolver(np.zeros((0, 2)), np.zeros((0, 2)), p)
+        WCSPHSolver(WCSPHModel(np.zeros((0, 2)), np.zeros((0, 2)), p))
     with pytest.raises(ParameterError, match="fluid.*outside the container"):
-        WCSPHSolver(x + 0.5, np.zeros((0, 2)), p)
+        WCSPHSolver(WCSPHModel(x + 0.5, np.zeros((0, 2)), p))
 
 
 def test_time_step_above_cfl_limit_is_refused(dam_break):
@@ -263,7 +263,7 @@ def test_uniform_flow_in_a_periodic_box_stays_uniform():
     x = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
     params = FluidParams(dim=2, dx=dx, c0=20.0, mu=1e-3, alpha=0.1, delta=0.1, gravity=(0.0, 0.0, 0.0),
                          container_lo=(0.0, 0.0, -1.0), container_hi=(1.0, 1.0, 1.0), periodic=(True, True, False))
-    solver = WCSPHSolver(x, np.zeros((0, 2)), params, velocity=np.tile(v, (len(x), 1)))
+    solver = WCSPHSolver(WCSPHModel(x, np.zeros((0, 2)), params), velocity=np.tile(v, (len(x), 1)))
     t = 0.0
     while t < 0.5:                      # the flow crosses half the box along x
         dt = solver.stable_dt()

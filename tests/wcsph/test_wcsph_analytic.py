@@ -17,7 +17,7 @@ from warpfree.scene_loader import load_scene
 from warpfree.errors import ParameterError
 from warpfree.geometry import lattice_box
 from warpfree.solvers.wcsph.model import lattice_second_moment
-from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
+from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
 from warpfree.validation import poiseuille_2d as pf
 from warpfree.validation import taylor_green_2d as tg
 
@@ -110,7 +110,7 @@ def test_periodic_wcsph_matches_a_numpy_reimplementation(alpha, delta):
     v = tg.velocity(x[:, 0], x[:, 1], 0.0, 1.0, NU_TG, L)
     params = FluidParams(dim=2, dx=dx, c0=c0, mu=mu, alpha=alpha, delta=delta, gravity=(0.0, 0.0, 0.0),
                          container_lo=(0.0, 0.0, -1.0), container_hi=(L, L, 1.0), periodic=(True, True, False))
-    solver = WCSPHSolver(x, np.zeros((0, 2)), params, density=rho, velocity=v)
+    solver = WCSPHSolver(WCSPHModel(x, np.zeros((0, 2)), params), density=rho, velocity=v)
     dt, steps = 0.5 * solver.stable_dt(), 80
     for _ in range(steps):
         solver.step(dt)

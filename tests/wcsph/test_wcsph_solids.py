@@ -16,7 +16,7 @@ from warpfree import device
 from warpfree.scene_loader import load_scene
 from warpfree.geometry import fill_mesh, fill_polygon
 from warpfree.solvers.wcsph.solids import Solids
-from warpfree.solvers.wcsph import FluidParams, WCSPHSolver
+from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
 from warpfree.solvers.wcsph.scene_tools import box_2d, box_walls_2d, clear_of, hydrostatic_density
 from warpfree.solvers.wcsph.surface_layers import surface_layers
 from warpfree.time_loop import TimeLoop
@@ -55,9 +55,9 @@ def test_thin_plate_hit_head_on():
     c0 = 10.0 * np.sqrt(2.0 * g * height)
     params = FluidParams(dim=2, dx=dx, c0=c0, alpha=0.1, delta=0.1, gravity=(0.0, -g, 0.0), cfl=0.2,
                          lj_d=2 * g * height, lj_r0=0.75 * dx, container_lo=(0, 0, -1), container_hi=(length, 4.0, 1))
-    solver = WCSPHSolver(fluid, box_walls_2d(length, 4.0, dx, 3), params,
-                         density=hydrostatic_density(fluid[:, 1], height, 1000.0, c0, g), containers=[tank],
-                         obstacles=[plate], obstacle_boundary=surface_layers(plate, dx, 3, "inside"))
+    model = WCSPHModel(fluid, box_walls_2d(length, 4.0, dx, 3), params, containers=[tank], obstacles=[plate],
+                       obstacle_boundary=surface_layers(plate, dx, 3, "inside"))
+    solver = WCSPHSolver(model, density=hydrostatic_density(fluid[:, 1], height, 1000.0, c0, g))
     run = TimeLoop(solver, t_end=1.0, output_interval=0.02, output=OutputOptions(vtk=False, frames=False))
     summary = run.run(None, progress=False)
     assert summary["status"] == "ok" and outputs_audited(run) == 51
@@ -94,8 +94,8 @@ def test_rotated_3d_tank_holds_its_water():
     lo, hi = tank.bounds
     params = FluidParams(dim=3, dx=dx, c0=c0, alpha=0.1, delta=0.1, gravity=(0.0, 0.0, -g), cfl=0.2,
                          lj_d=2 * g * level, lj_r0=0.75 * dx, container_lo=tuple(lo), container_hi=tuple(hi))
-    solver = WCSPHSolver(fluid, surface_layers(tank, dx, 3, "outside"), params,
-                         density=hydrostatic_density(fluid[:, 2], level, 1000.0, c0, g), containers=[tank])
+    model = WCSPHModel(fluid, surface_layers(tank, dx, 3, "outside"), params, containers=[tank])
+    solver = WCSPHSolver(model, density=hydrostatic_density(fluid[:, 2], level, 1000.0, c0, g))
     run = TimeLoop(solver, t_end=0.5, output_interval=0.05, output=OutputOptions(vtk=False, frames=False))
     summary = run.run(None, progress=False)
     assert summary["status"] == "ok" and outputs_audited(run) == 11

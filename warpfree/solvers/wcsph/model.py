@@ -20,10 +20,14 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import warp as wp
 
+from warpfree.device import Launcher, current_launcher
 from warpfree.errors import ParameterError, require_positive
 from warpfree.kernels.smoothing import kernel_id, kernel_profile, normalisation, support_factor
 from warpfree.kernels.wcsph import FluidConstants, FluidTerms
+from warpfree.particles import to_vec3
 from warpfree.space import Space
+
+from .solids import Solids
 
 __all__ = ["FluidParams", "WCSPHModel", "lattice_second_moment"]
 
@@ -154,19 +158,57 @@ class FluidParams:
 
 
 class WCSPHModel:
-    """The static part of a WCSPH fluid: parameters, constants, terms, counts and masses.
+    """The static part of a WCSPH fluid: parameters, constants, terms, the particles' layout, masses and the true
+    solid surfaces.
 
-    ``nf`` fluid and ``nb`` wall particles; ``mass`` (n, kg): ρ0 × ``fluid_volume`` (default dx^dim) per fluid
-    particle, ρ0 × ``boundary_volume`` (default dx^dim) per wall particle. ``constants`` and ``terms`` are what the kernels take.
+    Parameters
+    ----------
+    fluid: (N, dim) initial fluid positions (m): the layout the solver's state starts from.
+    boundary: (M, dim) boundary particle positions (m) of the containers; static.
+    params: :class:`FluidParams`.
+    obstacle_boundary: optional (K, dim) boundary particles of obstacles (appended to the walls: the same
+        physics), written as their own output set ``obstacle`` and drawn as solids in frames.
+    boundary_volume: volume (area in 2D) per boundary particle; default dx^dim.
+    fluid_volume: volume (area in 2D) per fluid particle; default dx^dim. A relaxed fill of a region that is not a
+        union of lattice cells holds fewer particles than region/dx^dim: each then stands for region/N (the mass
+        ρ0 × that volume), or the pressure gradient, which counts a volume per neighbour, falls short by as much.
+    containers, obstacles: the true solid surfaces (3D: watertight trimesh meshes; 2D: closed polygons) that
+        the fluid must stay inside / outside. The fluid feels them through a stiff penalty within dx/2 of a
+        surface (``warpfree.kernels.wcsph_solids.add_surface_penalty``: it stores the kinetic energy of a particle
+        at c0, so none crosses, and a fluid at rest dx/2 clear of the walls never feels it), beside the wall
+        particles; and it is checked at every output against the surfaces themselves
+        (:class:`~warpfree.solvers.wcsph.solids.Solids`): fluid inside a solid stops the run with the count and the
+        depth.
+
+    ``nf`` fluid and ``nb`` wall particles (containers' first, ``n_container_walls``, then obstacles'); ``mass`` (n,
+    kg): ρ0 × volume per particle. ``constants`` and ``terms`` are what the kernels take.
     """
 
-    def __init__(self, params: FluidParams, n_fluid: int, n_boundary: int, boundary_volume: float | None,
-                 device: str, fluid_volume: float | None = None):
+    def __init__(self, fluid, boundary, params: FluidParams, obstacle_boundary=None,
+                 boundary_volume: float | None = None, fluid_volume: float | None = None, containers=(),
+                 obstacles=(), launcher: Launcher | None = None):
         params.validate()
+        self.launcher = launcher or current_launcher()
+        device = self.launcher.device
+        xf = to_vec3(fluid, "fluid") if np.size(fluid) else np.zeros((0, 3), np.float32)
+        if xf.shape[0] == 0:
+            raise ParameterError("fluid", "is empty: the scene made no fluid particles")
+        xb = to_vec3(boundary, "boundary") if np.size(boundary) else np.zeros((0, 3), np.float32)
+        xo = (to_vec3(obstacle_boundary, "obstacle_boundary") if obstacle_boundary is not None
+              and np.size(obstacle_boundary) else np.zeros((0, 3), np.float32))
+        self.n_container_walls = len(xb)
+        xb = np.vstack([xb, xo])
+        lo, hi = np.asarray(params.container_lo, float), np.asarray(params.container_hi, float)
+        outside = np.any((xf < lo) | (xf > hi), axis=1)
+        if outside.any():
+            raise ParameterError("fluid", f"{int(outside.sum())} of {len(xf)} fluid particles lie outside the "
+                                          f"container box {lo.tolist()} .. {hi.tolist()}")
+        #: (n, 3) float32 positions: the fluid's initial ones, then the walls' (static)
+        self.position_np = np.vstack([xf, xb]).astype(np.float32)
         self.params = params
         self.dim = params.dim
-        self.nf = int(n_fluid)
-        self.nb = int(n_boundary)
+        self.nf = len(xf)
+        self.nb = len(xb)
         self.n = self.nf + self.nb
         self.space = params.space()
         self.kernel_id = kernel_id(params.kernel)
@@ -186,6 +228,7 @@ class WCSPHModel:
             no_slip=bool(params.no_slip), wall_artificial=bool(params.wall_artificial_viscosity),
             shifting=params.shifting > 0.0, periodic=self.space.periodic)
         self.constants = self._constants()
+        self.solids = Solids(self.launcher, params.dim, containers, obstacles) if (containers or obstacles) else None
 
     def _constants(self) -> FluidConstants:
         P = self.params

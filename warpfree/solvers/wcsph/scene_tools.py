@@ -60,7 +60,7 @@ def still_water_2d(tank: np.ndarray, level: float, dx: float, fluid: dict, wall_
     from warpfree.solvers.wcsph.relaxation import relax_particles
     from warpfree.solvers.wcsph.surface_layers import surface_layers
 
-    from .model import FluidParams
+    from .model import FluidParams, WCSPHModel
     from .solver import WCSPHSolver
 
     require_positive("settle_periods", settle_periods, allow_zero=True)
@@ -74,9 +74,10 @@ def still_water_2d(tank: np.ndarray, level: float, dx: float, fluid: dict, wall_
         particles = relax_particles(particles, dx, water, walls=walls, containers=[tank], kernel=params.kernel,
                                     h_factor=params.h_factor).positions
     g = -float(params.gravity[1])
-    solver = WCSPHSolver(particles, walls, params,
-                         density=hydrostatic_density(particles[:, 1], level, params.rho0, params.c0, g, params.gamma),
-                         containers=[tank], fluid_volume=polygon_area(water) / len(particles) if relax else None)
+    model = WCSPHModel(particles, walls, params, containers=[tank],
+                       fluid_volume=polygon_area(water) / len(particles) if relax else None)
+    solver = WCSPHSolver(model, density=hydrostatic_density(particles[:, 1], level, params.rho0, params.c0, g,
+                                                            params.gamma))
     settled = None
     if settle_periods > 0:
         surface = water[np.abs(water[:, 1] - level) < 1e-6 * max(abs(level), 1.0), 0]

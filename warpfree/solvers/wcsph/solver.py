@@ -16,17 +16,16 @@ from types import SimpleNamespace
 import numpy as np
 import warp as wp
 
-from warpfree.device import Launcher, current_launcher
+from warpfree.device import Launcher
 from warpfree.errors import ParameterError, RunError, require_memory, require_positive
 from warpfree.kernels import wcsph as K
 from warpfree.neighbours import MovingNeighbours, NeighbourGrid, NeighbourList, empty_rows
 from warpfree.particles import ParticleSet, to_vec3
 from warpfree.reduce import Reduction
 from warpfree.kernels.wcsph_solids import add_surface_penalty
-from warpfree.solvers.wcsph.solids import Solids
 from warpfree.solver import OutputSet, State, TimeDependentSolver
 
-from .model import FluidParams, WCSPHModel
+from .model import WCSPHModel
 
 __all__ = ["WCSPHSolver", "WCSPHState"]
 
@@ -53,52 +52,25 @@ class WCSPHState(State):
 
 
 class WCSPHSolver(TimeDependentSolver):
-    """WCSPH fluid with dynamic (Adami) or Lennard-Jones boundary particles.
+    """WCSPH fluid with dynamic (Adami) or Lennard-Jones boundary particles, on a :class:`WCSPHModel` (the layout,
+    the parameters, the walls and the solid surfaces).
 
     Parameters
     ----------
-    fluid: (N, dim) initial fluid positions (m).
-    boundary: (M, dim) boundary particle positions (m) of the containers; static.
-    obstacle_boundary: optional (K, dim) boundary particles of obstacles (appended to the walls: the same
-        physics), written as their own output set ``obstacle`` and drawn as solids in frames.
-    params: :class:`FluidParams`.
+    model: :class:`WCSPHModel`.
     density: optional (N,) initial fluid densities (e.g. hydrostatic); default ρ0.
     velocity: optional (N, dim) initial velocities (m/s); default 0.
-    boundary_volume: volume (area in 2D) per boundary particle; default dx^dim.
-    fluid_volume: volume (area in 2D) per fluid particle; default dx^dim. A relaxed fill of a region that is not a
-        union of lattice cells holds fewer particles than region/dx^dim: each then stands for region/N (the mass
-        ρ0 × that volume), or the pressure gradient, which counts a volume per neighbour, falls short by as much.
-    containers, obstacles: the true solid surfaces (3D: watertight trimesh meshes; 2D: closed polygons) that
-        the fluid must stay inside / outside. The fluid feels them through a stiff penalty within dx/2 of a
-        surface (``warpfree.kernels.solids.add_surface_penalty``: it stores the kinetic energy of a particle at
-        c0, so none crosses, and a fluid at rest dx/2 clear of the walls never feels it), beside the wall
-        particles; and it is checked at every output against the surfaces themselves
-        (:class:`~warpfree.solvers.wcsph.solids.Solids`): fluid inside a solid stops the run with the count and the depth.
     """
 
     name = "wcsph"
     work_unit = "particle-steps"
 
-    def __init__(self, fluid, boundary, params: FluidParams, density=None, velocity=None,
-                 boundary_volume: float | None = None, launcher: Launcher | None = None, containers=(), obstacles=(),
-                 obstacle_boundary=None, fluid_volume: float | None = None):
-        params.validate()
-        launcher = launcher or current_launcher()
+    def __init__(self, model: WCSPHModel, density=None, velocity=None, launcher: Launcher | None = None):
+        if not isinstance(model, WCSPHModel):
+            raise ParameterError("model", f"a WCSPHSolver takes a WCSPHModel, got {type(model).__name__}")
+        launcher = launcher or model.launcher
         dev = launcher.device
-        xf = to_vec3(fluid, "fluid") if np.size(fluid) else np.zeros((0, 3), np.float32)
-        if xf.shape[0] == 0:
-            raise ParameterError("fluid", "is empty: the scene made no fluid particles")
-        xb = to_vec3(boundary, "boundary") if np.size(boundary) else np.zeros((0, 3), np.float32)
-        xo = (to_vec3(obstacle_boundary, "obstacle_boundary") if obstacle_boundary is not None
-              and np.size(obstacle_boundary) else np.zeros((0, 3), np.float32))
-        n_container_walls = len(xb)
-        xb = np.vstack([xb, xo])
-        lo, hi = np.asarray(params.container_lo, float), np.asarray(params.container_hi, float)
-        outside = np.any((xf < lo) | (xf > hi), axis=1)
-        if outside.any():
-            raise ParameterError("fluid", f"{int(outside.sum())} of {len(xf)} fluid particles lie outside the "
-                                          f"container box {lo.tolist()} .. {hi.tolist()}")
-        model = WCSPHModel(params, len(xf), len(xb), boundary_volume, dev, fluid_volume)
+        params = model.params
         super().__init__(model, launcher)
         nf, nb, n = model.nf, model.nb, model.n
         rho_f = np.full(nf, params.rho0) if density is None else np.asarray(density, float)
@@ -111,7 +83,7 @@ class WCSPHSolver(TimeDependentSolver):
         def arr(values, dtype):
             return wp.array(values, dtype=dtype, device=dev)
 
-        position = arr(np.vstack([xf, xb]).astype(np.float32), wp.vec3)
+        position = arr(model.position_np, wp.vec3)
         self.state = WCSPHState(
             position=position,
             velocity=arr(np.vstack([v_f, np.zeros((nb, 3))]).astype(np.float32), wp.vec3),
@@ -140,7 +112,8 @@ class WCSPHSolver(TimeDependentSolver):
         def part(array, start, stop):  # a view of rows [start, stop); Warp refuses empty slices
             return array[start:stop] if stop > start else wp.zeros(0, dtype=array.dtype, device=dev)
 
-        f, b, o = (0, nf), (nf, nf + n_container_walls), (nf + n_container_walls, n)
+        walls = nf + model.n_container_walls
+        f, b, o = (0, nf), (nf, walls), (walls, n)
         #: the fluid, the container walls and the obstacles' walls: named views into the combined arrays
         self.fluid = ParticleSet.view("fluid", params.dim, {
             "position": part(S.position, *f), "velocity": part(S.velocity, *f), "density": part(S.density, *f),
@@ -167,7 +140,7 @@ class WCSPHSolver(TimeDependentSolver):
         else:  # valid empty rows for the kernels
             self.fluid_wall = self.wall_fluid = SimpleNamespace(rows=empty_rows(nf, dev))
         self._report = Reduction(launcher, wp.vec4, "max")
-        self.solids = Solids(launcher, params.dim, containers, obstacles) if (containers or obstacles) else None
+        self.solids = model.solids
         if self.solids is not None:
             inside = self.solids.penetration(self.fluid.position)
             if inside:
