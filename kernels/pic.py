@@ -183,52 +183,82 @@ def boris_velocity(v: wp.vec2d, qm: wp.float64, e: wp.vec2d, bz: wp.float64, dt:
     return plus + half * e
 
 
+@wp.struct
+class SpeciesTable:
+    """Per species (a particle's ``species`` indexes it): q/m and the macro-particle's mass M."""
+
+    charge_over_mass: wp.array(dtype=wp.float64)
+    macro_mass: wp.array(dtype=wp.float64)
+
+
+@wp.struct
+class ParticleArrays:
+    """The particles' slots as kernels read them: float64 ``position`` and ``velocity``, ``species``,
+    ``particle_id``, the float32 ``position32`` the HashGrid queries take, and ``exit_wall`` (w + 1 for a particle
+    that left through wall w, 0 inside)."""
+
+    position: wp.array(dtype=wp.vec2d)
+    velocity: wp.array(dtype=wp.vec2d)
+    species: wp.array(dtype=wp.int32)
+    particle_id: wp.array(dtype=wp.int32)
+    position32: wp.array(dtype=wp.vec3)
+    exit_wall: wp.array(dtype=wp.int32)
+
+
+@wp.struct
+class PushParams:
+    """The push's constants: the ``box``, the static ``magnetic_field`` B_z, the step ``dt`` and what each wall does
+    with a particle that reaches it (``absorb[w]``: 1 absorbs, 0 reflects; w = 2 axis + side)."""
+
+    box: Box2d
+    magnetic_field: wp.float64
+    dt: wp.float64
+    absorb: wp.array(dtype=wp.int32)
+
+
 @wp.kernel
 def kick(
     first: int,
-    species: wp.array(dtype=wp.int32),
-    charge_over_mass: wp.array(dtype=wp.float64),
+    table: SpeciesTable,
+    particles: ParticleArrays,
     field: wp.array(dtype=wp.vec2d),
     bz: wp.float64,
     dt: wp.float64,
-    velocity: wp.array(dtype=wp.vec2d),
 ):
     """v advanced by Δt without moving the particle (:func:`boris_velocity`); Δt = -Δt/2 gives the leapfrog's
     half-step start v^{-1/2} (seed 002 §2.2.3)."""
     i = first + wp.tid()
-    velocity[i] = boris_velocity(velocity[i], charge_over_mass[species[i]], field[i], bz, dt)
+    velocity = particles.velocity
+    velocity[i] = boris_velocity(velocity[i], table.charge_over_mass[particles.species[i]], field[i], bz, dt)
 
 
 @wp.kernel
 def leapfrog_push(
     first: int,
-    box: Box2d,
-    species: wp.array(dtype=wp.int32),
-    charge_over_mass: wp.array(dtype=wp.float64),
-    macro_mass: wp.array(dtype=wp.float64),
+    push: PushParams,
+    table: SpeciesTable,
+    particles: ParticleArrays,
     field: wp.array(dtype=wp.vec2d),
-    bz: wp.float64,
-    dt: wp.float64,
-    absorb: wp.array(dtype=wp.int32),
-    position: wp.array(dtype=wp.vec2d),
-    velocity: wp.array(dtype=wp.vec2d),
-    position32: wp.array(dtype=wp.vec3),
     kinetic: wp.array(dtype=wp.float64),
     momentum: wp.array(dtype=wp.vec2d),
-    exit_wall: wp.array(dtype=wp.int32),
 ):
-    """v^{n+1/2} = v^{n-1/2} + (q/m) E^n Δt (Boris with a magnetic field bz); x^{n+1} = x^n + v^{n+1/2} Δt, wrapped
-    along periodic axes (eqs 2.21 / 4.7). At the walls of the other axes: ``absorb[w]`` 0 reflects the particle
-    (position and velocity), 1 absorbs it: ``exit_wall[i]`` = w + 1 (w = 2 axis + side, side 0 lower, 1 upper;
-    0: still inside) and the particle is left where it landed, for the next sort to drop. Writes the time-centred
-    kinetic energy ½ M (|v^{n-1/2}|² + |v^{n+1/2}|²)/2 and momentum M (v^{n-1/2} + v^{n+1/2})/2 at time n (M: the
-    macro-particle's mass)."""
+    """v^{n+1/2} = v^{n-1/2} + (q/m) E^n Δt (Boris with the magnetic field B_z); x^{n+1} = x^n + v^{n+1/2} Δt,
+    wrapped along periodic axes (eqs 2.21 / 4.7). At the walls of the other axes: ``push.absorb[w]`` 0 reflects the
+    particle (position and velocity), 1 absorbs it: ``exit_wall[i]`` = w + 1 (w = 2 axis + side, side 0 lower, 1
+    upper; 0: still inside) and the particle is left where it landed, for the next sort to drop. Writes the
+    time-centred kinetic energy ½ M (|v^{n-1/2}|² + |v^{n+1/2}|²)/2 and momentum M (v^{n-1/2} + v^{n+1/2})/2 at time
+    n (M: the macro-particle's mass)."""
     i = first + wp.tid()
-    s = species[i]
+    box = push.box
+    dt = push.dt
+    absorb = push.absorb
+    position = particles.position
+    velocity = particles.velocity
+    s = particles.species[i]
     old = velocity[i]
-    new = boris_velocity(old, charge_over_mass[s], field[i], bz, dt)
+    new = boris_velocity(old, table.charge_over_mass[s], field[i], push.magnetic_field, dt)
     x = position[i] + dt * new
-    m = macro_mass[s]
+    m = table.macro_mass[s]
     kinetic[i] = wp.float64(0.25) * m * (wp.dot(old, old) + wp.dot(new, new))
     momentum[i] = wp.float64(0.5) * m * (old + new)
     left = int(0)
@@ -254,10 +284,10 @@ def leapfrog_push(
                     new[a] = -new[a]
     if left == 0:
         x = wrap2d(box, x)
-    exit_wall[i] = left
+    particles.exit_wall[i] = left
     velocity[i] = new
     position[i] = x
-    position32[i] = wp.vec3(float(x[0]), float(x[1]), 0.0)
+    particles.position32[i] = wp.vec3(float(x[0]), float(x[1]), 0.0)
 
 
 @wp.struct
@@ -282,12 +312,7 @@ def inject_particles(
     slot0: int,
     id0: int,
     dt: wp.float64,
-    position: wp.array(dtype=wp.vec2d),
-    velocity: wp.array(dtype=wp.vec2d),
-    species: wp.array(dtype=wp.int32),
-    particle_id: wp.array(dtype=wp.int32),
-    position32: wp.array(dtype=wp.vec3),
-    exit_wall: wp.array(dtype=wp.int32),
+    particles: ParticleArrays,
 ):
     """New particle i of a wall ``source`` into slot ``slot0`` + i with id ``id0`` + i: x uniform along the wall, v_n
     = the cold beam's normal speed or v_th sqrt(-2 ln U) (thermal: the flux-weighted half-Maxwellian), v_x = the
@@ -319,12 +344,12 @@ def inject_particles(
     left = int(0)
     if y < lo or y >= hi:
         left = far
-    position[slot] = x
-    velocity[slot] = wp.vec2d(vx, inward * vn)
-    species[slot] = source.species
-    particle_id[slot] = pid
-    position32[slot] = wp.vec3(float(x[0]), float(x[1]), 0.0)
-    exit_wall[slot] = left
+    particles.position[slot] = x
+    particles.velocity[slot] = wp.vec2d(vx, inward * vn)
+    particles.species[slot] = source.species
+    particles.particle_id[slot] = pid
+    particles.position32[slot] = wp.vec3(float(x[0]), float(x[1]), 0.0)
+    particles.exit_wall[slot] = left
 
 
 @wp.kernel
@@ -376,25 +401,19 @@ def count_live(
 def permute_particles(
     first: int,
     order: wp.array(dtype=wp.int32),
-    position: wp.array(dtype=wp.vec2d),
-    velocity: wp.array(dtype=wp.vec2d),
-    species: wp.array(dtype=wp.int32),
-    particle_id: wp.array(dtype=wp.int32),
-    out_position: wp.array(dtype=wp.vec2d),
-    out_velocity: wp.array(dtype=wp.vec2d),
-    out_species: wp.array(dtype=wp.int32),
-    out_id: wp.array(dtype=wp.int32),
-    out_position32: wp.array(dtype=wp.vec3),
+    source: ParticleArrays,
+    target: ParticleArrays,
 ):
-    """Slot i takes particle order[i] (a gather: each thread writes only slot i)."""
+    """Slot i of ``target`` takes particle order[i] of ``source`` (a gather: each thread writes only slot i), and
+    target's float32 positions follow."""
     i = first + wp.tid()
     j = order[i]
-    x = position[j]
-    out_position[i] = x
-    out_velocity[i] = velocity[j]
-    out_species[i] = species[j]
-    out_id[i] = particle_id[j]
-    out_position32[i] = wp.vec3(float(x[0]), float(x[1]), 0.0)
+    x = source.position[j]
+    target.position[i] = x
+    target.velocity[i] = source.velocity[j]
+    target.species[i] = source.species[j]
+    target.particle_id[i] = source.particle_id[j]
+    target.position32[i] = wp.vec3(float(x[0]), float(x[1]), 0.0)
 
 
 @wp.kernel

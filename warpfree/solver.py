@@ -33,39 +33,97 @@ import warp as wp
 from .device import Launcher
 from .errors import ParameterError
 
-__all__ = ["State", "OutputSet", "PhaseTimes", "Solver", "StepRule", "TimeDependentSolver", "StaticSolver"]
+__all__ = ["State", "HostTable", "OutputSet", "PhaseTimes", "Solver", "StepRule", "TimeDependentSolver", "StaticSolver"]
+
+
+class HostTable:
+    """An append-only table of host numbers a state keeps (a solver's per-step history): named ``columns``, one row
+    per :meth:`append`; checkpointed as a (rows, columns) float64 array and restored from one."""
+
+    def __init__(self, columns: list[str] | tuple[str, ...]):
+        self.columns = list(columns)
+        self._data = {k: [] for k in self.columns}
+
+    def append(self, row: dict[str, float]) -> None:
+        """Add one row (every column's value, ``row``'s keys being :attr:`columns`)."""
+        if set(row) != set(self.columns):
+            raise ValueError(f"a row of this table has the columns {self.columns}, got {sorted(row)}")
+        for k in self.columns:
+            self._data[k].append(row[k])
+
+    def column(self, name: str) -> list[float]:
+        return self._data[name]
+
+    def as_dict(self) -> dict[str, list[float]]:
+        """Column name -> its values (the lists themselves: append-only, never to be changed by the caller)."""
+        return self._data
+
+    def __len__(self) -> int:
+        return len(self._data[self.columns[0]]) if self.columns else 0
+
+    def to_array(self) -> np.ndarray:
+        if not len(self):
+            return np.zeros((0, len(self.columns)))
+        return np.array([self._data[k] for k in self.columns], dtype=np.float64).T.copy()
+
+    def restore(self, table: np.ndarray) -> None:
+        self._data = {k: table[:, j].tolist() for j, k in enumerate(self.columns)}
+
+
+#: host values a :class:`State` checkpoints besides its arrays
+_HOST_SCALARS = (int, float, np.integer, np.floating)
 
 
 class State:
-    """The arrays of a solver that change in time: exactly what a checkpoint saves and restores.
+    """What a solver changes in time: exactly what a checkpoint saves and restores.
 
-    Set ``wp.array`` attributes on it (in ``__init__`` of a subclass, or on an instance); :meth:`arrays`
-    walks them in the order they were set. Name them as the outputs do (``position``, ``velocity``,
-    ``density``): one name per quantity in the API, the kernels, the checkpoints and the VTU files.
+    Set attributes on it (in ``__init__`` of a subclass, or on an instance): ``wp.array`` s (the device state) and
+    host values (Python or NumPy numbers, NumPy arrays, :class:`HostTable` s: a step count, a running sum, a per-step
+    history); :meth:`arrays` and :meth:`host_values` walk them in the order they were set. Attributes whose names
+    start with ``_`` and values of other types are not state. Name them as the outputs do (``position``,
+    ``velocity``, ``density``): one name per quantity in the API, the kernels, the checkpoints and the VTU files.
     """
 
     def arrays(self) -> dict[str, wp.array]:
-        return {k: v for k, v in vars(self).items() if isinstance(v, wp.array)}
+        return {k: v for k, v in vars(self).items() if isinstance(v, wp.array) and not k.startswith("_")}
+
+    def host_values(self) -> dict:
+        return {k: v for k, v in vars(self).items() if not k.startswith("_") and not isinstance(v, bool)
+                and isinstance(v, (*_HOST_SCALARS, np.ndarray, HostTable))}
 
     def numpy(self) -> dict[str, np.ndarray]:
-        """Copies of every array (a checkpoint's content)."""
-        return {k: v.numpy().copy() for k, v in self.arrays().items()}
+        """Copies of every array and host value (a checkpoint's content)."""
+        out = {k: v.numpy().copy() for k, v in self.arrays().items()}
+        for k, v in self.host_values().items():
+            out[k] = v.to_array() if isinstance(v, HostTable) else np.array(v, copy=True)
+        return out
 
     def assign(self, values: dict[str, np.ndarray], source: str = "checkpoint") -> None:
-        """Overwrite every array from ``values``; names, shapes and dtypes must match (else ParameterError
-        naming ``resume``: the checkpoint is of another scene or resolution)."""
-        arrays = self.arrays()
-        missing = sorted(set(arrays) - set(values))
+        """Overwrite every array and host value from ``values``; names, shapes and dtypes must match (else
+        ParameterError naming ``resume``: the checkpoint is of another scene or resolution)."""
+        arrays, host = self.arrays(), self.host_values()
+        missing = sorted((set(arrays) | set(host)) - set(values))
         if missing:
             raise ParameterError("resume", f"{source} does not match this scene: it lacks {missing}")
-        for k, arr in arrays.items():
+        current = {k: a.numpy() for k, a in arrays.items()}
+        current.update({k: (v.to_array() if isinstance(v, HostTable) else np.asarray(v)) for k, v in host.items()})
+        for k, ref in current.items():
             v = np.asarray(values[k])
-            ref = arr.numpy()
-            if v.shape != ref.shape or v.dtype != ref.dtype:
+            table = isinstance(host.get(k), HostTable)
+            same = (v.ndim == 2 and v.shape[1] == ref.shape[1]) if table else v.shape == ref.shape
+            if not same or v.dtype != ref.dtype:
                 raise ParameterError("resume", f"{source} does not match this scene: {k!r} has shape {v.shape} "
                                                f"{v.dtype}, this scene needs {ref.shape} {ref.dtype}")
         for k, arr in arrays.items():
             arr.assign(np.asarray(values[k]))
+        for k, old in host.items():
+            v = np.asarray(values[k])
+            if isinstance(old, HostTable):
+                old.restore(v)
+            elif isinstance(old, np.ndarray):
+                setattr(self, k, v.copy())
+            else:
+                setattr(self, k, type(old)(v[()]))
 
 
 @dataclass

@@ -1,7 +1,8 @@
 """PIDC (seed 002): electrostatic particle-in-cell whose field solve is EFG. Species and loading
-(:mod:`.species`), wall sources (:mod:`.injection`), the periodic EFG Poisson solve (:mod:`.field`), the solver
-(:mod:`.solver`). Kernels: ``warpfree.kernels.pic``. Normalised units: ε0 = 1, charges in e, masses in m_e,
-ω_pe = 1 for n_ref."""
+(:mod:`.species`), wall sources (:mod:`.injection`), the EFG Poisson solve (:mod:`.field`); the solver (:mod:`.solver`)
+and its parts: the particles and their state (:mod:`.particles`), the particle-node coupling (:mod:`.coupling`:
+fits, deposit, solve, gather) and the per-step history (:mod:`.history`). Kernels: ``warpfree.kernels.pic``.
+Normalised units: ε0 = 1, charges in e, masses in m_e, ω_pe = 1 for n_ref."""
 
 from .field import PlasmaPoisson
 from .injection import Injection

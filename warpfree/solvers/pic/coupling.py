@@ -1,0 +1,124 @@
+"""The particle-node coupling of PIDC (seed 002 ch. 4): the field at the particles' positions x^n.
+
+    neighbours:  rebuild the HashGrid over the particles (and their periodic images)
+    fits:        the MLS fit of every particle over the nodes (γ, ∂γ: φ_I and ∇φ_I, stored once per step)
+    deposit:     Q_I = Σ_p q_p φ_I(x_p), a node gather (eq 4.4)
+    solve:       K u = Q + ρ_bg m on the kept factorisation (:class:`~.field.PlasmaPoisson`)
+    gather:      E_p = -Σ_I u_I ∇φ_I(x_p) (eq 4.5), or Σ_I φ_I(x_p) E_I from nodal fields (the momentum gather)
+
+Kernels: ``kernels/pic.py`` (one set per basis size), on the MLS model's nodes (``kernels/mls.py: NodeSet``). float64.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from warpfree.galerkin.mls import RCOND_LIMIT, MLSModel
+from warpfree.kernels import mls as mk
+from warpfree.kernels import pic as pk
+from warpfree.neighbours import NeighbourGrid
+from warpfree.reduce import Reduction
+from warpfree.solver import PhaseTimes
+
+from .field import PlasmaPoisson
+from .particles import Particles
+
+__all__ = ["NodeCoupling", "GATHERS"]
+
+#: the field gathers (``warpfree.solvers.pic.field``)
+GATHERS = ("momentum", "energy")
+
+
+class NodeCoupling:
+    """Deposit, field solve and gather between the particles and the nodes of ``field``'s MLS model.
+
+    ``charge`` (nodes, device), ``potential`` (nodes, host) and ``nodal_field`` hold the last solve's; the particles'
+    field goes to ``particles.e_field``. ``background_density``: the uniform immobile charge density.
+    """
+
+    def __init__(self, field: PlasmaPoisson, particles: Particles, macro_charge: wp.array, background_density: float,
+                 gather: str, phases: PhaseTimes):
+        model: MLSModel = field.model
+        dev = particles.launcher.device
+        self.field = field
+        self.model = model
+        self.launcher = particles.launcher
+        self.particles = particles
+        self.macro_charge = macro_charge
+        self.background_density = background_density
+        self.gather = gather
+        self.phases = phases
+        self.kernels = pk.mls_kernels(model.settings.terms)
+        self.node_set = model.node_set()
+        self.particle_grid = NeighbourGrid(self.launcher, model.reach, model.space)
+        self.inv_scale = wp.float64(1.0 / float(np.mean(model.support_np[:, 0])))
+        self._flag_max = Reduction(self.launcher, wp.int32, "max")
+        self.charge = wp.zeros(model.node_count, dtype=wp.float64, device=dev)
+        self.potential = np.zeros(model.node_count)
+        self.potential_wp = wp.zeros(model.node_count, dtype=wp.float64, device=dev)
+        self.nodal_field = wp.zeros(model.node_count, dtype=wp.vec2d, device=dev)
+        self.allocate(particles.state.capacity)
+
+    def allocate(self, capacity: int) -> None:
+        """The per-particle fits, node counts and check flags for ``capacity`` slots (rebuilt every step)."""
+        dev = self.launcher.device
+        self.fit = wp.zeros(capacity, dtype=mk.MLSFit, device=dev)
+        self.node_count_of = wp.zeros(capacity, dtype=wp.int32, device=dev)
+        self._flags = wp.zeros(capacity, dtype=wp.int32, device=dev)
+
+    def fields_at_particles(self) -> None:
+        """Neighbours, fits, deposit, solve and gather at x^n (E into ``particles.e_field``) for the live particles."""
+        m, L, pa = self.model, self.launcher, self.particles
+        n, state = pa.count, pa.state
+        with self.phases("neighbours"):
+            if n:
+                self.particle_grid.build(pa.position32[:n])
+        with self.phases("fits"):
+            L.launch(self.kernels.particle_fits, n, [self.node_set, pa.position32, state.position, self.inv_scale,
+                                                      self.fit, self.node_count_of])
+        with self.phases("deposit"):
+            g = self.particle_grid
+            if n:
+                # the particle grid's image arrays are new at every build, so no launch timing could serve the
+                # next step: split over every thread (``once``)
+                L.launch(self.kernels.deposit, m.node_count,
+                         [self.node_set, g.id, g.points, g.source_id, state.position, state.species,
+                          self.macro_charge, self.inv_scale, self.fit, self.charge], once=True)
+            else:
+                self.charge.zero_()
+        with self.phases("solve"):
+            charge = self.charge.numpy()
+            self.potential = self.field.solve(charge, self.background_density)
+            self.potential_wp.assign(self.potential)
+            if self.gather == "momentum":
+                self.nodal_field.assign(self.field.nodal_field(self.potential, charge))
+        with self.phases("gather"):
+            L.launch(self.kernels.particle_field, n, [self.node_set, pa.position32, state.position, self.inv_scale,
+                                                       self.fit, self.potential_wp, self.nodal_field,
+                                                       int(self.gather == "momentum"), pa.e_field])
+
+    def bad_particle(self) -> str | None:
+        """A message naming the first particle whose MLS fit is ill-posed (too few nodes in reach, or a singular
+        moment matrix) or whose velocity is not finite, else None. Flags and their maximum on the device: one read
+        per step; the arrays come to the host only when something is wrong."""
+        terms = self.model.settings.terms
+        n, state = self.particles.count, self.particles.state
+        if not n:
+            return None
+        self.launcher.launch(pk.flag_bad_particles, n, [terms, wp.float64(RCOND_LIMIT), self.node_count_of,
+                                                        self.fit, state.velocity, self._flags])
+        self._flag_max.launch(self._flags, n)
+        if not self._flag_max.value():
+            return None
+        bad = np.flatnonzero(self._flags[:n].numpy())
+        i = int(bad[0])
+        x = state.position.numpy()[i]
+        v = state.velocity.numpy()[i]
+        if not np.all(np.isfinite(v)):
+            return f"particle {i} at ({x[0]:.6g}, {x[1]:.6g}) has a non-finite velocity {v.tolist()}"
+        count = int(self.node_count_of.numpy()[i])
+        rcond = float(self.fit.numpy()["rcond"][i])
+        return (f"particle {i} at ({x[0]:.6g}, {x[1]:.6g}) lies in the support of {count} node(s) (scaled pivot "
+                f"{rcond:.1e}); the {self.model.settings.basis} basis needs {terms} nodes around it: raise d_max "
+                f"(now {self.model.settings.d_max}) or add nodes ({bad.size} such particles)")
