@@ -33,6 +33,11 @@ holds its loss rates κ = (σx/ε, σy/ε) (1/s); on H particles the matched σ*
 
 Precision: float32 fields and coefficients (the coefficients are solved in float64, the fields are
 O(1) and the operator is well conditioned for the supports the model admits).
+
+Arguments: the field updates (:func:`update_electric`, :func:`update_magnetic` and the plane-wave corrections) take
+their arrays one by one, not in ``@wp.struct`` bundles. Warp compiles the indexing of a contiguous array passed to a
+kernel without its strides; the same arrays inside structs cost the step 5-9 % (``bench/results/kernel_arguments.md``),
+and these kernels are the whole SPEM step.
 """
 
 import warp as wp

@@ -77,10 +77,11 @@ class Source:
 
 
 class SPEMState(State):
-    """Ez and its x part Ezx on the E set (V/m), Hx and Hy on the H set (A/m), and t of H (s)."""
+    """Ez and its x part Ezx on the E set (V/m), Hx and Hy on the H set (A/m), and ``time``, t of H (s, a host
+    value)."""
 
-    def __init__(self, ez, ezx, hx, hy, time):
-        self.ez, self.ezx, self.hx, self.hy, self.time = ez, ezx, hx, hy, time
+    def __init__(self, ez, ezx, hx, hy, time: float = 0.0):
+        self.ez, self.ezx, self.hx, self.hy, self.time = ez, ezx, hx, hy, float(time)
 
 
 class _DeviceSource:
@@ -141,8 +142,7 @@ class SPEMSolver(TimeDependentSolver):
         hx0, hy0 = initial("hx", hx, h), initial("hy", hy, h)
         if kronecker:
             ez0, hx0, hy0 = self._nodal_values(model, ez0, hx0, hy0)
-        self.state = SPEMState(e.add("ez", ez0), e.add("ezx", 0.5 * ez0), h.add("hx", hx0),
-                               h.add("hy", hy0), wp.zeros(1, dtype=wp.float64, device=dev))
+        self.state = SPEMState(e.add("ez", ez0), e.add("ezx", 0.5 * ez0), h.add("hx", hx0), h.add("hy", hy0))
         sources = list(sources or [])
         for s in sources:
             if not isinstance(s, Source | PlaneWave):
@@ -154,7 +154,6 @@ class SPEMSolver(TimeDependentSolver):
             if s.additive == 0:
                 held[s.index] = True
         self.held = e.add("held", held.astype(np.int32), dtype=wp.int32)
-        self.t = 0.0
         self._dt_max = model.stable_dt()
         self.distribution = distribution
         parts = self.launcher.threads
@@ -200,8 +199,7 @@ class SPEMSolver(TimeDependentSolver):
                 L.launch(K.plane_wave_magnetic, w.n_h, [float(dt), float(t_half), w.struct, w.h_targets, w.h_rows,
                                                         w.h_coefficient, e.position, h["inv_permeability"], h["loss"],
                                                         st.hx, st.hy])
-        self.t += dt
-        st.time.fill_(self.t)
+        st.time = self.t + dt
 
     def stable_dt(self) -> float:
         return self._dt_max
@@ -210,8 +208,10 @@ class SPEMSolver(TimeDependentSolver):
         """One constant step for the run, at most ``courant`` × the stable limit."""
         return StepRule.constant(self.courant * self._dt_max)
 
-    def after_load(self) -> None:
-        self.t = float(self.state.time.numpy()[0])
+    @property
+    def t(self) -> float:
+        """The time of H (s), the state's."""
+        return self.state.time
 
     def problem(self) -> str | None:
         return None
