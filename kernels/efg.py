@@ -8,40 +8,49 @@ The shape functions come from ``kernels/mls.py``, the stiffness and loads from `
 import warp as wp
 
 from .assembly import Triplets, write_triplet
-from .neighbours import NeighbourRows
+from .galerkin import ShapeRows
+
+
+@wp.struct
+class MultiplierPieces:
+    """The Lagrange multipliers of an essential boundary at its Gauss points: the two end multipliers K of each
+    point's piece (``multiplier``, -1: none), their linear hat values N_K there (``value``), the unknowns per node
+    (``components``) and the components the boundary prescribes (``constrained[k]`` 1)."""
+
+    multiplier: wp.array(dtype=wp.vec2i)
+    value: wp.array(dtype=wp.vec2d)
+    components: int
+    constrained: wp.vec2i
 
 
 @wp.kernel
 def multiplier_coupling(
     first: int,
-    rows: NeighbourRows,
-    phi: wp.array(dtype=wp.float64),
+    shape: ShapeRows,
     weight: wp.array(dtype=wp.float64),
-    multiplier: wp.array(dtype=wp.vec2i),
-    multiplier_value: wp.array(dtype=wp.vec2d),
-    components: int,
-    constrained: wp.vec2i,
+    pieces: MultiplierPieces,
     slot_start: wp.array(dtype=wp.int32),
     out: Triplets,
 ):
     """G_{(cI+k),(cK+k)} += -w_g φ_I(x_g) N_K(x_g) (seed 003 eq 3.36) on an essential boundary: each boundary Gauss
-    point lies on one piece whose two end multipliers K (``multiplier``, -1: none) have the linear hat values
-    ``multiplier_value``; ``constrained[k]`` 1 for the components k the boundary prescribes. Row: unknown of node
-    I; column: multiplier unknown."""
+    point lies on one piece (:class:`MultiplierPieces`). Row: unknown of node I; column: multiplier unknown."""
     g = first + wp.tid()
+    rows = shape.rows
     start = rows.start[g]
     n = rows.count[g]
     s0 = slot_start[g]
     wg = weight[g]
-    mk = multiplier[g]
-    nv = multiplier_value[g]
+    mk = pieces.multiplier[g]
+    nv = pieces.value[g]
+    components = pieces.components
     for a in range(n):
         ia = rows.index[start + a]
         for e in range(2):
             for k in range(components):
                 s = s0 + (a * 2 + e) * components + k
-                if mk[e] >= 0 and constrained[k] != 0:
-                    write_triplet(out, s, components * ia + k, components * mk[e] + k, -wg * phi[start + a] * nv[e])
+                if mk[e] >= 0 and pieces.constrained[k] != 0:
+                    write_triplet(out, s, components * ia + k, components * mk[e] + k,
+                                  -wg * shape.phi[start + a] * nv[e])
 
 
 @wp.struct
@@ -55,33 +64,27 @@ class InterfaceEntry:
 
 
 @wp.func
-def interface_entry(e: int, na: int, sa: int, sb: int, rows_a: NeighbourRows, phi_a: wp.array(dtype=wp.float64),
-                    dphi_a: wp.array(dtype=wp.vec2d), rows_b: NeighbourRows, phi_b: wp.array(dtype=wp.float64),
-                    dphi_b: wp.array(dtype=wp.vec2d), conductivity_a: wp.float64, conductivity_b: wp.float64,
-                    nv: wp.vec2d) -> InterfaceEntry:
+def interface_entry(e: int, na: int, sa: int, sb: int, side_a: ShapeRows, side_b: ShapeRows,
+                    conductivity_a: wp.float64, conductivity_b: wp.float64, nv: wp.vec2d) -> InterfaceEntry:
     """Entry e of the concatenated rows (side a's ``na`` entries from ``sa``, then side b's from ``sb``)."""
     out = InterfaceEntry()
     half = wp.float64(0.5)
     if e < na:
-        out.node = rows_a.index[sa + e]
-        out.jump = phi_a[sa + e]
-        out.flux = half * conductivity_a * wp.dot(dphi_a[sa + e], nv)
+        out.node = side_a.rows.index[sa + e]
+        out.jump = side_a.phi[sa + e]
+        out.flux = half * conductivity_a * wp.dot(side_a.dphi[sa + e], nv)
     else:
-        out.node = rows_b.index[sb + e - na]
-        out.jump = -phi_b[sb + e - na]
-        out.flux = half * conductivity_b * wp.dot(dphi_b[sb + e - na], nv)
+        out.node = side_b.rows.index[sb + e - na]
+        out.jump = -side_b.phi[sb + e - na]
+        out.flux = half * conductivity_b * wp.dot(side_b.dphi[sb + e - na], nv)
     return out
 
 
 @wp.kernel
 def interface_terms(
     first: int,
-    rows_a: NeighbourRows,
-    phi_a: wp.array(dtype=wp.float64),
-    dphi_a: wp.array(dtype=wp.vec2d),
-    rows_b: NeighbourRows,
-    phi_b: wp.array(dtype=wp.float64),
-    dphi_b: wp.array(dtype=wp.vec2d),
+    side_a: ShapeRows,
+    side_b: ShapeRows,
     normal: wp.array(dtype=wp.vec2d),
     weight: wp.array(dtype=wp.float64),
     conductivity_a: wp.float64,
@@ -98,20 +101,18 @@ def interface_terms(
     over the entries of both sides' rows (a node on the interface appears in both): the interface term of the weak
     form that domain truncation drops, its symmetric partner and a penalty α = β k_max / h (``penalty``)."""
     g = first + wp.tid()
-    sa = rows_a.start[g]
-    na = rows_a.count[g]
-    sb = rows_b.start[g]
-    nb = rows_b.count[g]
+    sa = side_a.rows.start[g]
+    na = side_a.rows.count[g]
+    sb = side_b.rows.start[g]
+    nb = side_b.rows.count[g]
     n = na + nb
     s0 = slot_start[g]
     wg = weight[g]
     nv = normal[g]
     for e in range(n):
-        a = interface_entry(e, na, sa, sb, rows_a, phi_a, dphi_a, rows_b, phi_b, dphi_b, conductivity_a,
-                            conductivity_b, nv)
+        a = interface_entry(e, na, sa, sb, side_a, side_b, conductivity_a, conductivity_b, nv)
         for f in range(n):
-            b = interface_entry(f, na, sa, sb, rows_a, phi_a, dphi_a, rows_b, phi_b, dphi_b, conductivity_a,
-                                conductivity_b, nv)
+            b = interface_entry(f, na, sa, sb, side_a, side_b, conductivity_a, conductivity_b, nv)
             write_triplet(out, s0 + e * n + f, a.node, b.node,
                           wg * (-b.flux * a.jump - a.flux * b.jump + penalty * a.jump * b.jump))
 
@@ -119,8 +120,7 @@ def interface_terms(
 @wp.kernel
 def boundary_mass(
     first: int,
-    rows: NeighbourRows,
-    phi: wp.array(dtype=wp.float64),
+    shape: ShapeRows,
     weight: wp.array(dtype=wp.float64),
     components: int,
     constrained: wp.vec2i,
@@ -130,6 +130,8 @@ def boundary_mass(
     """M_{(cI+k),(cJ+k)} += w_g φ_I φ_J on a boundary, for the constrained components k (the penalty method's
     α ∫ φ_I φ_J dΓ, α applied by the caller through ``weight``)."""
     g = first + wp.tid()
+    rows = shape.rows
+    phi = shape.phi
     start = rows.start[g]
     n = rows.count[g]
     s0 = slot_start[g]

@@ -15,6 +15,16 @@ from .assembly import Loads, Triplets, write_load, write_triplet
 from .neighbours import NeighbourRows
 
 
+@wp.struct
+class ShapeRows:
+    """Shape functions at a set of points as kernels read them (``ShapeData.kernel_rows()``): each point's ``rows``
+    of nodes, and φ_I (``phi``) and ∇φ_I (``dphi``) per row entry."""
+
+    rows: NeighbourRows
+    phi: wp.array(dtype=wp.float64)
+    dphi: wp.array(dtype=wp.vec2d)
+
+
 # --- every Gauss point writes its own slots ---------------------------------------------------------------------
 
 
@@ -154,6 +164,18 @@ def evaluate_field(
 # --- by node rows: each node gathers its Gauss points (no triplet sum) -------------------------------------------
 
 
+@wp.struct
+class NodeGather:
+    """What a node-row assembly reads besides the shape functions: each node's row ``entries`` (the shape-row entries
+    that hold it, in Gauss-point order), ``entry_point`` (entry -> Gauss point) and the matrix pattern (CSR,
+    ``pattern_start``/``pattern_cols``, sorted columns)."""
+
+    entries: NeighbourRows
+    entry_point: wp.array(dtype=wp.int32)
+    pattern_start: wp.array(dtype=wp.int32)
+    pattern_cols: wp.array(dtype=wp.int32)
+
+
 @wp.func
 def pattern_position(cols: wp.array(dtype=wp.int32), lo: int, hi: int, j: int) -> int:
     """Position of column j in the sorted ``cols[lo:hi]`` of one pattern row (binary search; j is present)."""
@@ -172,24 +194,23 @@ def pattern_position(cols: wp.array(dtype=wp.int32), lo: int, hi: int, j: int) -
 def conduction_rows(
     first: int,
     rows: NeighbourRows,
-    node_entries: NeighbourRows,
-    entry_point: wp.array(dtype=wp.int32),
+    gather: NodeGather,
     test_dphi: wp.array(dtype=wp.vec2d),
     dphi: wp.array(dtype=wp.vec2d),
     weight: wp.array(dtype=wp.float64),
-    pattern_start: wp.array(dtype=wp.int32),
-    pattern_cols: wp.array(dtype=wp.int32),
     values: wp.array(dtype=wp.float64),
 ):
     """Row I of K_IJ = Σ_g w_g ∇ψ_I(x_g)·∇φ_J(x_g) (seed 002 eq 3.9): node I gathers the Gauss points g in its
-    support (``node_entries``: the row entries that hold I, in Gauss-point order; ``entry_point``: entry -> g) and
-    adds each pair into its slot of the CSR pattern (``pattern_start``/``pattern_cols``, sorted columns)."""
+    support (``gather.entries``: the row entries that hold I, in Gauss-point order; ``gather.entry_point``: entry -> g)
+    and adds each pair into its slot of the CSR pattern (:class:`NodeGather`)."""
     i = first + wp.tid()
-    lo = pattern_start[i]
-    hi = pattern_start[i + 1]
+    pattern_cols = gather.pattern_cols
+    node_entries = gather.entries
+    lo = gather.pattern_start[i]
+    hi = gather.pattern_start[i + 1]
     for k in range(node_entries.count[i]):
         e = node_entries.index[node_entries.start[i] + k]
-        g = entry_point[e]
+        g = gather.entry_point[e]
         t = test_dphi[e]
         wg = weight[g]
         s = rows.start[g]
@@ -203,24 +224,23 @@ def conduction_rows(
 def elastic_rows(
     first: int,
     rows: NeighbourRows,
-    node_entries: NeighbourRows,
-    entry_point: wp.array(dtype=wp.int32),
+    gather: NodeGather,
     test_dphi: wp.array(dtype=wp.vec2d),
     dphi: wp.array(dtype=wp.vec2d),
     weight: wp.array(dtype=wp.float64),
     material: wp.array(dtype=wp.mat33d),
-    pattern_start: wp.array(dtype=wp.int32),
-    pattern_cols: wp.array(dtype=wp.int32),
     values: wp.array(dtype=wp.mat22d),
 ):
     """Block row I of K_IJ = Σ_g w_g B̂_Iᵀ D_g B_J (seed 003 eq 3.35), 2 x 2 blocks (row: component of the test node
     I, column: of the trial node J), gathered as in :func:`conduction_rows`."""
     i = first + wp.tid()
-    lo = pattern_start[i]
-    hi = pattern_start[i + 1]
+    pattern_cols = gather.pattern_cols
+    node_entries = gather.entries
+    lo = gather.pattern_start[i]
+    hi = gather.pattern_start[i + 1]
     for k in range(node_entries.count[i]):
         e = node_entries.index[node_entries.start[i] + k]
-        g = entry_point[e]
+        g = gather.entry_point[e]
         t = test_dphi[e]
         wg = weight[g]
         dm = material[g]

@@ -83,6 +83,9 @@ class NodeRows:
         self.pattern_start = wp.array(self.indptr, dtype=wp.int32, device=dev)
         self.pattern_cols = wp.array(self.indices if self.indices.size else np.zeros(1, np.int32), dtype=wp.int32,
                                      device=dev)
+        self.gather = gk.NodeGather()
+        self.gather.entries, self.gather.entry_point = self.entries, self.entry_point
+        self.gather.pattern_start, self.gather.pattern_cols = self.pattern_start, self.pattern_cols
 
     @property
     def nnz(self) -> int:
@@ -106,8 +109,7 @@ def conduction_matrix(model: ShapeModel, shape: ShapeData, weight, test_dphi: wp
     if gather:
         nr = node_rows(model, shape)
         values = wp.zeros(max(nr.nnz, 1), dtype=wp.float64, device=dev)
-        model.launcher.launch(gk.conduction_rows, model.node_count, [shape.rows, nr.entries, nr.entry_point, test,
-                                                                     shape.dphi, w, nr.pattern_start, nr.pattern_cols,
+        model.launcher.launch(gk.conduction_rows, model.node_count, [shape.rows, nr.gather, test, shape.dphi, w,
                                                                      values], once=True)
         return sp.csr_matrix((values.numpy()[: nr.nnz], nr.indices, nr.indptr),
                              shape=(model.node_count, model.node_count))
@@ -132,8 +134,7 @@ def elastic_matrix(model: ShapeModel, shape: ShapeData, weight, material,
     if gather:
         nr = node_rows(model, shape)
         values = wp.zeros(max(nr.nnz, 1), dtype=wp.mat22d, device=dev)
-        model.launcher.launch(gk.elastic_rows, model.node_count, [shape.rows, nr.entries, nr.entry_point, test,
-                                                                  shape.dphi, w, dm, nr.pattern_start, nr.pattern_cols,
+        model.launcher.launch(gk.elastic_rows, model.node_count, [shape.rows, nr.gather, test, shape.dphi, w, dm,
                                                                   values], once=True)
         blocks = values.numpy()[: nr.nnz]
         return sp.bsr_matrix((blocks, nr.indices, nr.indptr),

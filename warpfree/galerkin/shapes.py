@@ -43,6 +43,12 @@ class ShapeData:
     def n(self) -> int:
         return self.points.shape[0]
 
+    def kernel_rows(self) -> gk.ShapeRows:
+        """The rows, φ and ∇φ as kernels read them (``kernels/galerkin.py: ShapeRows``)."""
+        rows = gk.ShapeRows()
+        rows.rows, rows.phi, rows.dphi = self.rows, self.phi, self.dphi
+        return rows
+
     def _csr(self, data: np.ndarray) -> sp.csr_matrix:
         offsets = np.zeros(self.n + 1, dtype=np.int64)
         np.cumsum(self.counts, out=offsets[1:])

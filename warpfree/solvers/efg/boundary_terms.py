@@ -41,10 +41,11 @@ def multiplier_matrix(model: ShapeModel, shape: ShapeData, weight, multiplier, m
     nv = per_point(multiplier_value, n, "multiplier_value", 2)
     starts, total = slot_starts(2 * components * shape.counts, dev)
     slots = TripletBuffer(total, dev)
-    model.launcher.launch(ek.multiplier_coupling, n, [shape.rows, shape.phi, w,
-                                                      wp.array(mk, dtype=wp.vec2i, device=dev),
-                                                      wp.array(nv, dtype=wp.vec2d, device=dev), components,
-                                                      _mask(constrained, components), starts, slots.triplets],
+    pieces = ek.MultiplierPieces()
+    pieces.multiplier = wp.array(mk, dtype=wp.vec2i, device=dev)
+    pieces.value = wp.array(nv, dtype=wp.vec2d, device=dev)
+    pieces.components, pieces.constrained = components, _mask(constrained, components)
+    model.launcher.launch(ek.multiplier_coupling, n, [shape.kernel_rows(), w, pieces, starts, slots.triplets],
                           once=True)
     return to_csr(slots, (components * model.node_count, components * n_multipliers))
 
@@ -56,9 +57,8 @@ def interface_matrix(model: ShapeModel, side_a: ShapeData, side_b: ShapeData, no
     dev, n = model.launcher.device, side_a.n
     starts, total = slot_starts((side_a.counts + side_b.counts) ** 2, dev)
     slots = TripletBuffer(total, dev)
-    model.launcher.launch(ek.interface_terms, n, [side_a.rows, side_a.phi, side_a.dphi, side_b.rows, side_b.phi,
-                                                  side_b.dphi, wp.array(np.asarray(normal, np.float64), dtype=wp.vec2d,
-                                                                        device=dev),
+    model.launcher.launch(ek.interface_terms, n, [side_a.kernel_rows(), side_b.kernel_rows(),
+                                                  wp.array(np.asarray(normal, np.float64), dtype=wp.vec2d, device=dev),
                                                   wp.array(per_point(weight, n, "weight"), dtype=wp.float64,
                                                            device=dev),
                                                   float(conductivity_a), float(conductivity_b), float(penalty), starts,
@@ -72,6 +72,6 @@ def boundary_mass_matrix(model: ShapeModel, shape: ShapeData, weight, components
     w = wp.array(per_point(weight, n, "weight"), dtype=wp.float64, device=dev)
     starts, total = slot_starts(components * shape.counts ** 2, dev)
     slots = TripletBuffer(total, dev)
-    model.launcher.launch(ek.boundary_mass, n, [shape.rows, shape.phi, w, components, _mask(constrained, components),
+    model.launcher.launch(ek.boundary_mass, n, [shape.kernel_rows(), w, components, _mask(constrained, components),
                                                 starts, slots.triplets], once=True)
     return to_csr(slots, (components * model.node_count, components * model.node_count))
