@@ -32,6 +32,7 @@ Units: lengths in the scene's unit; shape functions dimensionless, gradients per
 import warp as wp
 
 from .neighbours import NeighbourRows
+from .smoothing import unit_cubic_spline
 from .space import Box2d, offset2d
 
 MAX_TERMS = 6
@@ -79,13 +80,7 @@ def weight_and_slope(kind: int, r: wp.float64) -> wp.vec2d:
             w = (e - tail) / (one - tail)
             dw = -wp.float64(2.0) * r / a2 * e / (one - tail)
         else:  # cubic spline, seed 003 eq 3.32 (also the numerator of the singular weight)
-            if r <= wp.float64(0.5):
-                w = wp.float64(2.0) / wp.float64(3.0) - wp.float64(4.0) * r * r + wp.float64(4.0) * r * r * r
-                dw = -wp.float64(8.0) * r + wp.float64(12.0) * r * r
-            else:
-                third4 = wp.float64(4.0) / wp.float64(3.0)
-                w = third4 - wp.float64(4.0) * r + wp.float64(4.0) * r * r - third4 * r * r * r
-                dw = -wp.float64(4.0) + wp.float64(8.0) * r - wp.float64(4.0) * r * r
+            w, dw = unit_cubic_spline(r)
             if kind == SINGULAR:  # w / (r² + ε²): φ_I(x_I) = 1
                 q = r * r + SINGULAR_EPS2
                 dw = dw / q - w * wp.float64(2.0) * r / (q * q)

@@ -22,7 +22,12 @@ All kernels are normalised, ``∫ W dV = 1`` in 1, 2 and 3 dimensions, and vanis
 
 The seed (004, §5.5) quotes the support ratio κh = 1.2 dx; it also asks for >= 20 neighbours in 2D
 and >= 56 in 3D, which needs h ≈ 1.2–1.3 dx with support 2h. warpfree uses h = 1.3 dx by default.
+
+Beside them, the one unnormalised cubic spline on a unit support (:func:`unit_cubic_spline`), generic in its
+precision: the SPEM particle weight (float32) and the MLS cubic weight (float64).
 """
+
+from typing import Any
 
 import warp as wp
 
@@ -206,6 +211,48 @@ def kernel_grad(kind: int, dim: int, rij: wp.vec3, r: float, h: float) -> wp.vec
     if r <= 1.0e-12 * h:
         return wp.vec3(0.0, 0.0, 0.0)
     return rij * (kernel_dwdr(kind, dim, r, h) / r)
+
+
+@wp.func
+def unit_cubic_spline(q: Any):
+    """(W, dW/dq) of the unnormalised cubic spline on the unit support: W = 2/3 - 4q² + 4q³ for q <= 1/2,
+    4/3 - 4q + 4q² - 4/3 q³ for 1/2 < q < 1, 0 from 1 on (q = r/R >= 0, R the support radius; W(0) = 2/3). The SPEM
+    weight (seed 000 eq 2.9, float32) and the MLS cubic weight (seed 003 eq 3.32, float64) in the precision of q: its
+    constants are built in that type (a float literal such as 4.0 / 3.0 would enter a float64 function as a float32
+    constant, and W and dW/dq would then disagree at 1e-7)."""
+    w = type(q)(0.0)
+    dw = type(q)(0.0)
+    two = type(q)(2.0)
+    three = type(q)(3.0)
+    four = type(q)(4.0)
+    if q <= type(q)(0.5):
+        w = two / three - four * q * q + four * q * q * q
+        dw = -type(q)(8.0) * q + type(q)(12.0) * q * q
+    elif q < type(q)(1.0):
+        third4 = four / three
+        w = third4 - four * q + four * q * q - third4 * q * q * q
+        dw = -four + type(q)(8.0) * q - four * q * q
+    return w, dw
+
+
+@wp.kernel
+def _unit_spline(x: wp.array(dtype=wp.float64), w: wp.array(dtype=wp.float64)):
+    i = wp.tid()
+    value, slope = unit_cubic_spline(x[i])
+    w[i] = value
+
+
+def unit_cubic_spline_values(q):
+    """:func:`unit_cubic_spline`'s W at ``q`` on the host (float64 NumPy array like ``q``), evaluated by the same
+    function the kernels use."""
+    import numpy as np
+
+    values = np.ascontiguousarray(np.atleast_1d(np.asarray(q, dtype=np.float64)))
+    out = wp.zeros(len(values), dtype=wp.float64, device="cpu")
+    if len(values):
+        wp.launch(_unit_spline, dim=len(values), inputs=[wp.array(values, dtype=wp.float64, device="cpu"), out],
+                  device="cpu")
+    return out.numpy().reshape(np.shape(q))
 
 
 PROFILE_QUANTITIES = ("shape", "grad_coef", "dwdr")

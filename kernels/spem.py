@@ -43,6 +43,7 @@ and these kernels are the whole SPEM step.
 import warp as wp
 
 from .neighbours import NeighbourRows
+from .smoothing import unit_cubic_spline
 from .space import Box, displacement
 
 FPM = wp.constant(0)
@@ -50,28 +51,6 @@ CSPM = wp.constant(1)
 SPH = wp.constant(2)
 
 SCHEMES = {"fpm": 0, "cspm": 1, "sph": 2}
-
-
-@wp.func
-def spline_weight(q: float) -> float:
-    """Cubic spline of eq. 2.9, W(d̄) for d̄ = r/d_W (unnormalised, 2/3 at 0, 0 from 1 on)."""
-    w = float(0.0)
-    if q <= 0.5:
-        w = 2.0 / 3.0 - 4.0 * q * q + 4.0 * q * q * q
-    elif q < 1.0:
-        w = 4.0 / 3.0 - 4.0 * q + 4.0 * q * q - 4.0 / 3.0 * q * q * q
-    return w
-
-
-@wp.func
-def spline_slope(q: float) -> float:
-    """dW/dd̄ of eq. 2.9 (<= 0)."""
-    s = float(0.0)
-    if q <= 0.5:
-        s = -8.0 * q + 12.0 * q * q
-    elif q < 1.0:
-        s = -4.0 + 8.0 * q - 4.0 * q * q
-    return s
 
 
 @wp.kernel
@@ -88,11 +67,12 @@ def own_set_volume(
     i = first + wp.tid()
     xi = position[i]
     inv_r = 1.0 / support[i]
-    s = spline_weight(0.0)
+    s, ds = unit_cubic_spline(0.0)
     for n in range(rows.start[i], rows.start[i] + rows.count[i]):
         k = rows.index[n]
         if k != i:
-            s += spline_weight(wp.length(displacement(box, position[k], xi)) * inv_r)
+            w, dw = unit_cubic_spline(wp.length(displacement(box, position[k], xi)) * inv_r)
+            s += w
     volume[i] = 1.0 / s
 
 
@@ -133,10 +113,11 @@ def gradient_coefficients(
         d = displacement(box, other_position[j], xi) * inv_r  # (x_j - x_i)/d_W
         q = wp.length(d)
         if q < 1.0:
-            w = wp.float64(spline_weight(q) * other_volume[j])
+            wq, dwq = unit_cubic_spline(q)
+            w = wp.float64(wq * other_volume[j])
             slope = float(0.0)
             if q > 0.0:
-                slope = spline_slope(q) / q
+                slope = dwq / q
             wx = wp.float64(slope * d[0] * other_volume[j])  # ∂W/∂x_j ω_j (per unit d_W)
             wy = wp.float64(slope * d[1] * other_volume[j])
             dx = wp.float64(d[0])
@@ -181,10 +162,11 @@ def gradient_coefficients(
         q = wp.length(d)
         g = wp.vec3(0.0, 0.0, 0.0)
         if q < 1.0 and cond < 1.0e29:
-            w = wp.float64(spline_weight(q) * other_volume[j])
+            wq, dwq = unit_cubic_spline(q)
+            w = wp.float64(wq * other_volume[j])
             slope = float(0.0)
             if q > 0.0:
-                slope = spline_slope(q) / q
+                slope = dwq / q
             wx = wp.float64(slope * d[0] * other_volume[j])
             wy = wp.float64(slope * d[1] * other_volume[j])
             if dim == 1:

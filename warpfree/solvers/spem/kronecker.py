@@ -50,8 +50,9 @@ from scipy.sparse.linalg import LinearOperator, onenormest, splu
 from scipy.spatial import cKDTree
 
 from warpfree.errors import ParameterError
+from warpfree.kernels.smoothing import unit_cubic_spline_values
 
-__all__ = ["KRONECKER_CONDITION_LIMIT", "NodalValues", "interpolation_matrix", "own_set_volume", "spline_weight"]
+__all__ = ["KRONECKER_CONDITION_LIMIT", "NodalValues", "interpolation_matrix", "own_set_volume"]
 
 #: largest admitted 1-norm condition estimate of M (or M_ss): beyond it a solve loses more than half of float64's
 #: digits, and the nodal values would amplify rounding in f by as much (nearly coincident particles, or a support
@@ -60,16 +61,6 @@ KRONECKER_CONDITION_LIMIT = 1.0e8
 
 
 # -- the kernel and the matrix ----------------------------------------------------------------------------------
-def spline_weight(q: np.ndarray) -> np.ndarray:
-    """Cubic spline of eq. 2.9, vectorised: W(q) = 2/3 − 4q² + 4q³ for q ≤ 1/2, 4/3 − 4q + 4q² − 4/3 q³ for
-    1/2 < q < 1, 0 from 1 on (q = r/d_W, dimensionless; W(0) = 2/3, unnormalised). Same branches as
-    ``warpfree.kernels.spem.spline_weight``."""
-    q = np.asarray(q, dtype=np.float64)
-    inner = 2.0 / 3.0 - 4.0 * q * q + 4.0 * q * q * q
-    outer = 4.0 / 3.0 - 4.0 * q + 4.0 * q * q - 4.0 / 3.0 * q * q * q
-    return np.where(q <= 0.5, inner, np.where(q < 1.0, outer, 0.0))
-
-
 def _pairs(position: np.ndarray, support: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Own-set pairs (i, j, q_ij) with q_ij = |x_j − x_i| / d_W,i < 1, i = j included (q = 0). The KD-tree is
     searched once to the widest support (m); pairs beyond particle i's own support are dropped afterwards."""
@@ -118,7 +109,7 @@ def own_set_volume(position, support, dim: int) -> np.ndarray:
     code and tests that do not build a model."""
     p, d, _, _ = _check_set(position, support, None, dim)
     i, _, q = _pairs(p, d)
-    return 1.0 / np.bincount(i, weights=spline_weight(q), minlength=p.shape[0])
+    return 1.0 / np.bincount(i, weights=unit_cubic_spline_values(q), minlength=p.shape[0])
 
 
 def interpolation_matrix(position, support, volume, dim: int) -> sp.csr_matrix:
@@ -131,7 +122,7 @@ def interpolation_matrix(position, support, volume, dim: int) -> sp.csr_matrix:
     p, d, w, _ = _check_set(position, support, volume, dim)
     n = p.shape[0]
     i, j, q = _pairs(p, d)
-    m = sp.csr_matrix((spline_weight(q) * w[j], (i, j)), shape=(n, n))
+    m = sp.csr_matrix((unit_cubic_spline_values(q) * w[j], (i, j)), shape=(n, n))
     m.sort_indices()
     return m
 
