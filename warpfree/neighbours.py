@@ -300,11 +300,45 @@ class MovingNeighbours:
 
 
 def empty_rows(n: int, device: str) -> nk.NeighbourRows:
-    """Rows of a table with no sources (a fluid without walls, a region without free boundary): all empty."""
+    """Rows of a table with no sources (a fluid without walls, a region without free boundary): all empty. Also the
+    rows a two-pass kernel counts into (:func:`lay_out_rows`)."""
     rows = nk.NeighbourRows()
     rows.start = wp.zeros(max(n, 1), dtype=wp.int32, device=device)
     rows.count = wp.zeros(max(n, 1), dtype=wp.int32, device=device)
     rows.index = wp.zeros(1, dtype=wp.int32, device=device)
+    return rows
+
+
+def lay_out_rows(rows: nk.NeighbourRows, n: int, name: str) -> tuple[np.ndarray, int]:
+    """After a kernel's count pass into ``rows.count`` (``n`` rows): the starts (the exclusive prefix sum) and an
+    index array for the fill pass, on ``rows``; returns (counts (n,) int64 on the host, total entries). A total past
+    the int32 index range is refused naming ``name`` (the parameter that sets the rows' width)."""
+    counts = rows.count.numpy()[:n].astype(np.int64)
+    starts = np.zeros(n, dtype=np.int64)
+    np.cumsum(counts[:-1], out=starts[1:])
+    total = int(counts.sum())
+    if total >= 2**31:
+        raise ParameterError(name, f"{total} row entries exceed the int32 index range")
+    device = rows.count.device
+    rows.start = wp.array(starts.astype(np.int32) if n else np.zeros(1, np.int32), dtype=wp.int32, device=device)
+    rows.index = wp.zeros(max(total, 1), dtype=wp.int32, device=device)
+    return counts, total
+
+
+def host_rows(counts: np.ndarray, index: np.ndarray, device: str) -> nk.NeighbourRows:
+    """Rows from host ``counts`` (n,) and ``index`` (their entries, row after row): CSR with the starts the
+    exclusive prefix sum of the counts."""
+    counts = np.asarray(counts, dtype=np.int64)
+    starts = np.zeros(counts.size, dtype=np.int64)
+    np.cumsum(counts[:-1], out=starts[1:])
+    rows = nk.NeighbourRows()
+    rows.start = wp.array(starts.astype(np.int32) if counts.size else np.zeros(1, np.int32), dtype=wp.int32,
+                          device=device)
+    rows.count = wp.array(counts.astype(np.int32) if counts.size else np.zeros(1, np.int32), dtype=wp.int32,
+                          device=device)
+    index = np.asarray(index)
+    rows.index = wp.array(index.astype(np.int32) if index.size else np.zeros(1, np.int32), dtype=wp.int32,
+                          device=device)
     return rows
 
 

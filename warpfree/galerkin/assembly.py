@@ -27,7 +27,7 @@ import warp as wp
 
 from warpfree.errors import ParameterError
 from warpfree.kernels import galerkin as gk
-from warpfree.kernels import neighbours as nk
+from warpfree.neighbours import host_rows
 from warpfree.sparse import LoadBuffer, TripletBuffer, load_vector as _sum_loads, to_csr
 
 from .shapes import ShapeData, ShapeModel
@@ -65,14 +65,7 @@ class NodeRows:
         index = shape.rows.index.numpy()[: shape.n_entries].astype(np.int64)
         point = np.repeat(np.arange(shape.n, dtype=np.int64), shape.counts)
         order = np.argsort(index, kind="stable")          # node-major, Gauss points ascending within a node
-        count = np.bincount(index, minlength=model.node_count)
-        start = np.zeros(model.node_count, dtype=np.int64)
-        np.cumsum(count[:-1], out=start[1:])
-        self.entries = nk.NeighbourRows()
-        self.entries.start = wp.array(start.astype(np.int32), dtype=wp.int32, device=dev)
-        self.entries.count = wp.array(count.astype(np.int32), dtype=wp.int32, device=dev)
-        self.entries.index = wp.array(order.astype(np.int32) if order.size else np.zeros(1, np.int32),
-                                      dtype=wp.int32, device=dev)
+        self.entries = host_rows(np.bincount(index, minlength=model.node_count), order, dev)
         self.entry_point = wp.array(point.astype(np.int32) if point.size else np.zeros(1, np.int32),
                                     dtype=wp.int32, device=dev)
         s = sp.csr_matrix((np.ones(index.size), index, np.r_[0, np.cumsum(shape.counts)]),

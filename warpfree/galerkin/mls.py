@@ -29,8 +29,7 @@ import warp as wp
 from warpfree.device import Launcher, current_launcher
 from warpfree.errors import ParameterError, require_integer, require_positive
 from warpfree.kernels import mls as mk
-from warpfree.kernels import neighbours as nk
-from warpfree.neighbours import NeighbourGrid
+from warpfree.neighbours import NeighbourGrid, empty_rows, lay_out_rows
 from warpfree.space import Space
 
 from .shapes import ShapeData, ShapeModel, material_array, points2d, vec3_points
@@ -199,10 +198,7 @@ class MLSModel(ShapeModel):
         n, dev, L = p.shape[0], self.launcher.device, self.launcher
         points64 = wp.array(p, dtype=wp.vec2d, device=dev)
         mat = material_array(material, n, "material", dev)
-        rows = nk.NeighbourRows()
-        rows.start = wp.zeros(n, dtype=wp.int32, device=dev)
-        rows.count = wp.zeros(n, dtype=wp.int32, device=dev)
-        rows.index = wp.zeros(1, dtype=wp.int32, device=dev)
+        rows = empty_rows(n, dev)
         if brute_force:
             kernel, args = mk.support_rows_brute, [self.node_count, self.box, points64, mat, self.nodes, self.support,
                                                     self.node_material, self._params]
@@ -211,14 +207,7 @@ class MLSModel(ShapeModel):
                                              vec3_points(p, dev), points64, mat, self.nodes,
                                              self.support, self.node_material, self._params]
         L.launch(kernel, n, args + [0, rows], once=True)
-        counts = rows.count.numpy().astype(np.int64)
-        starts = np.zeros(n, dtype=np.int64)
-        np.cumsum(counts[:-1], out=starts[1:])
-        total = int(counts.sum())
-        if total >= 2**31:
-            raise ParameterError("d_max", f"{total} point-node pairs exceed the int32 index range")
-        rows.start = wp.array(starts.astype(np.int32), dtype=wp.int32, device=dev)
-        rows.index = wp.zeros(max(total, 1), dtype=wp.int32, device=dev)
+        counts, total = lay_out_rows(rows, n, "d_max")
         L.launch(kernel, n, args + [1, rows], once=True)
         return p, points64, rows, counts, total
 

@@ -47,7 +47,7 @@ from scipy.spatial import Delaunay, QhullError, cKDTree
 from warpfree.device import Launcher, current_launcher
 from warpfree.errors import ParameterError
 from warpfree.kernels import nem as nk
-from warpfree.kernels.neighbours import NeighbourRows
+from warpfree.neighbours import empty_rows, lay_out_rows
 from warpfree.galerkin.quadrature import QuadraturePoints, triangle_cells
 from warpfree.galerkin.shapes import ShapeData, ShapeModel, material_array, points2d
 
@@ -241,21 +241,13 @@ class NEMModel(ShapeModel):
         material_array(material, n, "material", dev)
         triangle = wp.array(self.locate(p, name), dtype=wp.int32, device=dev)
         points64 = wp.array(p, dtype=wp.vec2d, device=dev)
-        rows = NeighbourRows()
-        rows.start = wp.zeros(n, dtype=wp.int32, device=dev)
-        rows.count = wp.zeros(n, dtype=wp.int32, device=dev)
-        rows.index = wp.zeros(1, dtype=wp.int32, device=dev)
+        rows = empty_rows(n, dev)
         status = wp.zeros(n, dtype=wp.int32, device=dev)
         phi = wp.zeros(1, dtype=wp.float64, device=dev)
         dphi = wp.zeros(1, dtype=wp.vec2d, device=dev)
         L.launch(nk.laplace_rows, n, [self.mesh, points64, triangle, 0, rows, phi, dphi, status], once=True)
         self._check(p, status.numpy(), name)
-        counts = rows.count.numpy().astype(np.int64)
-        starts = np.zeros(n, dtype=np.int64)
-        np.cumsum(counts[:-1], out=starts[1:])
-        total = int(counts.sum())
-        rows.start = wp.array(starts.astype(np.int32), dtype=wp.int32, device=dev)
-        rows.index = wp.zeros(max(total, 1), dtype=wp.int32, device=dev)
+        counts, total = lay_out_rows(rows, n, "nodes")
         phi = wp.zeros(max(total, 1), dtype=wp.float64, device=dev)
         dphi = wp.zeros(max(total, 1), dtype=wp.vec2d, device=dev)
         L.launch(nk.laplace_rows, n, [self.mesh, points64, triangle, 1, rows, phi, dphi, status], once=True)

@@ -27,7 +27,7 @@ import warp as wp
 from warpfree.device import Launcher, current_launcher
 from warpfree.errors import ParameterError, require_bool, require_integer, require_positive
 from warpfree.kernels import spem as K
-from warpfree.neighbours import NeighbourGrid, NeighbourList
+from warpfree.neighbours import NeighbourGrid, NeighbourList, host_rows
 from warpfree.particles import ParticleSet
 from warpfree.space import Space
 
@@ -193,14 +193,9 @@ class SPEMModel:
         if not np.array_equal(start, np.concatenate([[0], np.cumsum(count)[:-1]])):
             raise RuntimeError("neighbour rows are not stored in row order")  # NeighbourList's layout (a scan)
         keep = np.any(coef != 0.0, axis=1)
-        new_count = np.bincount(np.repeat(np.arange(n), count)[keep], minlength=n).astype(np.int32)
-        new_start = np.concatenate([[0], np.cumsum(new_count)[:-1]]).astype(np.int32)
         kept = np.flatnonzero(keep)
         dev = self.launcher.device
-        rows.rows.start = wp.array(new_start, dtype=wp.int32, device=dev)
-        rows.rows.count = wp.array(new_count, dtype=wp.int32, device=dev)
-        rows.rows.index = wp.array(np.ascontiguousarray(index[kept]) if kept.size else np.zeros(1, np.int32),
-                                   dtype=wp.int32, device=dev)
+        rows.rows = host_rows(np.bincount(np.repeat(np.arange(n), count)[keep], minlength=n), index[kept], dev)
         rows.n_pairs = int(kept.size)
         return wp.array(coef[kept] if kept.size else np.zeros((1, 3), np.float32), dtype=wp.vec3, device=dev)
 

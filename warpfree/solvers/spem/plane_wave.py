@@ -26,7 +26,7 @@ import warp as wp
 
 from warpfree.errors import ParameterError
 from warpfree.kernels import spem as K
-from warpfree.kernels.neighbours import NeighbourRows
+from warpfree.neighbours import host_rows
 
 from .model import C0, EPS0, MU0, SPEMModel
 
@@ -90,13 +90,7 @@ def _crossing_rows(rows, coefficient: np.ndarray, total_self: np.ndarray, total_
     cross = total_self[owner] != total_other[idx]
     targets, counts = np.unique(owner[cross], return_counts=True)
     sign = np.where(total_self[owner[cross]], 1.0, -1.0)
-    out = NeighbourRows()
-    out.start = wp.array(np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int32) if counts.size else
-                         np.zeros(1, np.int32), dtype=wp.int32, device=device)
-    out.count = wp.array(counts.astype(np.int32) if counts.size else np.zeros(1, np.int32), dtype=wp.int32,
-                         device=device)
-    out.index = wp.array(idx[cross].astype(np.int32) if cross.any() else np.zeros(1, np.int32), dtype=wp.int32,
-                         device=device)
+    out = host_rows(counts, idx[cross], device)
     coef = (coefficient[:rows.n_pairs][cross] * sign[:, None]).astype(np.float32)
     return (wp.array(targets.astype(np.int32) if targets.size else np.zeros(1, np.int32), dtype=wp.int32,
                      device=device), out,
