@@ -14,15 +14,13 @@ only on ``n`` and k.
 from __future__ import annotations
 
 import importlib
-import math
-import numbers
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 
 import warp as wp
 
-from .errors import ParameterError
+from .errors import ParameterError, require_integer
 
 _initialised = False
 
@@ -102,11 +100,10 @@ class Launcher:
         self.device = resolve_device(device)
         if threads is None:
             threads = default_threads()
-        if (isinstance(threads, bool) or not isinstance(threads, numbers.Real) or not math.isfinite(threads)
-                or int(threads) != threads or threads < 1):
-            raise ParameterError("threads", f"must be an integer >= 1, got {threads!r}")
-        self.threads = int(threads) if self.is_cpu else 1
-        self.min_items_per_thread = None if min_items_per_thread is None else max(1, int(min_items_per_thread))
+        threads = require_integer("threads", threads, minimum=1)
+        self.threads = threads if self.is_cpu else 1
+        self.min_items_per_thread = (None if min_items_per_thread is None else
+                                     require_integer("min_items_per_thread", min_items_per_thread, minimum=1))
         self._pool = ThreadPoolExecutor(self.threads - 1) if self.threads > 1 else None
         self._loaded: set = set()
         self._timings: dict = {}  # launch site -> _Timing: measured wall of whole and split launches

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from warpfree.errors import ParameterError
+from warpfree.errors import ParameterError, require_integer
 
 __all__ = ["DISTRIBUTIONS", "launch_order"]
 
@@ -41,8 +41,7 @@ def launch_order(kind: str, n: int, parts: int, cost: np.ndarray | None = None, 
     ``cost`` (n,): the work per item (``neighbours`` only)."""
     if kind not in DISTRIBUTIONS:
         raise ParameterError("distribution", f"must be one of {', '.join(DISTRIBUTIONS)}, got {kind!r}")
-    if isinstance(parts, bool) or int(parts) != parts or parts < 1:
-        raise ParameterError("distribution", f"needs a whole number of parts >= 1, got {parts!r}")
+    require_integer("parts", parts, minimum=1)
     index = np.arange(n)
     sizes = _chunk_sizes(n, int(parts))
     if kind == "blocks" or n == 0:

@@ -37,7 +37,7 @@ import warp.optim.linear
 import warp.sparse
 
 from .device import init_warp
-from .errors import ParameterError
+from .errors import ParameterError, require_integer
 from warpfree.kernels.assembly import Loads, Triplets
 
 UNUSED = -1  # row index of an unused slot
@@ -48,9 +48,7 @@ UNUSED = -1  # row index of an unused slot
 
 def _count(name: str, n) -> int:
     """``n`` as an int if it is an integer >= 0, else raise naming ``name``."""
-    if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 0:
-        raise ParameterError(name, f"must be an integer >= 0, got {n!r}")
-    return int(n)
+    return require_integer(name, n, minimum=0)
 
 
 class TripletBuffer:

@@ -24,7 +24,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from .errors import ParameterError, RunError, require_positive
+from .errors import ParameterError, RunError, require_integer, require_positive
 from .io import checkpoint
 from .run import Analysis, OutputOptions, Run, RunDirectory
 from .solver import TimeDependentSolver
@@ -113,9 +113,7 @@ class TimeLoop(Run):
 
     @checkpoint_every.setter
     def checkpoint_every(self, value) -> None:
-        if isinstance(value, bool) or int(value) != value or value < 0:
-            raise ParameterError("checkpoint_every", f"must be an integer >= 0, got {value!r}")
-        self._checkpoint_every = int(value)
+        self._checkpoint_every = require_integer("checkpoint_every", value, minimum=0)
 
     # -- time step -------------------------------------------------------------------------------
     def _next_output_time(self) -> float:

@@ -76,12 +76,12 @@ def test_bad_threads_non_integral_values_name_threads(threads):
         Launcher(device="cpu", threads=threads)
 
 
-def test_threads_default_and_integral_float(make_launcher):
+def test_threads_default_and_a_float_refused(make_launcher):
     launcher = make_launcher(threads=None)
-    assert launcher.threads == default_threads() >= 1
-    launcher = make_launcher(threads=2.0)
-    assert launcher.threads == 2 and isinstance(launcher.threads, int)
+    assert launcher.threads == default_threads() >= 1 and isinstance(launcher.threads, int)
     assert launcher.is_cpu and launcher.device == "cpu"
+    with pytest.raises(ParameterError, match="threads: must be an integer"):
+        make_launcher(threads=2.0)  # an integer is asked for: a float is refused, not read as one
 
 
 def test_cuda_without_cuda_names_device():

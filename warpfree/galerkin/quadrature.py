@@ -63,8 +63,7 @@ def _cell_counts(name: str, cells) -> tuple[int, int]:
     if np.ndim(cells) != 1 or len(cells) != 2:
         raise ParameterError(name, f"must be a pair of integers >= 1 (n1, n2), got {cells!r}")
     for n in cells:
-        if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 1:
-            raise ParameterError(name, f"must be a pair of integers >= 1 (n1, n2), got {cells!r}")
+        require_integer(name, n, minimum=1)
     return int(cells[0]), int(cells[1])
 
 
@@ -339,10 +338,7 @@ def triangle_rule(degree: int) -> tuple[np.ndarray, np.ndarray]:
     barycentric points (k, 3) and weights (k,) summing to 1 (multiply by the area). Degree 1: centroid; 2: 3 points
     (2/3, 1/6, 1/6); 3: 6 points, weights 1/6 (Strang & Fix 1973); 4: 6 points (Dunavant 1985); 5: 7 points (Radon).
     """
-    if isinstance(degree, (bool, np.bool_)) or not isinstance(degree, (int, np.integer)) \
-            or degree not in TRIANGLE_DEGREES:
-        raise ParameterError("degree", f"must be an integer from {TRIANGLE_DEGREES[0]} to {TRIANGLE_DEGREES[-1]}, "
-                                       f"got {degree!r}")
+    require_integer("degree", degree, minimum=TRIANGLE_DEGREES[0], maximum=TRIANGLE_DEGREES[-1])
     bary, weights = _triangle_rule_cached(int(degree))
     return bary.copy(), weights.copy()
 

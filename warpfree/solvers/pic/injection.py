@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from warpfree.errors import ParameterError, require_finite, require_positive
+from warpfree.errors import ParameterError, require_finite, require_integer, require_positive
 
 from .species import Species
 
@@ -52,8 +52,7 @@ class Injection:
             raise ParameterError("wall", f"an injection wall is one of {list(WALLS)}, got {self.wall!r}")
         require_positive("particles_per_step", self.particles_per_step)
         require_finite("particles_per_step", self.particles_per_step)
-        if int(self.seed) != self.seed or not 0 <= self.seed < 2 ** 31:
-            raise ParameterError("seed", f"must be a whole number in [0, 2^31), got {self.seed!r}")
+        require_integer("seed", self.seed, minimum=0, maximum=2 ** 31 - 1)
         normal = self.inward * self.species.drift[1]
         if self.species.temperature == 0.0 and normal <= 0.0:
             raise ParameterError("drift", f"species {self.species.name!r}: a cold source on the {self.wall} wall must "

@@ -49,7 +49,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import LinearOperator, onenormest, splu
 from scipy.spatial import cKDTree
 
-from warpfree.errors import ParameterError
+from warpfree.errors import ParameterError, require_integer
 from warpfree.kernels.smoothing import unit_cubic_spline_values
 
 __all__ = ["KRONECKER_CONDITION_LIMIT", "NodalValues", "interpolation_matrix", "own_set_volume"]
@@ -76,9 +76,7 @@ def _pairs(position: np.ndarray, support: np.ndarray) -> tuple[np.ndarray, np.nd
 
 def _check_set(position, support, volume, dim) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, int]:
     """Validated float64 copies: positions (N, dim) in m, supports (N,) in m, volumes (N,) (or None); ``dim``."""
-    if isinstance(dim, bool) or not isinstance(dim, (int, np.integer)) or not 1 <= int(dim) <= 3:
-        raise ParameterError("dim", f"must be 1, 2 or 3, got {dim!r}")
-    dim = int(dim)
+    dim = require_integer("dim", dim, minimum=1, maximum=3)
     p = np.asarray(position, dtype=np.float64)
     if p.ndim != 2 or p.shape[0] < 1 or p.shape[1] < dim:
         raise ParameterError("position", f"must be an (N, >= {dim}) array of particle positions (m) with N >= 1, "
