@@ -25,6 +25,7 @@ import os
 import numpy as np
 
 from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
+from warpfree.io.frames import plot_series
 from warpfree.run import OutputOptions, StaticRun
 from warpfree.solvers.efg.boundary import Essential, Natural
 from warpfree.galerkin.node_layouts import quadrilateral_nodes
@@ -116,18 +117,8 @@ def build(cells: int = 32, layout: str = "regular", seed: int = 0, d_max: float 
 
 
 def _plot_convergence(path, study):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    n = np.array([s["nodes"] for s in study])
-    fig, ax = plt.subplots(figsize=(5, 4), dpi=120)
-    ax.semilogx(n, [s["uy_48_60"] for s in study], "o-", label="EFG u_y(48, 60)")
-    ax.axhline(study[0]["reference_uy_48_60"], color="k", ls="--", lw=0.8, label="Q9 FEM, extrapolated")
-    ax.set_xlabel("nodes")
-    ax.set_ylabel("u_y(48, 60) / F")
-    ax.set_title("Cook's membrane: convergence")
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    n = np.array([s["nodes"] for s in study], dtype=np.float64)
+    reference = study[0]["reference_uy_48_60"]
+    plot_series(path, n, {"EFG u_y(48, 60)": [s["uy_48_60"] for s in study],
+                          "Q9 FEM, extrapolated": np.full(n.size, reference)},
+                xlabel="nodes", ylabel="u_y(48, 60) / F", title="Cook's membrane: convergence", logx=True, marker="o")

@@ -22,6 +22,7 @@ import os
 import numpy as np
 
 from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
+from warpfree.io.frames import plot_series
 from warpfree.run import OutputOptions, StaticRun
 from warpfree.solvers.efg.boundary import Essential, Natural
 from warpfree.galerkin.node_layouts import box_sides, grid_nodes, random_grid_nodes
@@ -133,17 +134,6 @@ def _solved(solver):
 
 
 def _plot_convergence(path, h, e, rate):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(5, 4), dpi=120)
-    ax.loglog(h, e, "o-", label=f"EFG (rate {rate:.2f})" if rate is not None else "EFG")
-    ax.loglog(h, e[0] * (h / h[0]), "k--", lw=0.8, label="rate 1")
-    ax.set_xlabel("1/sqrt(nodes)")
-    ax.set_ylabel("relative energy-norm error")
-    ax.set_title("Timoshenko beam: convergence")
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    plot_series(path, h, {f"EFG (rate {rate:.2f})" if rate is not None else "EFG": e, "rate 1": e[0] * (h / h[0])},
+                xlabel="1/sqrt(nodes)", ylabel="relative energy-norm error", title="Timoshenko beam: convergence",
+                logx=True, logy=True, marker="o")

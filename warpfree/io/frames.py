@@ -530,18 +530,19 @@ def _xy(label, value, x) -> tuple[np.ndarray, np.ndarray]:
 
 def plot_series(path, x, ys: dict, xlabel: str = "", ylabel: str = "", title: str = "",
                 reference: dict | tuple | None = None, *, logx: bool = False, logy: bool = False,
-                xlim=None, ylim=None, dpi: int = 100) -> Path:
+                xlim=None, ylim=None, dpi: int = 100, marker: str | None = None) -> Path:
     """Line plot of computed series with reference data as markers; writes a PNG and returns the path.
 
     ``ys`` maps a label to ``(x, y)`` or to a bare ``y`` sharing the ``x`` argument (``x`` may be None
-    when every entry carries its own x). ``reference`` maps a label to ``(x, y)`` (markers only), or is a
-    single ``(x, y)`` pair labelled "reference".
+    when every entry carries its own x); ``marker`` (e.g. "o") marks their points too (a few computed values, a
+    convergence study). ``reference`` maps a label to ``(x, y)`` (markers only), or is a single ``(x, y)`` pair
+    labelled "reference".
     """
     fig = _figure(7.0, 4.6, dpi)
-    ax = fig.add_axes([0.11, 0.13, 0.85, 0.78])
+    ax = fig.add_axes([0.14, 0.13, 0.82, 0.78])
     for label, value in (ys or {}).items():
         xs, yv = _xy(label, value, x)
-        ax.plot(xs, yv, lw=1.6, label=str(label))
+        ax.plot(xs, yv, lw=1.6, label=str(label), marker=marker, ms=4)
     if reference is not None:
         refs = {"reference": reference} if isinstance(reference, tuple) else reference
         markers = "osD^v<>ph*"
