@@ -36,8 +36,7 @@ from .space import Box2d, offset2d, wrap2d
 
 class MLSKernels:
     """The three kernels that evaluate MLS shape functions, compiled for one basis size (``basis_terms``: 3 linear,
-    6 quadratic) so that the moment-matrix loops have constant bounds (the fits ran 1.33x faster at 65 k particles
-    than with the size read at run time)."""
+    6 quadratic) so that the moment-matrix loops have constant bounds (``bench/results/pic_design.md``)."""
 
     def __init__(self, particle_fits, deposit, particle_field):
         self.particle_fits = particle_fits
@@ -365,7 +364,7 @@ def cell_keys(
     values: wp.array(dtype=wp.int32),
 ):
     """Sort key of particle i: its cell (side 1/``inv_cell``) in row-major order, so that particles sharing nodes sit
-    together in memory (the deposit's node gather reads them: 1.5x faster sorted at 65 k particles); an absorbed
+    together in memory (the deposit's node gather reads them); an absorbed
     particle (``exit_wall`` w + 1 > 0) gets ``dead_key`` + w, past every cell: the sort moves it to the end, grouped
     by wall."""
     i = first + wp.tid()

@@ -6,18 +6,13 @@ Oka (1996), at T <= 2.5; for n² = 1 (the square column, ``--set column_height=1
 --set tank_height=2 --set t_end=3.1``) Martin & Moyce's square-column series up to T = 9.5. The run
 writes ``front.png`` and the errors into ``summary.json``.
 
-Model: WCSPH (seed 004) with Wendland C2, h = 1.6 dx (the 2D default; at 1.3 dx and C = 0.2 the default run took 8 443
-steps instead of 6 852 for the same wall time, and its front max |ΔZ| was 0.427 instead of 0.409), c0 = 10 sqrt(2 g 2a), Tait γ = 7, laminar
+Model: WCSPH (seed 004) with Wendland C2, h = 1.6 dx (the 2D default; the comparison with 1.3 dx: ``bench/results/scene_studies.md``), c0 = 10 sqrt(2 g 2a), Tait γ = 7, laminar
 μ = 1e-3 Pa·s, Monaghan artificial viscosity α = 0.1 (as PySPH's dam_break_2d), δ-SPH δ = 0.1 and
 dynamic (Adami 2012) wall particles, three layers, no-slip, with the seed's Lennard-Jones force
 (D = 2gH) as a safety net below r0 = 0.75 dx (``wall_safety``; 0 switches it off).
 
 Time step: seed eq. 5-12, dt = C h/(c0 + max|v|), with C = 0.4, the largest step that keeps the error with a
-margin (measured 2026-11-23, dx = a/40, h = 1.6 dx, to t = 0.8 s; ``bench/README.md``): C = 0.2, 0.3, 0.4 and 0.5
-all ran, with the front error against Martin & Moyce 0.2806, 0.2806, 0.2803, 0.2808 in 6 852, 4 580, 3 439 and
-2 755 steps; C = 0.6 threw a particle out of the tank at t = 0.70 s. The tank at rest has the same limit (0.5
-quiet, 0.6 unstable). With max|v| up to 10.6 m/s against c0 = 62.6 m/s, C = 0.4 is 0.34-0.40 on h/c0 alone; the
-force limit 0.25 sqrt(h/max|a|) and the viscous one never bind here. (The seed prints 0.1; DualSPHysics' dam
+margin (the study: ``bench/results/scene_studies.md``). (The seed prints 0.1; DualSPHysics' dam
 break uses 0.2.)
 """
 

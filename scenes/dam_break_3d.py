@@ -12,12 +12,8 @@ particles are inside the obstacle (0 throughout).
 Writes frames (an oblique view and a side view), VTU files, and free-surface meshes with
 ``--set surface=true``. z is up.
 
-Time step: seed eq. 5-12, dt = C h/(c0 + max|v|), with C = 0.3 (measured 2026-11-23 at dx = 0.05, h = 1.3 dx,
-to t = 1 s): C = 0.2 and 0.3 end with the same kinetic energy (594, 597 J), density range (977-1018,
-978-1016 kg/m³) and largest speed (2.9, 2.8 m/s) in 2 785 and 1 860 steps; at C = 0.4 the density range widens
-to 945-1030 and the largest speed to 3.5 m/s (the start of acoustic noise), at 0.5 to 800-1090 and 5.8 m/s, and
-at 0.6 the water breaks up. With h = 1.3 dx the limit in dx/c0 (0.39) is below the 2D scenes' (h = 1.6 dx, C = 0.4:
-0.64 dx/c0), whose fronts are unchanged up to C = 0.5.
+Time step: seed eq. 5-12, dt = C h/(c0 + max|v|), with C = 0.3, the largest
+number whose end state matches C = 0.2 at h = 1.3 dx (the study: ``bench/results/scene_studies.md``).
 """
 
 import os

@@ -13,11 +13,7 @@ against the reference; with ``refinements`` > 0 the same at that many layouts (4
 ``convergence.png``. The corner (0, 44) where the clamped edge meets a free one carries a stress singularity
 (the reference converges at order 1.29 in energy there), so no method converges fast in this problem.
 
-Measured 2026-11-23, u_y(48, 60) against the reference at 25, 81, 289, 1089 regular nodes (4 ... 32 cells a side;
-the default is 32): -5.3 %, -2.4 %, -1.0 %, -0.56 %; random nodes -7.3 %, -4.6 %, -1.05 %, -0.90 %. With the thesis's
-plain Gauss quadrature: regular -5.8 %, -2.5 %, -1.3 %, -0.64 %; random -7.4 %, -3.8 %, +0.59 %, +0.29 % at 289 and
-1089 nodes, and u_y(48, 52) +1.0 %, +0.85 % — the random layout settling on the far side of the reference, as the
-thesis saw ("offset ... in the opposite direction"); consistent integration removes it.
+Errors by layout and quadrature: ``bench/results/scene_studies.md``.
 """
 
 import os

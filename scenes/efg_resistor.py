@@ -19,17 +19,7 @@ relative |E| error on the crossing lines, the normal-current mismatch σ1 E_y(be
 tangential-field mismatch along the interface (x in 1.1..1.9 mm), the conductance against the reference, and an
 oscillation measure (the total variation of |E| along the crossing line beyond the reference's).
 
-Measured 2026-11-23 (defaults: 742 nodes, cubic spline, Lagrange multipliers, d_max 1.8, consistent integration per
-material region, Nitsche terms on the interface): potential on the crossing line within 1.4e-3 V (of 1 V), at 4 000
-uniformly spread points 7.4e-4 mean (1.6e-2 largest, at the re-entrant corners where the field is singular,
-r^-0.38); |E| on the crossing lines 0.31 % mean, 2.0 % largest (thesis: 7 %); conductance +0.33 %; normal current
-σ1E_y/σ2E_y - 1 at the interface 5.2 % mean, 13.5 % largest (target 0.1 %, not met; 2835 nodes: 2.5 % / 6.0 %;
-quadratic basis at d_max 2.5: 2.0 % / 5.4 %): the one-sided MLS gradients at the interface carry an O(h) error
-(E_y misses by 2.1 % on each side, with opposite signs). On the middle fifth of the interface (x 1.4-1.6 mm) the
-quadratic basis at 2835 nodes (``basis="quadratic", d_max=2.5, per_mm=26``) reaches 0.093 % (linear: 3.7 %
-at 742 nodes, 0.94 % at 11 077). Truncation alone (``interface_condition="none"``, seed 002's): 5.6 % /
-19 %. Without truncation the field jumps nowhere: |E| misses by 31 % at the interface and the normal current by
-39 % = 1 - σ1/σ2.
+Errors at the defaults, by basis and interface condition: ``bench/results/scene_studies.md``.
 """
 
 import os

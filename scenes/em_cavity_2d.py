@@ -8,12 +8,8 @@ of the initial peak, at every output and its largest value (``warpfree/validatio
 Model: E particles at the nodes of a lattice of spacing Δ = r0/``cells_per_radius`` and on the wall ring, H at
 the cell centres; the conservative FPM pair (``warpfree/solvers/spem/conservative.py``: exact for linear fields
 and energy-conserving, so the irregular neighbourhoods at the ring cannot make it grow), support 1.1 Δ (1.1 + 2
-jitter on jittered particles, widened where fewer than 4 particles of the other set are inside). Measured
-2026-11-23 at t = 5.5 ns (2 periods of the fundamental), largest mean error over the outputs, over the E particles
-/ along the radial line: 20 cells per radius 0.38 % / 0.79 %, 30 %-jittered 0.68 % / 1.10 %; 40 cells 0.12 % /
-0.32 %, jittered 0.18 % / 0.40 %; to 20 ns (7 periods) 1.3 %, jittered 2.0 %. The thesis's schemes at support
-1.5 Δ: CSPM (eq. 3.6) 1.9 %, plain SPH 88 % (the thesis, plain SPH: about 5 %). Plain FPM (``conservative=False``)
-grows without bound on the jittered disk.
+jitter on jittered particles, widened where fewer than 4 particles of the other set are inside). Errors by
+resolution and jitter, and the thesis's schemes beside them: ``bench/results/scene_studies.md``.
 """
 
 import math

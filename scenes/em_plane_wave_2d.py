@@ -20,9 +20,8 @@ relative to the amplitude A (``warpfree/validation/em_plane_wave_2d``):
 
 Model: E at the lattice nodes, H at the cell centres (optionally jittered by ``jitter`` spacings), Δ = λ0/
 ``particles_per_wavelength``, the conservative FPM pair (support 1.1 + 2 jitter spacings), PML ``pml_cells``
-spacings thick graded with n = 3 from ψ = 1e-6. Measured 2026-11-23 at the defaults (40 particles per λ0, 0°):
-mean error 0.10 %, largest 0.34 %, neighbouring lines within 5.0e-5, scattered region 0.38 %; at 30° 0.79 % /
-2.9 % (phase error over 6 wavelengths); 30 %-jittered 1.8 % / 17 % (all figures: the validation README).
+spacings thick graded with n = 3 from ψ = 1e-6. Errors at
+the defaults, at oblique incidence and on jittered particles: ``bench/results/scene_studies.md``.
 """
 
 import math

@@ -12,10 +12,8 @@ and largest error, relative to E0, into ``summary.json``.
 Model: E at the lattice nodes, H at the cell centres, Δ = λ0/``particles_per_wavelength`` (λ0 = c/f = 0.833 m),
 the conservative FPM pair over the nearest shell (``warpfree/solvers/spem/conservative.py``; on this uniform
 layout it differs from plain FPM only next to the plates and the PML's back wall, and its step limit is Δ/c,
-√2 above the Gershgorin bound); PML graded with n = 3 from ψ = 1e-6. Measured 2026-11-23, mean (largest)
-error / E0 at 4.1 ns: 20 particles per λ0 1.69 %, 40 (the default) 0.11 % (0.31 %), 80 0.022 %; at 40, later
-times with the wave train in the PML: 10 ns 2.3 % (plain FPM, ``conservative=False`` in the model: 1.3 %; 80
-particles per λ0: 0.32 %), 20 ns 0.35 %.
+√2 above the Gershgorin bound); PML graded with n = 3 from ψ = 1e-6. Errors against resolution
+and time: ``bench/results/scene_studies.md``.
 """
 
 import math

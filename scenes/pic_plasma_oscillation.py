@@ -7,10 +7,7 @@ potential's k-mode against the leapfrog value (2/Δt) asin(ω_pΔt/2) (``warpfre
 the total-energy drift, the momentum and the deposited charge. Writes ``history.csv`` (every step),
 ``energy.png``, ``mode.png``, particle frames and VTU (particles, nodes with potential and charge).
 
-Measured 2026-11-23 (momentum gather, d_max 2, Δt = 0.1, 4 periods): the frequency error against the leapfrog value
-is second order in k h, -0.995 % / -0.249 % (the default) / -0.062 % at node spacings 0.5 / 0.25 / 0.125 (k = 0.5);
-at spacing 0.5, d_max 1.6 / 3.0 give -0.68 % / -2.2 % (the error grows with the support radius: about
--0.04 (k R)²). The energy gather (eq 4.5) gives 5e-6 at spacing 0.5.
+The frequency error against node spacing and support radius: ``bench/results/scene_studies.md``.
 """
 
 import math

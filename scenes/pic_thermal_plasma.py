@@ -5,7 +5,7 @@ Normalised units: electrons (charge -1, mass 1, density 1, temperature 1: ω_pe 
 protons at 10³ K, so 0.1) in a box of ``box`` Debye lengths (seed 002: 64 × 128), periodic both ways, neutral
 without a background. EFG nodes on a lattice of ``node_spacing`` λ_D (supports d_max · spacing: about λ_D-sized
 diffuse cells, as the thesis sized them), particles at random positions (``particles_per_node`` of each species
-per node cell) with Maxwell–Boltzmann velocities. Measured: the total-energy drift (the issue: below 1 % over 50
+per node cell) with Maxwell–Boltzmann velocities. Measured: the total-energy drift (the target: below 1 % over 50
 plasma periods), the heating rate of each species, momentum and charge. Writes ``history.csv``, ``energy.png``,
 particle frames and VTU.
 """

@@ -6,7 +6,7 @@ along x on an immobile neutralising background, in a periodic box one wavelength
 perturbed by ``amplitude`` v0 sin(kx) with opposite signs (a pure density bunching seed). Measured: the growth rate
 γ, half the slope of log(field energy of mode (1, 0)) fitted while that energy lies between ``fit_window`` times
 the beams' initial kinetic energy (the linear phase: above the seed's transient, below saturation), against
-γ_max = ω_p/(2√2) (``warpfree.validation.pic_two_stream``; the issue: within 10 %). Writes ``history.csv``,
+γ_max = ω_p/(2√2) (``warpfree.validation.pic_two_stream``; the target: within 10 %). Writes ``history.csv``,
 ``energy.png``, ``mode.png`` (log scale), ``phase_space.png`` (x, v_x at the end), particle frames and VTU.
 """
 

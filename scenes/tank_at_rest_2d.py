@@ -21,11 +21,7 @@ by the bottom pressure ρ0 g H, into ``summary.json``, with the settling report,
 value up to t = 0.5 s and after it, and the probe ``surface_spread`` (in dx): over columns 2 dx wide, 3 dx
 clear of the walls, the highest particle's height, largest minus smallest.
 
-Time step: seed eq. 5-12 with Courant number 0.4 (measured 2026-11-23, 1 x 0.5 m, dx = 0.02, to t = 2 s, the
-settling included): C = 0.1 to 0.5 all stay quiet, the kinetic energy at the end 9.7e-4, 5.6e-4, 6.3e-4, 5.6e-4,
-4.2e-4 J/m and the hydrostatic error 1.44-1.56 %; at C = 0.6 the water breaks up (kinetic energy 8 J/m, error
-38 %). Tilted 45°, C = 0.1, 0.4 and 0.5 give the same slow circulation (hydrostatic error 4.8, 4.8, 4.4 %). The
-dam breaks have the same limit; 0.4 keeps a margin and takes a quarter of the steps of 0.1.
+Time step: seed eq. 5-12 with Courant number 0.4, as the dam breaks (the study: ``bench/results/scene_studies.md``).
 """
 
 import os

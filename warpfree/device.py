@@ -170,30 +170,29 @@ class Launcher:
             return 1
         return self.threads if t.split < t.whole else 1
 
-    def launch(self, kernel, n: int, inputs: list, outputs: list | None = None, once: bool = False) -> None:
-        """Run ``kernel(first, *inputs, *outputs)`` over ``n`` items. ``once``: a launch made once (a static solve's
+    def launch(self, kernel, n: int, inputs: list, once: bool = False) -> None:
+        """Run ``kernel(first, *inputs)`` over ``n`` items. ``once``: a launch made once (a static solve's
         set-up and assembly, over arrays it never sees again): split over every thread from the start, untimed,
         since there is no later launch a measurement could serve (measured-split would run every such launch
         whole: the EFG assembly of 36 864 Gauss points ran at 1.05x on 2 threads)."""
         n = int(n)
         if n <= 0:
             return
-        outputs = outputs or []
         if kernel not in self._loaded:
             # Compile/load before threads race to do it (they would each compile the module, and a module that has
             # grown a kernel since it was loaded, made by a factory, is loaded again: keyed by kernel, not module).
             wp.load_module(kernel.module, device=self.device)
             self._loaded.add(kernel)
         if self._pool is None:
-            self._run(kernel, 0, n, inputs, outputs)
+            self._run(kernel, 0, n, inputs)
             return
-        args = [*inputs, *outputs]
+        args = inputs
         chunks = self.chunks(n, self.threads if once else self.split_count(kernel, n, args))
         t0 = time.perf_counter()
-        futures = [self._pool.submit(self._run, kernel, first, cnt, inputs, outputs) for first, cnt in chunks[1:]]
+        futures = [self._pool.submit(self._run, kernel, first, cnt, inputs) for first, cnt in chunks[1:]]
         first, cnt = chunks[0]
         try:
-            self._run(kernel, first, cnt, inputs, outputs)
+            self._run(kernel, first, cnt, inputs)
         finally:
             for f in futures:
                 f.result()  # wait for every chunk; re-raise any error from a worker
@@ -203,7 +202,7 @@ class Launcher:
             self._timings.setdefault(self.site(kernel, n, args), _Timing(self.TRIAL)).add(
                 (time.perf_counter() - t0) / n, len(chunks) > 1)
 
-    def _run(self, kernel, first: int, count: int, inputs: list, outputs: list) -> None:
+    def _run(self, kernel, first: int, count: int, inputs: list) -> None:
         """One launch of ``count`` items from ``first``, replayed from a recorded command when it can be.
 
         ``wp.launch`` packs every argument in Python (15-20 µs a launch, a few % of a small step); a recorded
@@ -213,9 +212,9 @@ class Launcher:
         change (a new array, a new struct) records the command again.
         """
         if not self.is_cpu:
-            wp.launch(kernel, dim=count, inputs=[first, *inputs], outputs=outputs, device=self.device)
+            wp.launch(kernel, dim=count, inputs=[first, *inputs], device=self.device)
             return
-        args = [*inputs, *outputs]
+        args = list(inputs)
         key = (kernel, first, count)
         recorded = self._recorded.get(key)
         if recorded is not None:
@@ -228,8 +227,7 @@ class Launcher:
                 previous[:] = args
                 command.launch()
                 return
-        command = wp.launch(kernel, dim=count, inputs=[first, *inputs], outputs=outputs, device=self.device,
-                            record_cmd=True)
+        command = wp.launch(kernel, dim=count, inputs=[first, *inputs], device=self.device, record_cmd=True)
         self._recorded[key] = (command, args)
         command.launch()
 

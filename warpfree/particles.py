@@ -1,10 +1,8 @@
 """Particle sets: named Warp arrays sharing one particle count, under the names outputs and checkpoints use.
 
 Positions are stored as float32 ``wp.vec3`` under ``"position"`` (unused axes 0: z in 2D, y and z in
-1D) so that one ``wp.HashGrid`` and one set of kernels serve 1D, 2D and 3D. A set made with
-``float64=True`` also keeps ``"position64"`` (``wp.vec3d``): the coordinates for methods whose
-conditioning needs double precision (MLS moment matrices of EFG and PIC); the float32 copy is only
-for neighbour search. Other fields are scalar or vector arrays of any Warp dtype.
+1D) so that one ``wp.HashGrid`` and one set of kernels serve 1D, 2D and 3D. Other fields are scalar or
+vector arrays of any Warp dtype.
 """
 
 from __future__ import annotations
@@ -15,7 +13,6 @@ import warp as wp
 from .errors import ParameterError
 
 POSITION = "position"
-POSITION64 = "position64"
 
 
 def to_points3(points, dim: int | None = None, name: str = "positions") -> np.ndarray:
@@ -48,10 +45,9 @@ class ParticleSet:
     name: the set's name (file stem of its outputs).
     positions: (N, dim) or (N, 3) points.
     dim: 1, 2 or 3.
-    float64: also keep ``position64`` in double precision.
     """
 
-    def __init__(self, name: str, positions, dim: int, device: str = "cpu", float64: bool = False):
+    def __init__(self, name: str, positions, dim: int, device: str = "cpu"):
         if dim not in (1, 2, 3):
             raise ParameterError("dim", f"must be 1, 2 or 3, got {dim!r}")
         p = to_points3(positions, dim, f"{name}.positions")
@@ -60,8 +56,6 @@ class ParticleSet:
         self.device = device
         self.n = p.shape[0]
         self.fields: dict[str, wp.array] = {POSITION: wp.array(p.astype(np.float32), dtype=wp.vec3, device=device)}
-        if float64:
-            self.fields[POSITION64] = wp.array(p, dtype=wp.vec3d, device=device)
 
     @classmethod
     def view(cls, name: str, dim: int, fields: dict[str, wp.array]) -> "ParticleSet":

@@ -78,10 +78,6 @@ class RunDirectory:
         return os.path.join(self.root, "summary.json")
 
     @property
-    def run_json(self) -> str:
-        return os.path.join(self.root, "run.json")
-
-    @property
     def checkpoints(self) -> str:
         return os.path.join(self.root, "checkpoints")
 

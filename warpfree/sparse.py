@@ -16,8 +16,6 @@ Prescribed values (Dirichlet). Split the unknowns into free ``f`` and prescribed
 
 :class:`FactorisedSystem` factorises ``K_ff`` once (SuperLU, ``scipy.sparse.linalg.splu``) and solves for
 many right-hand sides and prescribed values (the PIC field solve: same matrix every step).
-:func:`to_warp_bsr` and :func:`solve_cg` are the Warp path (Jacobi-preconditioned CG, any device) for
-symmetric positive-definite ``K_ff``.
 
 Precision: float64 throughout. MLS moment matrices and EFG stiffness are ill-conditioned in float32.
 Units: whatever the caller's are (K in [b]/[u]).
@@ -27,14 +25,11 @@ from __future__ import annotations
 
 import copy
 import time
-from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import warp as wp
-import warp.optim.linear
-import warp.sparse
 
 from .device import init_warp
 from .errors import ParameterError, require_integer
@@ -315,56 +310,3 @@ class FactorisedSystem:
         self.timings["solve"] += elapsed
         self.counts["solve"] += 1
         return u
-
-
-# --- Warp path: BSR matrix and preconditioned CG ----------------------------------------------------
-
-
-def to_warp_bsr(csr, device: str = "cpu") -> warp.sparse.BsrMatrix:
-    """A SciPy CSR matrix as a Warp BSR matrix with 1x1 float64 blocks on ``device``."""
-    init_warp()
-    csr = sp.csr_matrix(csr, dtype=np.float64)  # duplicates, if any, are summed by Warp
-    rows = np.repeat(np.arange(csr.shape[0], dtype=np.int32), np.diff(csr.indptr))
-    return warp.sparse.bsr_from_triplets(
-        csr.shape[0], csr.shape[1],
-        wp.array(rows, dtype=wp.int32, device=device),
-        wp.array(csr.indices.astype(np.int32), dtype=wp.int32, device=device),
-        wp.array(csr.data, dtype=wp.float64, device=device),
-        prune_numerical_zeros=False,
-    )
-
-
-class CGResult(NamedTuple):
-    solution: wp.array  # float64, on the matrix's device
-    iterations: int
-    residual_norm: float  # ||b - A x||_2 (CG's recursively updated residual)
-
-
-def solve_cg(bsr: warp.sparse.BsrMatrix, rhs, tol: float = 1e-10, max_iters: int | None = None,
-             device: str | None = None, x0=None) -> CGResult:
-    """Solve ``A x = rhs`` (``A`` SPD) by Jacobi-preconditioned CG until ``||r|| <= tol ||rhs||``.
-
-    Raises ``RuntimeError`` if ``max_iters`` iterations pass without convergence. The default, 10x the
-    system size, allows for rounding: CG's n-step termination does not hold in floating point (a 1D
-    Laplacian on 59 non-uniform nodes, condition number 5e4, needs 61-70 iterations to 1e-12). Warp
-    checks the residual every 10 iterations, so ``iterations`` is a multiple of 10 or ``max_iters``.
-    """
-    device = str(bsr.device) if device is None else device
-    if str(wp.get_device(device)) != str(bsr.device):
-        raise ParameterError("device", f"{device!r} differs from the matrix's device {bsr.device}")
-    if not (np.isfinite(tol) and tol > 0):
-        raise ParameterError("tol", f"must be finite and > 0, got {tol!r}")
-    n = bsr.shape[0]
-    b = rhs if isinstance(rhs, wp.array) else wp.array(np.asarray(rhs, dtype=np.float64), dtype=wp.float64,
-                                                        device=device)
-    if b.shape != (n,) or b.dtype != wp.float64:
-        raise ParameterError("rhs", f"must be float64 of shape ({n},), got {b.dtype} shape {b.shape}")
-    x = wp.zeros(n, dtype=wp.float64, device=device)
-    if x0 is not None:
-        x.assign(np.asarray(x0, dtype=np.float64) if not isinstance(x0, wp.array) else x0)
-    max_iters = 10 * n if max_iters is None else int(max_iters)
-    M = warp.optim.linear.preconditioner(bsr, ptype="diag")
-    iterations, residual, atol = warp.optim.linear.cg(bsr, b, x, tol=tol, maxiter=max_iters, M=M)
-    if not residual <= atol:
-        raise RuntimeError(f"CG did not converge: residual {residual:.3e} > {atol:.3e} after {iterations} iterations")
-    return CGResult(x, int(iterations), float(residual))

@@ -199,11 +199,11 @@ def test_exception_in_one_worker_propagates(make_launcher, monkeypatch):
     real_run = launcher._run
     seen = []
 
-    def flaky_run(kernel, first, count, inputs, outputs):
+    def flaky_run(kernel, first, count, inputs):
         seen.append(first)
         if first == last_first:
             raise ValueError("boom in worker")
-        return real_run(kernel, first, count, inputs, outputs)
+        return real_run(kernel, first, count, inputs)
 
     r = wp.array(np.linspace(0.0, 1.0, n).astype(np.float32), dtype=float, device="cpu")
     w = wp.zeros(n, dtype=float, device="cpu")

@@ -19,17 +19,6 @@ def test_positions_are_padded_to_vec3(dim, points, expect):
     np.testing.assert_array_equal(s.position.numpy(), expect)
 
 
-def test_float64_coordinates_beside_the_float32_grid_positions():
-    """1 + 1e-9 is not representable in float32; the float64 copy keeps it exactly."""
-    x = np.array([[1.0 + 1e-9], [1.0 / 3.0]])
-    s = ParticleSet("nodes", x, dim=1, float64=True)
-    p64 = s["position64"]
-    assert p64.dtype == wp.vec3d
-    assert p64.numpy()[0, 0] == 1.0 + 1e-9 and p64.numpy()[1, 0] == 1.0 / 3.0
-    assert s.position.numpy()[0, 0] == np.float32(1.0)
-    assert "position64" not in ParticleSet("nodes", x, dim=1)
-
-
 def test_fields_add_and_round_trip():
     s = ParticleSet("fluid", np.zeros((3, 3)), dim=3)
     s.add("density", 1000.0)

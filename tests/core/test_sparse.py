@@ -219,34 +219,6 @@ def test_pure_neumann_problem_is_reported_as_singular(launcher):
         wsp.FactorisedSystem(exactly_singular, wsp.PrescribedValues([], [], 3))
 
 
-# --- Warp path ---------------------------------------------------------------------------------------
-
-
-def test_to_warp_bsr_round_trip():
-    K = sp.random(7, 5, density=0.4, random_state=3, format="csr")
-    bsr = wsp.to_warp_bsr(K, "cpu")
-    nnz = bsr.nnz_sync()
-    assert bsr.shape == (7, 5) and bsr.scalar_type == wp.float64 and nnz == K.nnz
-    back = sp.csr_matrix((bsr.values.numpy()[:nnz], bsr.columns.numpy()[:nnz], bsr.offsets.numpy()), shape=(7, 5))
-    assert np.array_equal(back.toarray(), K.toarray())
-
-
-def test_warp_cg_matches_direct_solve(launcher):
-    x = nodes(60, seed=4)
-    n, f0, a, b = len(x), 1.0, 1.0, 2.0
-    K_slots, b_slots = warp_assembly(launcher, x, f0, 4.0)
-    K, load = wsp.to_csr(K_slots, (n, n)), wsp.load_vector(b_slots, n)
-    prescribed = ends(n, a, b)
-    u_direct = wsp.FactorisedSystem(K, prescribed).solve(load)
-    K_ff, rhs = prescribed.reduce(K, load)
-    result = wsp.solve_cg(wsp.to_warp_bsr(K_ff, "cpu"), rhs, tol=1e-12, device="cpu")
-    u_cg = prescribed.expand(result.solution.numpy())
-    assert 0 < result.iterations <= 10 * len(rhs)
-    np.testing.assert_allclose(u_cg, u_direct, rtol=0, atol=1e-8 * np.abs(u_direct).max())
-    with pytest.raises(RuntimeError, match="did not converge"):
-        wsp.solve_cg(wsp.to_warp_bsr(K_ff, "cpu"), rhs, tol=1e-12, max_iters=2)
-
-
 def test_symmetric_pattern_factorisation_solves_a_saddle_point_and_still_detects_singularity():
     """The ordering for symmetric patterns with threshold pivoting: a KKT system [[K, G], [Gᵀ, 0]] (zero diagonal
     block) solved as by the default COLAMD factorisation; a singular matrix is still refused."""

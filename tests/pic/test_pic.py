@@ -1,4 +1,4 @@
-"""PIC (issue 10): periodic EFG shape functions, deposit, gathers, push, conservation, scenes, bad input."""
+"""PIC: periodic EFG shape functions, deposit, gathers, push, conservation, scenes, bad input."""
 
 import math
 import warnings
@@ -101,7 +101,7 @@ def test_poisson_solve_reproduces_a_sine_potential():
 @pytest.mark.parametrize("spacing", [0.5, 0.25])
 def test_self_force_vanishes_with_the_momentum_gather(spacing):
     """A single particle at rest in a periodic box feels < 1e-3 of the force of a neighbour one Debye length away
-    (the issue); the momentum gather makes it vanish to round-off on node lattices. The energy gather (eq 4.5) has
+    (the target); the momentum gather makes it vanish to round-off on node lattices. The energy gather (eq 4.5) has
     a self-force of the neighbour's order (documented in ``warpfree.solvers.pic.field``)."""
     side = 8.0
     space = periodic_box(side, side)

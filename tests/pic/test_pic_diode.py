@@ -1,4 +1,4 @@
-"""PIC open boundaries (issue 10): absorbing walls, wall sources and the planar diode against the steady beam
+"""PIC open boundaries: absorbing walls, wall sources and the planar diode against the steady beam
 equations (``warpfree.validation.pic_diode``)."""
 
 from __future__ import annotations

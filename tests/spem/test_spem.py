@@ -159,7 +159,7 @@ def test_stable_step_on_uniform_layouts():
 
 def test_line_1d_matches_the_exact_wave(tmp_path):
     """Seed 000 §4.2 at 20 particles per wavelength (the thesis needed 40): mean error 5.5e-3 against the exact
-    wave on (0.5, 1.5) at t = 4.75 ns (measured 2026-11-23), wavelength error < 0.1 %. Asserted: the issue's
+    wave on (0.5, 1.5) at t = 4.75 ns (measured 2026-11-23), wavelength error < 0.1 %. Asserted: the required
     1e-2 and 0.1 %."""
     device.use("cpu", 2)
     run = load_scene("em_line_1d").build(frames=False, vtk=False)
@@ -217,7 +217,7 @@ def test_jittered_particles_conserve_energy_and_keep_the_uniform_accuracy():
     skew-adjoint there: measured, its energy grows ~100x a period. The conservative pair (the default:
     ``warpfree/solvers/spem/conservative.py``) is both: measured 2026-11-23, energy within 8 % over 8
     periods (sampled with E and H half a step apart), frequency error -0.37 % against -0.31 % on the uniform
-    layout. Asserted: the issue's factor 2 on the error, energy within 15 %, FPM's growth above 1e3."""
+    layout. Asserted: the required factor 2 on the error, energy within 15 %, FPM's growth above 1e3."""
     device.use("cpu", 2)
     uniform, _ = cavity_frequency(0.05)
     jittered, energy = cavity_frequency(0.05, jitter=0.3)
@@ -253,7 +253,7 @@ def test_circular_cavity_against_the_bessel_series(tmp_path):
     """Seed 000 §4.3 (εr = 10, r0 = 0.1 m) to t = 5.5 ns, 20 cells per radius: measured 2026-11-23, largest mean
     error over the outputs 0.38 % of the peak over all E particles (0.79 % along the radial line), 0.68 % on
     30 %-jittered particles; CSPM 1.9 % (support 1.5), plain SPH 88 % (the thesis: about 5 % with plain SPH).
-    Asserted: the issue's 1 %, jittered within 2x of uniform, and FPM at least twice as accurate as CSPM."""
+    Asserted: the required 1 %, jittered within 2x of uniform, and FPM at least twice as accurate as CSPM."""
     device.use("cpu", 2)
     scene = load_scene("em_cavity_2d")
     err = {}
@@ -358,7 +358,7 @@ def test_pml_reflection_at_normal_incidence_meep_style(cells, limit_db):
     """Reflection of a graded (n = 3, ψ = 1e-6) PML of 5 and 10 particles at 20 per wavelength, measured as Meep's
     tests do: the same run in a domain 7x longer with a layer twice as thick is the reflection-free reference
     (its reflections arrive after the window); R = max|Ez - Ez_ref| / max|Ez_ref| at the probe. Measured
-    2026-11-23: -69.9 dB (5) and -92.5 dB (10). Asserted: the issue's -40 dB. (The exponential update had lost
+    2026-11-23: -69.9 dB (5) and -92.5 dB (10). Asserted: the required -40 dB. (The exponential update had lost
     its Δt/ε for a particle a rounding error inside the layer, which reflected everything at some
     thicknesses: tested at 10.)"""
     device.use("cpu", 1)
@@ -438,7 +438,7 @@ def test_plane_wave_has_no_stripes_and_matches_the_analytic_wave(tmp_path, angle
     """Seed 000 §4.5 (3.6 GHz, 40 particles per wavelength, PML on all sides), on a 0.2 m square to 2 ns:
     measured 2026-11-23, mean (largest) |Ez - Ez_inc| / A in the total-field box 0.033 % (0.13 %) at 0°,
     0.28 % (1.1 %) at 30°; amplitude spread between neighbouring lines 2e-5 and 1.3e-4; largest field in the
-    scattered region 0.14 % and 1.2 %. Asserted: the issue's 1 % between lines and 2 % against the analytic
+    scattered region 0.14 % and 1.2 %. Asserted: the required 1 % between lines and 2 % against the analytic
     wave, and the scattered region below 2 %."""
     pw = plane_wave(tmp_path, angle=angle)
     assert pw["lines"] > 60

@@ -44,7 +44,7 @@ def test_dam_break_front_against_martin_moyce_and_koshizuka_oka(dam_break, tmp_p
     an instantaneous gate and no surface tension runs ahead of these experiments, whose digitisations
     disagree with each other by up to 0.2. (With artificial viscosity on fluid-wall pairs too, the errors were
     0.171, 0.242, 0.273: a numerical floor drag that shrinks with h, met the old ±0.15 at a/25 only, and
-    stalls thin layers: tests/test_wcsph.py::test_square_column_front.) Asserted: 0.45 against every set,
+    stalls thin layers: tests/wcsph/test_wcsph.py::test_square_column_front.) Asserted: 0.45 against every set,
     0.15 for T <= 1 (the collapse, before a thin front forms; measured <= 0.10), the front ahead of every
     set by the end, mass exactly conserved, and no particle outside the tank (checked every step against
     the box and at every output against the true walls)."""
@@ -121,7 +121,7 @@ def test_tank_at_rest_stays_at_rest(tank, tilt, tmp_path):
 
 
 
-# (determinism across thread counts and bitwise resume: tests/test_contract.py, for every solver)
+# (determinism across thread counts and bitwise resume: tests/core/test_contract.py, for every solver)
 
 
 # -- bad input --------------------------------------------------------------------------------------

@@ -23,19 +23,15 @@ Two gathers (:class:`~.solver.PICSolver` ``gather=``):
 
 - "energy": E(x_p) = -Σ_I u_I ∇φ_I(x_p) (seed 002 eq 4.5). Energy-conserving, but the force on a particle includes
   its own: F = -∇S(x_p) with the self-energy S(x) = ½ q² φ(x)ᵀ K⁻¹ φ(x), which varies across a node cell.
-  Measured on lattices (8 × 8 box, linear basis, cubic spline): the largest self-force is 1.0x (spacing 0.5, d_max
-  2), 2.0x (spacing 0.25) and 0.38x (spacing 0.5, d_max 3) the force of a neighbour one length unit away
-  (1/2π) — it grows as 1/spacing.
+  The self-force grows as 1/spacing (``bench/results/pic_design.md``).
 - "momentum": nodal fields E_I = -(1/m_I) Σ_J G_IJ u_J with G_IJ = ∫ φ_I ∇φ_J dΩ (antisymmetric on a periodic
   domain: ∫ ∇(φ_I φ_J) = 0) and the lumped mass m_I = ∫ φ_I, interpolated back with the deposit's shape
   functions, E(x_p) = Σ_I φ_I(x_p) E_I. On a node lattice M⁻¹ G K⁻¹ is a product of commuting circulants and
   antisymmetric, so the self-force and the total force Σ_p F_p vanish to round-off (momentum conservation); on other
   node layouts :meth:`PlasmaPoisson.nodal_field` takes its antisymmetric part (two more back-substitutions a step),
   with the same result. Energy is then conserved only approximately (finite-grid heating, small while the node
-  spacing is below λ_D). The consistent mass matrix instead of the lumped one was tried (2026-11-23): it sharpens
-  long waves (cold plasma frequency error -1.0 % -> 2e-6 at k h = 0.25) but its inverse amplifies the short-range
-  field of a point charge (force of a neighbour two spacings away 0.040 against 0.143 lumped and ~0.151 exact), not
-  kept.
+  spacing is below λ_D). The lumped mass is kept: a consistent
+  one amplifies the short-range field of a point charge (``bench/results/pic_design.md``).
 """
 
 from __future__ import annotations
@@ -152,12 +148,8 @@ class PlasmaPoisson:
         equals the first on a node lattice, where M⁻¹, G and S are commuting circulants (so it is skipped there:
         two back-substitutions a step, serial, would cost 1.5x the solve phase at 4 096 nodes). A uniform background
         adds nothing (S m = 0 in the first term; in the second it would enter as S G 1, which the quadrature
-        leaves at ~1e-5 instead of 0, so it is left out). Measured on lattice nodes jittered by 20 % of the
-        spacing (2026-11-24): the first term alone left a self-force of 6 % of a neighbour's force at one λ_D
-        and a net force of 5e-4 of Σ|F|; with the background in the second term, 7e-6 and 6e-6; as written, 4e-16
-        and 6e-16. Energy: a warm plasma (16 x 32 λ_D, 10 periods) drifts 0.45 % (first term alone 0.42 %, lattice
-        0.43 %) while its momentum stays at round-off (first term alone: 4 % of the electrons' thermal momentum);
-        the cold plasma oscillation drifts 5.2 % (first term alone 1.1 %, lattice 1.0 %) at the same frequency."""
+        leaves at ~1e-5 instead of 0, so it is left out).
+        The measured self-force, net force and energy drift of each variant: ``bench/results/pic_design.md``."""
         m = self.node_integral[:, None]
         projected = -np.stack([g @ potential for g in self.gradient], axis=1) / m
         if not self.antisymmetrise or charge is None:

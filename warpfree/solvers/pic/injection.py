@@ -1,4 +1,4 @@
-"""Particle injection from a wall (issue 10): a source plasma behind the lower or upper wall (y) emits particles
+"""Particle injection from a wall: a source plasma behind the lower or upper wall (y) emits particles
 into the box at the one-sided flux of its velocity distribution.
 
 A source of number density n (n_ref), seen through the wall, emits per unit wall length and time (normalised units,

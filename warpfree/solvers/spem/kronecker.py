@@ -38,7 +38,7 @@ for the "sph" and "cspm" schemes, whose values are read through the SPH interpol
 depends on the support: with the default 1.1 spacings the nearest own-set neighbours sit at q = 1/1.1, where
 W = 1.0e-3 against W(0) = 2/3, so M is the identity to ~0.6 % per row and the interpolant of raw values differs
 from them by ω W(q₁) Δ² ∇²f ≈ 1.5e-3 Δ² ∇²f in a uniform interior; with 2-3 spacings (the supports plain
-SPH needs) the difference is percent-level (see tests/test_spem_kronecker.py for the measured numbers).
+SPH needs) the difference is percent-level (see tests/spem/test_spem_kronecker.py for the measured numbers).
 Particles with widened supports (E particles on a wall) differ more.
 """
 

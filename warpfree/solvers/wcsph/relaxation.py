@@ -4,7 +4,7 @@ A lattice is a poor start for a particle method: where it meets a boundary that 
 rows (a tilted wall, a corner of curved wall layers, a free surface) its particles do not see a full,
 uniform support, and a square lattice under pressure is not even stable (a WCSPH tank at rest on one
 rearranges along slip lines after about a second). :func:`relax_particles` moves the particles of a region
-until every one sees a uniform concentration, ∇C_i = 0 (``warpfree.kernels.relaxation``): fixed particles
+until every one sees a uniform concentration, ∇C_i = 0 (``warpfree.kernels.wcsph_relaxation``): fixed particles
 (walls) count as the material behind the walled part of the boundary, and a continuum beyond the free part
 is represented by quadrature points on it (:func:`free_boundary_points`). A small random offset first moves
 the particles off the lattice, which is a stationary arrangement of the same iteration. The result is an
@@ -92,7 +92,7 @@ def free_boundary_points(region, dx: float, containers=(), obstacles=(), launche
     region's boundary (pieces farther than ``BOUNDARY_SPACING`` dx from every wall surface) and the wall surfaces
     that face S rather than the region (pieces farther than that outside the region: a container's side above a
     free surface). Every piece is at most that spacing long, one point at its centre. The gradient of the
-    concentration of a continuum filling S is then Σ_q s_q W(|x - y_q|) n_q (``warpfree.kernels.relaxation``).
+    concentration of a continuum filling S is then Σ_q s_q W(|x - y_q|) n_q (``warpfree.kernels.wcsph_relaxation``).
     """
     dx = require_positive("dx", dx)
     launcher = launcher or current_launcher()

@@ -3,7 +3,7 @@
 A scene hands its geometry over as it is (a trimesh mesh in 3D, a closed polygon in 2D) with the side
 the particles belong on: ``containers`` hold the particles inside, ``obstacles`` keep them outside.
 :meth:`Solids.penetration` measures on the device, for every particle, how deep it is on the wrong side of
-any of them (``warpfree.kernels.solids``): a bounding box cannot see fluid inside an obstacle or outside a
+any of them (``warpfree.kernels.wcsph_solids``): a bounding box cannot see fluid inside an obstacle or outside a
 tilted wall; the real surfaces can. Solvers run it as their audit at every output, and
 :meth:`Solids.penalty` gives the stiff penalty that keeps fluid off the surfaces.
 """
@@ -82,7 +82,7 @@ class Solids:
         return self.struct.count
 
     def penalty(self, reach: float, speed: float) -> sk.SurfacePenalty:
-        """The ``@wp.struct`` of :func:`warpfree.kernels.solids.add_surface_penalty`: reach r0 (m) and the
+        """The ``@wp.struct`` of :func:`warpfree.kernels.wcsph_solids.add_surface_penalty`: reach r0 (m) and the
         stiffness speed²/r0² (speed: the largest signal speed, e.g. c0, m/s)."""
         p = sk.SurfacePenalty()
         p.solids = self.struct

@@ -7,7 +7,7 @@
 
        χ(x) = Σ_j V_j W(|x - x_j|, h)
 
-   (a gather kernel per node over a HashGrid of the particles, :mod:`warpfree.kernels.surface`).
+   (a gather kernel per node over a HashGrid of the particles, :func:`warpfree.kernels.wcsph.colour_function_grid`).
 2. Marching cubes (Warp's ``IsoSurfaceMarchingCubes``) at ``χ = iso`` (default 1/2), vertices in world
    coordinates, triangles wound counter-clockwise seen from outside (normals point out of the fluid).
 

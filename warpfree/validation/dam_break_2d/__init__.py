@@ -15,7 +15,7 @@ experiment, where the digitisation comes from and how it was transcribed:
 - ``surge_front_martin_moyce_1952_square.csv`` (``T,Z`` with T = t sqrt(g/a)): Martin & Moyce's square
   column, a = 2¼ in, as plotted in Xie (2021), Fig. 7, digitised from that figure.
 
-The data sets disagree with each other by up to ~0.2 in Z at the same T <= 2.5; the issue's tolerance
+The data sets disagree with each other by up to ~0.2 in Z at the same T <= 2.5; the tolerance
 (±0.15 in Z for T <= 2.5) is of that order.
 """
 

@@ -6,7 +6,7 @@ that into
 
     ω_Δt = (2/Δt) asin(ω_p Δt / 2)        (Birdsall & Langdon, Plasma Physics via Computer Simulation, §4-4)
 
-which the scene compares with (the issue: within 1 %). Normalised units: ω_p = 1 for n_ref.
+which the scene compares with (the target: within 1 %). Normalised units: ω_p = 1 for n_ref.
 """
 
 from __future__ import annotations
