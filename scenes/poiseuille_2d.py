@@ -143,7 +143,7 @@ def build(n: int = 40, width: float = 1.0e-3, channel_length: float = 1.0e-3, nu
 
 def anchor_key(tau: float) -> str:
     """The summary key of an anchor time τ L²/ν: ``"t0225"`` for τ = 0.0225 (the digits after the point: the key
-    paths of ``bench/speed_vs_error.py`` take no dots)."""
+    paths of ``bench/core/speed_vs_error.py`` take no dots)."""
     return "t" + f"{tau:g}".split(".")[1]
 
 

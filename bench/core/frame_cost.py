@@ -11,8 +11,9 @@ What it measures
     colour bar, title, PNG encoding).
 
 Usage
-    python bench/frame_cost.py            # ~1 min on 2 cores
-Writes bench/results/frame_cost.{json,md}.
+    python bench/core/frame_cost.py            # ~1 min on 2 cores
+    python bench/core/frame_cost.py --quick    # smoke run: t = 0.05 s, 2 repeats
+Writes bench/results/frame_cost[_quick].{json,md}.
 """
 
 from __future__ import annotations
@@ -24,8 +25,12 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder (sibling modules)
 import common  # noqa: E402
+
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = [[]]
 
 
 def worker(cfg: dict) -> dict:
@@ -81,13 +86,16 @@ def worker(cfg: dict) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--t", type=float, default=0.3)
-    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--quick", action="store_true", help="smoke run: t = 0.05 s, 2 repeats (unless given)")
+    ap.add_argument("--t", type=float, default=None, help="default 0.3 s; quick 0.05 s")
+    ap.add_argument("--repeats", type=int, default=None, help="default 7; quick 2")
     ap.add_argument("--worker", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.worker:
         common.emit_worker_result(worker(json.loads(args.worker)))
         return 0
+    args.t = args.t if args.t is not None else (0.05 if args.quick else 0.3)
+    args.repeats = args.repeats or (2 if args.quick else 7)
     rows = [common.run_worker(__file__, ["--worker", json.dumps(dict(threads=t, t=args.t, repeats=args.repeats,
                                                                      frames=t == 1))]) for t in (1, 2)]
     frame = rows[0]
@@ -101,7 +109,7 @@ def main(argv=None) -> int:
         f"\nThe frame (median of {args.repeats}, figure warm): {frame['frame_s']:.3f} s, of which the disc image "
         f"{frame['splat_s']:.3f} s and Matplotlib's axes, colour bar, title and PNG encoding the rest. "
         "frame / steps < 1: the writer process keeps up with the stepping."])
-    common.write_results("frame_cost", {"rows": rows}, md)
+    common.write_results("frame_cost", {"rows": rows}, md, quick=args.quick)
     return 0
 
 

@@ -12,8 +12,8 @@ What it measures
        lattice rows (4 sqrt(N) indices), where the neighbour's data no longer shares cache with the particle's.
 
 Usage
-    python bench/particle_order.py            # ~3 min on 2 cores
-    python bench/particle_order.py --quick
+    python bench/core/particle_order.py            # ~3 min on 2 cores
+    python bench/core/particle_order.py --quick
 Writes bench/results/particle_order[_quick].{json,md}.
 """
 
@@ -26,8 +26,12 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder (sibling modules)
 import common  # noqa: E402
+
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = [[]]
 
 ORDERS = ("lattice", "random", "cell")
 

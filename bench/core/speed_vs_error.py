@@ -22,10 +22,10 @@ How
     (default 3).
 
 Usage
-    python bench/speed_vs_error.py                  # dam break, full: ~5 min on 2 cores
-    python bench/speed_vs_error.py --case heat
-    python bench/speed_vs_error.py --quick          # ~30 s
-    python bench/speed_vs_error.py --values 0.05 0.03 0.02 0.015 --threads 2
+    python bench/core/speed_vs_error.py                  # dam break, full: ~5 min on 2 cores
+    python bench/core/speed_vs_error.py --case heat
+    python bench/core/speed_vs_error.py --quick          # ~30 s
+    python bench/core/speed_vs_error.py --values 0.05 0.03 0.02 0.015 --threads 2
 Writes bench/results/speed_vs_error[_<case>][_quick].{json,md,png} (PNG: error against wall time and
 against work items per step).
 """
@@ -38,8 +38,12 @@ import math
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder (sibling modules)
 import common  # noqa: E402
+
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = [[], ["--case", "heat"], ["--case", "poiseuille"], ["--case", "taylor_green"], ["--case", "standing_wave"]]
 
 T_END = common.DAM_BREAK_T_MAX / math.sqrt(2 * common.DAM_BREAK_G / common.DAM_BREAK_A)
 

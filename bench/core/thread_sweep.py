@@ -40,10 +40,10 @@ How
     median over all its blocks (rounds x repeats = 15 by default).
 
 Usage
-    python bench/thread_sweep.py            # full: control, 2D, 3D; 5 rounds x 3 blocks, ~4 min on 2 cores
-    python bench/thread_sweep.py --quick    # smoke run, small sizes (~30 s)
-    python bench/thread_sweep.py --cases heat --rounds 3 --name thread_sweep_heat
-    python bench/thread_sweep.py --scene scenes/tank_at_rest_2d.py --set dx=0.005
+    python bench/core/thread_sweep.py            # full: control, 2D, 3D; 5 rounds x 3 blocks, ~4 min on 2 cores
+    python bench/core/thread_sweep.py --quick    # smoke run, small sizes (~30 s)
+    python bench/core/thread_sweep.py --cases heat --rounds 3 --name thread_sweep_heat
+    python bench/core/thread_sweep.py --scene scenes/tank_at_rest_2d.py --set dx=0.005
 Writes bench/results/<name>[_quick].{json,md,png} (name: thread_sweep by default).
 """
 
@@ -54,8 +54,23 @@ import json
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder (sibling modules)
 import common  # noqa: E402
+
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = [
+    [],
+    ["--cases", "control", "heat", "--rounds", "3", "--name", "thread_sweep_heat"],
+    ["--cases", "control", "pic_thermal", "--rounds", "4", "--steps", "10", "--repeats", "2",
+     "--name", "thread_sweep_pic"],
+    ["--scene", "scenes/pic_diode.py", "--set", "particles_per_step=400", "--set", "injected_fraction=2",
+     "--warmup", "400", "--rounds", "3", "--name", "thread_sweep_pic_diode"],
+    ["--cases", "control", "control_memory", "waveguide", "waveguide_alternating", "waveguide_random",
+     "waveguide_neighbours", "jittered_pml_blocks", "jittered_pml_alternating", "jittered_pml_random",
+     "jittered_pml_neighbours", "--rounds", "2", "--warmup", "150", "--name", "thread_sweep_spem"],
+]
+
 
 def _plural(unit: str) -> str:
     """'particle' -> 'particles'; 'particle pushes' stays."""

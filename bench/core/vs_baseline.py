@@ -30,9 +30,9 @@ How
 Usage
     git worktree add /tmp/baseline <commit> && python3 -m venv /tmp/baseline/.venv \\
         && /tmp/baseline/.venv/bin/pip install -e /tmp/baseline
-    python bench/vs_baseline.py --baseline /tmp/baseline            # ~8 min on 2 cores
-    python bench/vs_baseline.py --baseline /tmp/baseline --quick    # small sizes
-    python bench/vs_baseline.py --baseline /tmp/baseline --end-to-end   # ~5 min
+    python bench/core/vs_baseline.py --baseline /tmp/baseline            # ~8 min on 2 cores
+    python bench/core/vs_baseline.py --baseline /tmp/baseline --quick    # small sizes
+    python bench/core/vs_baseline.py --baseline /tmp/baseline --end-to-end   # ~5 min
 Writes bench/results/vs_baseline[_quick].{json,md,png} (end to end: vs_baseline_end_to_end.{json,md}).
 """
 
@@ -47,8 +47,13 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder (sibling modules)
 import common  # noqa: E402
+
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = []
+RUN_ALL_SKIPPED = "needs --baseline DIR, a worktree of another commit with its own venv (see Usage)"
 
 PLAIN = {"alpha": 0.0, "delta": 0.0, "mu": 0.0, "wall_safety": 0.0}
 CASES = {

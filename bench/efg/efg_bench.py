@@ -10,12 +10,12 @@ What it measures
     * ``assembly``: the Timoshenko beam (``scenes/efg_timoshenko.py``, 192 x 48 cells: 9 457 nodes, 36 864 Gauss
       points, d_max 3.5) per thread count in fresh subprocesses, alternating order over ``--rounds``: Gauss
       points per second of the phases "shape functions" and "assembly" (the stiffness by node-row gather), and of
-      the triplet assembly the issue first asked for, beside the compute-bound control kernel of
-      ``bench/thread_sweep.py`` in the same run.
+      the triplet assembly built first, beside the compute-bound control kernel of
+      ``bench/core/thread_sweep.py`` in the same run.
 
 Usage
-    python bench/efg_bench.py              # both, ~3 min on 2 cores
-    python bench/efg_bench.py --quick      # smoke run
+    python bench/efg/efg_bench.py              # both, ~3 min on 2 cores
+    python bench/efg/efg_bench.py --quick      # smoke run
 Writes bench/results/efg_bench[_quick].{json,md,png}.
 """
 
@@ -29,10 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder (sibling modules)
 import common  # noqa: E402
 
-ROOT = Path(__file__).resolve().parent.parent
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = [[]]
+
+ROOT = common.ROOT
 
 
 def _square_case(n_cells: int):
@@ -145,7 +149,7 @@ def assembly_sweep(args) -> dict:
             cfg = dict(threads=t, cells_x=cells[0], cells_y=cells[1], repeats=args.repeats, triplets=r == 0)
             res = common.run_worker(__file__, ["--worker", json.dumps(cfg)])
             samples[t].append(res)
-            ctl = common.run_worker(str(Path(__file__).parent / "thread_sweep.py"),
+            ctl = common.run_worker(str(common.BENCH / "core" / "thread_sweep.py"),
                                     ["--worker", json.dumps(dict(scene="control", params={}, threads=t, steps=3,
                                                                  warmup=1, repeats=3, n=16384,
                                                                  iters=500 if args.quick else 2000))])

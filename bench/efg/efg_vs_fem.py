@@ -14,8 +14,8 @@ What it measures
     equal error is read off the FEM curve (log-log interpolation), as for SPEM against FDTD.
 
 Usage
-    python bench/efg_vs_fem.py            # ~2 min on 2 cores
-    python bench/efg_vs_fem.py --quick
+    python bench/efg/efg_vs_fem.py            # ~2 min on 2 cores
+    python bench/efg/efg_vs_fem.py --quick
 Writes bench/results/efg_vs_fem[_quick].{json,md,png}.
 """
 
@@ -29,10 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder (sibling modules)
 import common  # noqa: E402
 
-ROOT = Path(__file__).resolve().parent.parent
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = [[]]  # needs scikit-fem (in the extra warpfree[bench]); without it: ModuleNotFoundError
+
+ROOT = common.ROOT
 sys.path.insert(0, str(ROOT / "scenes"))
 
 

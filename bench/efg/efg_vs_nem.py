@@ -11,11 +11,11 @@ What it measures
       direct substitution; plain quadrature (``nem_random``, the thesis's) and consistent integration
       (``nem_random_consistent``); on the cylinder the domain is the polygon through the boundary nodes (straight
       chords on the arcs, as straight-sided finite elements).
-    Wall times of the whole solve are recorded beside (one run each; bench/efg_vs_fem.py times carefully).
+    Wall times of the whole solve are recorded beside (one run each; bench/efg/efg_vs_fem.py times carefully).
 
 Usage
-    python bench/efg_vs_nem.py            # ~1 min on 2 cores
-    python bench/efg_vs_nem.py --quick
+    python bench/efg/efg_vs_nem.py            # ~1 min on 2 cores
+    python bench/efg/efg_vs_nem.py --quick
 Writes bench/results/efg_vs_nem[_quick].{json,md,png}.
 """
 
@@ -28,10 +28,14 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder (sibling modules)
 import common  # noqa: E402
 
-ROOT = Path(__file__).resolve().parent.parent
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = [[]]
+
+ROOT = common.ROOT
 sys.path.insert(0, str(ROOT / "scenes"))
 
 

@@ -53,8 +53,8 @@ energy and a float32 lattice would seed the instability at its round-off.
 
 Usage::
 
-    python bench/mesh_pic.py                     # both cases at nx = 16, 32, 64; 1 thread
-    python bench/mesh_pic.py --threads 2 --nx 32 64 --json out.json
+    python bench/pic/mesh_pic.py                     # both cases at nx = 16, 32, 64; 1 thread
+    python bench/pic/mesh_pic.py --threads 2 --nx 32 64 --json out.json
 
 Not a timed benchmark by itself: it prints the errors and the wall time of each run (one run each).
 """
@@ -68,6 +68,10 @@ import time
 
 import numpy as np
 import warp as wp
+
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = []
+RUN_ALL_SKIPPED = "the mesh PIC module of pic_vs_mesh.py, which runs it (its own command line is a standalone check)"
 
 # -- kernels -----------------------------------------------------------------------------------------------------
 

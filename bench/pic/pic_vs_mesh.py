@@ -4,7 +4,7 @@ What it measures
     * ``oscillation``: the cold plasma oscillation (k = 0.5, ``scenes/pic_plasma_oscillation.py``, 4 particles per
       node cell, Δt = 0.1, 4 periods): the frequency error against the leapfrog value (2/Δt) asin(Δt/2), for PIDC at
       node spacings 1/2, 1/4, 1/8 (momentum gather; and the energy gather at 1/2) and for the mesh PIC
-      (``bench/mesh_pic.py``: cloud-in-cell deposit and gather, FFT Poisson, 4 particles per cell) on the same box at
+      (``bench/pic/mesh_pic.py``: cloud-in-cell deposit and gather, FFT Poisson, 4 particles per cell) on the same box at
       nx = 25 .. 200 (Δx = 0.5 .. 1/16);
     * ``two_stream``: the cold two-stream instability (``scenes/pic_two_stream.py``, 4 particles per node cell and
       beam, Δt = 0.1, to t = 40): the growth-rate error against ω_p/(2√2), PIDC at node spacings 1, 1/2, 1/4, mesh at
@@ -16,8 +16,8 @@ What it measures
     ratios PIDC/mesh are interpolated log-log between the mesh runs (``common.equal_error_ratio``).
 
 Usage
-    python bench/pic_vs_mesh.py [--quick] [--threads N] [--cases oscillation two_stream drift] [--name STEM]
-    python bench/pic_vs_mesh.py --cases drift --name pic_drift     # ~5 min
+    python bench/pic/pic_vs_mesh.py [--quick] [--threads N] [--cases oscillation two_stream drift] [--name STEM]
+    python bench/pic/pic_vs_mesh.py --cases drift --name pic_drift     # ~5 min
 Writes bench/results/<name>[_quick].{json,md,png} (name: pic_vs_mesh by default).
 """
 
@@ -29,9 +29,13 @@ import sys
 import tempfile
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder (sibling modules)
 import common  # noqa: E402
 import mesh_pic  # noqa: E402
+
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = [[], ["--cases", "drift", "--name", "pic_drift"]]
 
 _THREADS: int | None = None
 

@@ -1,5 +1,5 @@
 """Yee FDTD solvers of the waveguide of ``scenes/em_waveguide_2d.py`` and of the line of ``scenes/em_line_1d.py``,
-as Warp kernels: the mesh method SPEM is compared with (``bench/spem_vs_fdtd.py``).
+as Warp kernels: the mesh method SPEM is compared with (``bench/spem/spem_vs_fdtd.py``).
 
 TMz on Yee's staggered grid (Yee 1966; Taflove & Hagness, *Computational Electrodynamics*, ch. 3): Ez at (iΔ, jΔ),
 Hx at (iΔ, (j+½)Δ), Hy at ((i+½)Δ, jΔ); plates (Ez = 0) at i = 0 and i = nx, the line j = 0 driven with

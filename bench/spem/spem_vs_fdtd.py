@@ -3,7 +3,7 @@
 What it measures
     ``--case waveguide`` (default): the waveguide of ``scenes/em_waveguide_2d.py`` (plates 0.5 m apart, TM1 at 1.2 f_c driven from y = 0, PML of
     0.1 m beyond y = 0.4 m) to t = 4.1 ns, at several particles (cells) per wavelength, with SPEM (FPM, uniform
-    layout) and with the Yee FDTD of ``bench/fdtd_yee.py`` (same PML grading, same source profile, same
+    layout) and with the Yee FDTD of ``bench/spem/fdtd_yee.py`` (same PML grading, same source profile, same
     threads, dt = T / ceil(T / (0.95 × each method's stable step))). Error: mean |Ez - exact| / E0 along the
     column nearest x = 0.244 m, 0 <= y <= 0.4 m, against the exact TM1 solution
     (``warpfree.validation.em_waveguide_2d``). Time: the steps only (set-up excluded), median of ``--repeats``
@@ -15,10 +15,11 @@ What it measures
     line SPEM's FPM pair is Yee's difference, so the errors agree and the ratio is the cost of a step.
 
 Usage
-    python bench/spem_vs_fdtd.py                 # waveguide, 1 thread, ppw 20 40 80 160 320, 3 repeats
-    python bench/spem_vs_fdtd.py --case line     # the 1D line, ppw 10 20 40 80 160 320
-    python bench/spem_vs_fdtd.py --threads 2
-Writes bench/results/spem_vs_fdtd.{json,md,png} (the line: spem_vs_fdtd_line.*).
+    python bench/spem/spem_vs_fdtd.py                 # waveguide, 1 thread, ppw 20 40 80 160 320, 3 repeats
+    python bench/spem/spem_vs_fdtd.py --case line     # the 1D line, ppw 10 20 40 80 160 320
+    python bench/spem/spem_vs_fdtd.py --threads 2
+    python bench/spem/spem_vs_fdtd.py --quick         # smoke run: ppw 20 40 (line: 10 20), 1 repeat
+Writes bench/results/spem_vs_fdtd[_quick].{json,md,png} (the line: spem_vs_fdtd_line[_quick].*).
 """
 
 from __future__ import annotations
@@ -32,8 +33,12 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder (sibling modules)
 import common  # noqa: E402
+
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = [[], ["--case", "line"]]
 
 
 def timed_spem_run(s, t_end: float) -> tuple[float, float, int]:
@@ -44,7 +49,7 @@ def timed_spem_run(s, t_end: float) -> tuple[float, float, int]:
     s.step(dt)
     for a in (s.state.ez, s.state.ezx, s.state.hx, s.state.hy):
         a.zero_()
-    s.t = 0.0
+    s.state.time = 0.0  # the time of H (SPEMSolver.t reads it)
     t0 = time.perf_counter()
     for _ in range(steps):
         s.step(dt)
@@ -135,16 +140,18 @@ RUNNERS = {"waveguide": (run_spem, run_fdtd), "line": (run_spem_line, run_fdtd_l
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="smoke run: the two coarsest ppw, 1 repeat (unless given)")
     ap.add_argument("--case", choices=sorted(RUNNERS), default="waveguide")
     ap.add_argument("--ppw", type=float, nargs="+", default=None,
                     help="default: 20 40 80 160 320 (line: 10 20 40 80 160 320)")
     ap.add_argument("--threads", type=int, default=1)
-    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--repeats", type=int, default=None, help="default 3; quick 1")
     ap.add_argument("--t-end", type=float, default=None, help="default: 4.1e-9 s (line: 4.75e-9 s)")
     ap.add_argument("--worker", default=None)
     args = ap.parse_args()
     line = args.case == "line"
-    args.ppw = args.ppw or ([10, 20, 40, 80, 160, 320] if line else [20, 40, 80, 160, 320])
+    args.ppw = args.ppw or ([10, 20, 40, 80, 160, 320] if line else [20, 40, 80, 160, 320])[:2 if args.quick else None]
+    args.repeats = args.repeats or (1 if args.quick else 3)
     args.t_end = args.t_end or (4.75e-9 if line else 4.1e-9)
     if args.worker:
         cfg = json.loads(args.worker)
@@ -181,7 +188,8 @@ def main() -> None:
     ax.legend()
     fig.tight_layout()
     common.write_results("spem_vs_fdtd_line" if line else "spem_vs_fdtd",
-                         {"case": args.case, "rows": rows, "ratios": ratios, "threads": args.threads}, "\n".join(md), fig)
+                         {"case": args.case, "rows": rows, "ratios": ratios, "threads": args.threads}, "\n".join(md),
+                         fig, quick=args.quick)
 
 if __name__ == "__main__":
     main()

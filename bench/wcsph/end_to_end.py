@@ -14,7 +14,7 @@ What it measures
     build, Warp's kernel cache load), every step, the VTU snapshots every 0.02 s (written by the writer
     process beside the stepping), the front analysis and its plot, summary.json.
 
-    PySPH: its ``dam_break_2d`` example in its own venv through ``bench/peers/pysph_dam_break.py`` (the
+    PySPH: its ``dam_break_2d`` example in its own venv through ``bench/wcsph/peers/pysph_dam_break.py`` (the
     process from start to exit: imports, setup with its compiled-code cache warm, the solve with its ~25
     dumps, then our driver's read of the dumps for the front). OMP_NUM_THREADS = threads and ``--openmp``
     when threads > 1.
@@ -32,8 +32,8 @@ What differs between the two (documented, not matched)
       frames.
 
 Usage
-    python bench/end_to_end.py                      # dx 0.025 (the default scene) and 0.02; 1, 2 threads; 5 rounds
-    python bench/end_to_end.py --quick              # dx 0.05, tf 0.2, 2 rounds
+    python bench/wcsph/end_to_end.py                      # dx 0.025 (the default scene) and 0.02; 1, 2 threads; 5 rounds
+    python bench/wcsph/end_to_end.py --quick              # dx 0.05, tf 0.2, 2 rounds
 Writes bench/results/end_to_end[_quick].{json,md}.
 """
 
@@ -50,8 +50,12 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder (sibling modules)
 import common  # noqa: E402
+
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = [[]]  # needs PySPH in /work/peers-venv (bench/README.md); without it: an error naming the venv
 
 REPO = common.BENCH.parent
 SCENE = REPO / "scenes" / "dam_break_2d.py"

@@ -22,8 +22,8 @@ How
     kernel through the same launcher at 1 and 2 threads. Figure: the median time per launch over rounds.
 
 Usage
-    python bench/kernel_variants.py --baseline /tmp/baseline     # ~3 min on 2 cores
-    python bench/kernel_variants.py --baseline /tmp/baseline --quick
+    python bench/wcsph/kernel_variants.py --baseline /tmp/baseline     # ~3 min on 2 cores
+    python bench/wcsph/kernel_variants.py --baseline /tmp/baseline --quick
 Writes bench/results/kernel_variants[_quick].{json,md}.
 """
 
@@ -39,8 +39,13 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder (sibling modules)
 import common  # noqa: E402
+
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = []
+RUN_ALL_SKIPPED = "needs --baseline DIR, a checkout of a commit with kernels/sph_fluid.py (see Usage)"
 
 PHYSICS = {"scene": {}, "plain": {"alpha": 0.0, "delta": 0.0, "mu": 0.0, "wall_safety": 0.0}}
 

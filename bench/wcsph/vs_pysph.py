@@ -11,7 +11,7 @@ What it measures
     ``warpfree.validation.dam_break``). Ratios: ours / PySPH particle-steps/s, and PySPH wall / our wall
     to the same tf (> 1: ours is faster to the same physical time).
 
-    Target (issue): >= 1.5x PySPH's particle-steps/s at equal threads, with a front error no worse.
+    Target: >= 1.5x PySPH's particle-steps/s at equal threads, with a front error no worse.
 
 How
     ours: a fresh subprocess (``bench/common.py: dam_break_2d_run``) calls ``warpfree.device.use('cpu', threads)``, builds
@@ -20,7 +20,7 @@ How
     ``wall_s`` (all steps plus the probe/diagnostic records every 0.02 s), steps = its step count.
     The front is the largest fluid x (wall face at x = 0).
 
-    PySPH: ``bench/peers/pysph_dam_break.py`` runs the example in its own venv (/work/peers-venv) in
+    PySPH: ``bench/wcsph/peers/pysph_dam_break.py`` runs the example in its own venv (/work/peers-venv) in
     a subprocess with OMP_NUM_THREADS = threads and ``--openmp`` when threads > 1; wall time = PySPH's
     own "Run took" (excludes setup and Cython compilation, includes its ~25 npz dumps, whose time is
     also reported), steps = ``solver.count`` (PEC integrator: one force evaluation per step, as ours).
@@ -40,9 +40,9 @@ How
     median wall time. If PySPH cannot run, the table says so and our rows are still reported.
 
 Usage
-    python bench/vs_pysph.py              # full: dx 0.03, 0.02; threads 1, 2 (~5 min on 2 cores)
-    python bench/vs_pysph.py --quick      # dx 0.05, tf 0.15 (~40 s)
-    python bench/vs_pysph.py --dx 0.03 --threads 1 2 --tf 0.6 --ours-cfl 0.1 0.2
+    python bench/wcsph/vs_pysph.py              # full: dx 0.03, 0.02; threads 1, 2 (~5 min on 2 cores)
+    python bench/wcsph/vs_pysph.py --quick      # dx 0.05, tf 0.15 (~40 s)
+    python bench/wcsph/vs_pysph.py --dx 0.03 --threads 1 2 --tf 0.6 --ours-cfl 0.1 0.2
 Writes bench/results/vs_pysph[_quick].{json,md,png}; PySPH's dumps go to a temporary folder.
 """
 
@@ -58,8 +58,12 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder (sibling modules)
 import common  # noqa: E402
+
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = [[]]  # PySPH in /work/peers-venv (bench/README.md); without it: ours only, the error in the table
 
 A, G, T_MAX = common.DAM_BREAK_A, common.DAM_BREAK_G, common.DAM_BREAK_T_MAX
 

@@ -8,7 +8,7 @@ What it measures
       and, as a second comparison, so that the fluid count does (``--match fluid``, a 2.8x larger
       run; both by default), at threads = 1 and at all cores;
     * Warp's example at ~``--n`` particles (default 50 000 -> 48 668, see
-      ``bench/peers/warp_example_sph.py``), which on the CPU runs every launch on one thread.
+      ``bench/wcsph/peers/warp_example_sph.py``), which on the CPU runs every launch on one thread.
     The ratio ours / theirs is reported at equal threads (1) and for ours at all cores, counting our
     particles as fluid + boundary (every particle our kernels touch) and as fluid only. Mean neighbour
     counts of both are reported, because the per-particle work differs a lot (see Physics).
@@ -34,9 +34,9 @@ Physics (not the same model: the ratio is a cost-per-particle-step comparison, n
     (kick-drift-kick) with the CFL step, status checks every step.
 
 Usage
-    python bench/vs_warp_example.py            # full (both matches, 3 rounds), ~6 min on 2 cores
-    python bench/vs_warp_example.py --quick    # smoke run (~4 000 particles, total match only)
-    python bench/vs_warp_example.py --match total --rounds 2
+    python bench/wcsph/vs_warp_example.py            # full (both matches, 3 rounds), ~6 min on 2 cores
+    python bench/wcsph/vs_warp_example.py --quick    # smoke run (~4 000 particles, total match only)
+    python bench/wcsph/vs_warp_example.py --match total --rounds 2
 Writes bench/results/vs_warp_example[_quick].{json,md,png}.
 """
 
@@ -47,8 +47,12 @@ import json
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder (sibling modules)
 import common  # noqa: E402
+
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = [[]]
 
 SCENE = "dam_break_3d"
 

@@ -2,7 +2,7 @@
 flow driven by a body force (Morris, Fox & Zhu 1997), with the observed order of convergence between the two
 test resolutions. Exact solutions: ``warpfree.validation.taylor_green_2d`` and ``.poiseuille_2d`` (READMEs there
 give the sources and the measurements behind every tolerance below). Fine resolutions live in
-``bench/speed_vs_error.py --case taylor_green`` and ``--case poiseuille``."""
+``bench/core/speed_vs_error.py --case taylor_green`` and ``--case poiseuille``."""
 
 import inspect
 import json

@@ -65,7 +65,7 @@ the cache (``$HOME/.pysph/source/...``) misses; ``compiled`` says whether it
 did.  ``cold_cache=True`` points ``HOME`` at a fresh folder to time a cold
 build without touching the real cache.
 
-CLI: ``python bench/peers/pysph_dam_break.py --dx 0.03 --tf 0.5 --threads 1``
+CLI: ``python bench/wcsph/peers/pysph_dam_break.py --dx 0.03 --tf 0.5 --threads 1``
 """
 
 from __future__ import annotations

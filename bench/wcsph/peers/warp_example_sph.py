@@ -48,7 +48,7 @@ the number of substeps; particle-steps/s = ``n * steps / wall_s``.  The
 example's ``wp.ScopedTimer("step")`` printout is switched off while timing.
 On ``cpu`` Warp runs each kernel launch serially on one core.
 
-CLI: ``python bench/peers/warp_example_sph.py --n 50000 --steps 5 --device cpu``
+CLI: ``python bench/wcsph/peers/warp_example_sph.py --n 50000 --steps 5 --device cpu``
 """
 
 from __future__ import annotations
