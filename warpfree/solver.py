@@ -284,6 +284,10 @@ class TimeDependentSolver(Solver):
         """How the time loop chooses the step (:class:`StepRule`); by default a new stable step every step."""
         return StepRule.variable()
 
+    def use_step(self, dt: float) -> None:
+        """The step the run takes throughout (a constant or fixed rule, or a fixed ``dt``), told by the time loop once
+        before its first record; for diagnostics that depend on it (a leapfrog's invariant). Default: unused."""
+
     def problem(self) -> str | None:
         """Checked after every step: a message when the last step left the state bad, else None."""
         return None

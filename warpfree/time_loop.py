@@ -76,6 +76,8 @@ class TimeLoop(Run):
         self.skipped_checkpoints: list[str] = []  # damaged checkpoints a resume passed over
         self.rule = solver.step_rule()
         self.dt_fixed = self._chosen_step(None if dt is None else require_positive("dt", dt))
+        if self.dt_fixed is not None:
+            solver.use_step(self.dt_fixed)
 
     @property
     def step_size(self) -> float | None:
