@@ -93,7 +93,7 @@ def _moments(dx: np.ndarray, dim: int) -> list:
 
 
 def _constraints(e_position, h_position, dim, held, e_volume, h_volume, e_operator, h_operator, e_reach, h_reach,
-                 spacing) -> _Constraints:
+                 spacing, axes) -> _Constraints:
     """The linear system C d = r of (1)-(2) in the unknown entries d (module docstring), lengths in spacings."""
     xe, xh = e_position[:, :dim] / spacing, h_position[:, :dim] / spacing
     free = np.flatnonzero(~held)
@@ -128,7 +128,7 @@ def _constraints(e_position, h_position, dim, held, e_volume, h_volume, e_operat
     matrix = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                            shape=(off + n_h * nc, m1 + m2))
     start, rhs = [], []
-    for a in range(dim):
+    for a in axes:
         start.append(np.concatenate([np.asarray(e_operator[a][ei, ej_h]).ravel(),
                                      np.asarray(h_operator[a][hk, el]).ravel()]) * spacing)
         r = np.zeros(off + n_h * nc)
@@ -140,18 +140,22 @@ def _constraints(e_position, h_position, dim, held, e_volume, h_volume, e_operat
 
 def energy_conserving_pair(e_position: np.ndarray, h_position: np.ndarray, dim: int, held: np.ndarray,
                            e_volume: np.ndarray, h_volume: np.ndarray, e_operator: list, h_operator: list,
-                           e_reach: np.ndarray, h_reach: np.ndarray, spacing: float) -> ConservativePair:
+                           e_reach: np.ndarray, h_reach: np.ndarray, spacing: float,
+                           axes: tuple[int, ...] | None = None) -> ConservativePair:
     """The pair nearest the FPM pair (``e_operator``, ``h_operator``: per axis CSR) that satisfies (1) and (2)
-    of the module docstring. Raises ParameterError('conservative') when the constraints cannot be met (e.g.
+    of the module docstring, for the ``axes`` given (default: all; the operators returned are those axes', in
+    order): under Yee's staggering each axis has its own H particles (``StaggeredLayout.h_subsets``) and is
+    solved on its own. Raises ParameterError('conservative') when the constraints cannot be met (e.g.
     walls without held E particles: then (1) needs a boundary term this pair does not have)."""
+    axes = tuple(range(dim)) if axes is None else tuple(axes)
     con = _constraints(e_position, h_position, dim, held, e_volume, h_volume, e_operator, h_operator, e_reach,
-                       h_reach, spacing)
+                       h_reach, spacing, axes)
     C, m1 = con.matrix, con.e_row.size
     n_e, n_h = e_position.shape[0], h_position.shape[0]
     # only the entries near a violated constraint change (a uniform interior is already Yee's exact pair)
     violated = np.zeros(C.shape[0], bool)
-    for a in range(dim):
-        violated |= np.abs(con.rhs[a] - C @ con.start[a]) > RESIDUAL_LIMIT
+    for k in range(len(axes)):
+        violated |= np.abs(con.rhs[k] - C @ con.start[k]) > RESIDUAL_LIMIT
     free = np.flatnonzero(~held)
     nc = C.shape[0] // (free.size + n_h)
     where = np.vstack([e_position[free], h_position])[np.flatnonzero(violated.reshape(-1, nc).any(axis=1))]
@@ -168,8 +172,8 @@ def energy_conserving_pair(e_position: np.ndarray, h_position: np.ndarray, dim: 
         kkt = sp.bmat([[sp.identity(cu.shape[1]), cu.T], [cu, -1e-13 * sp.identity(cu.shape[0])]]).tocsc()
         lu = spla.splu(kkt, permc_spec="MMD_AT_PLUS_A", options=dict(SymmetricMode=True), diag_pivot_thresh=0.0)
     e_out, h_out, change, residual = [], [], 0.0, 0.0
-    for a in range(dim):
-        d0, rhs = con.start[a], con.rhs[a]
+    for k in range(len(axes)):
+        d0, rhs = con.start[k], con.rhs[k]
         d = d0.copy()
         for _ in range(3 if lu is not None else 0):  # the solve, then iterative refinement
             x = lu.solve(np.concatenate([np.zeros(cu.shape[1]), (rhs - C @ d)[touched]]))

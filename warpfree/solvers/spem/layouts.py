@@ -23,12 +23,18 @@ import numpy as np
 
 from warpfree.errors import ParameterError, require_memory, require_positive
 
+#: the component an H particle carries under Yee's staggering (``StaggeredLayout.h_carries``)
+HX, HY = 0, 1
+#: where the H particles sit in 2D: "edges" (Yee: Hx at the midpoints of the cell sides along y, Hy of those along
+#: x) or "centres" (both components at the cell centres)
+H_STAGGERINGS = ("edges", "centres")
+
 #: memory per particle (E or H) of a SPEM run, bytes: positions, fields, PML, cross-set neighbour lists, derivative
 #: rows and the energy-conserving pair's sparse operators; the peak resident memory of the line, cavity and plane-wave
 #: scenes grows by 2.4-3.4 kB per particle, rounded up
 BYTES_PER_PARTICLE = 4096.0
 
-__all__ = ["StaggeredLayout", "staggered_line", "staggered_box", "staggered_disk"]
+__all__ = ["HX", "HY", "H_STAGGERINGS", "StaggeredLayout", "staggered_line", "staggered_box", "staggered_disk"]
 
 
 @dataclass
@@ -45,6 +51,9 @@ class StaggeredLayout:
     lower: np.ndarray | None = None  # the region's bounding box (m)
     upper: np.ndarray | None = None
     inside: Callable | None = None  # inside(points (M, dim)) -> (M,) bool: the region the particles fill
+    #: per H particle, the one component it carries (HX or HY: Yee's staggering, ``h_staggering="edges"``); None: both
+    #: components on every H particle (``"centres"``, and 1D, where only Hy exists)
+    h_carries: np.ndarray | None = None
 
     @property
     def n_e(self) -> int:
@@ -53,6 +62,15 @@ class StaggeredLayout:
     @property
     def n_h(self) -> int:
         return self.h_position.shape[0]
+
+    def h_subsets(self) -> list[np.ndarray]:
+        """Per axis a, the indices of the H particles whose field is differentiated along a and which the a-derivative
+        of Ez updates: axis x ↔ Hy (∂Hy/∂x, ∂Ez/∂x), axis y ↔ Hx; every H particle on every axis when each carries
+        both components."""
+        every = np.arange(self.n_h)
+        if self.h_carries is None:
+            return [every] * self.dim
+        return [np.flatnonzero(self.h_carries == HY), np.flatnonzero(self.h_carries == HX)][:self.dim]
 
     def e_cell_volume(self) -> np.ndarray:
         return self.e_spacing ** self.dim
@@ -69,7 +87,14 @@ class StaggeredLayout:
             raise ParameterError("layout", "this layout has no region (lower, upper, inside) to measure volumes in")
         e = self.e_position if e_position is None else e_position
         h = self.h_position if h_position is None else h_position
-        return tuple(voronoi_volumes(p, self.dim, self.lower, self.upper, self.inside, self.spacing) for p in (e, h))
+        volumes = lambda p: voronoi_volumes(p, self.dim, self.lower, self.upper, self.inside, self.spacing)  # noqa: E731
+        if self.h_carries is None:
+            return volumes(e), volumes(h)
+        vh = np.empty(h.shape[0])
+        for component in (HX, HY):  # each component's particles tile the region on their own
+            on = self.h_carries == component
+            vh[on] = volumes(h[on])
+        return volumes(e), vh
 
 
 #: fine samples per spacing and axis measuring the Voronoi cells cut by the region's boundary 
@@ -142,6 +167,26 @@ def _check_jitter(jitter: float) -> float:
     return j
 
 
+def _check_staggering(h_staggering: str) -> str:
+    if h_staggering not in H_STAGGERINGS:
+        raise ParameterError("h_staggering", f"must be one of {list(H_STAGGERINGS)}, got {h_staggering!r}")
+    return h_staggering
+
+
+def _edge_points(x_nodes: np.ndarray, y_nodes: np.ndarray, interior: bool = True):
+    """Yee's H points on a lattice of nodes: Hx at (x_i, ½(y_j + y_j+1)), Hy at (½(x_i + x_i+1), y_j); with
+    ``interior``, not on the box's faces (there Hx, Hy would be the normal field on a wall: zero on a conductor).
+    Returns (points (M, 2), carries (M,), the lattice indices (i, j) of each point's node and its axis)."""
+    xm, ym = 0.5 * (x_nodes[1:] + x_nodes[:-1]), 0.5 * (y_nodes[1:] + y_nodes[:-1])
+    lo = 1 if interior else 0
+    ix, jy = np.meshgrid(np.arange(lo, x_nodes.size - lo), np.arange(ym.size), indexing="ij")
+    hx = np.stack([x_nodes[ix.ravel()], ym[jy.ravel()]], axis=1)
+    iy, jx = np.meshgrid(np.arange(xm.size), np.arange(lo, y_nodes.size - lo), indexing="ij")
+    hy = np.stack([xm[iy.ravel()], y_nodes[jx.ravel()]], axis=1)
+    carries = np.r_[np.full(hx.shape[0], HX, np.int8), np.full(hy.shape[0], HY, np.int8)]
+    return np.vstack([hx, hy]), carries, (ix.ravel(), jy.ravel(), iy.ravel(), jx.ravel())
+
+
 def _require_cells(name: str, cells: float, dim: int, per_axis=None) -> None:
     """Refuse a spacing that leaves fewer than 2 cells along an axis, or more particles (an E and an H per cell) than
     the memory available holds (:func:`warpfree.errors.require_memory`), before anything is allocated."""
@@ -202,9 +247,10 @@ def graded_nodes(lo: float, hi: float, cells: int, grading: float) -> np.ndarray
 
 
 def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int = 0,
-                  grading: float = 1.0) -> StaggeredLayout:
-    """2D box: E at the lattice nodes (those on the faces flagged ``on_wall``), H at the cell centres; Δ is
-    adjusted per axis to fit whole cells (the larger of the two adjusted spacings is the nominal Δ).
+                  grading: float = 1.0, h_staggering: str = "centres") -> StaggeredLayout:
+    """2D box: E at the lattice nodes (those on the faces flagged ``on_wall``), H at the cell centres or, with
+    ``h_staggering="edges"``, Yee's: Hx at the midpoints of the cell sides along y, Hy along x (none on the faces);
+    Δ is adjusted per axis to fit whole cells (the larger of the two adjusted spacings is the nominal Δ).
     ``grading`` > 1: the nodes along each axis from :func:`graded_nodes` (the mean spacing stays Δ); each
     particle's local spacing is the larger side of its cell (of the cells around an E node)."""
     spacing = require_positive("spacing", spacing)
@@ -212,6 +258,7 @@ def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int =
     if lo.shape != (2,) or hi.shape != (2,) or np.any(hi <= lo):
         raise ParameterError("upper", f"a 2D box needs lower < upper per axis, got {lower}, {upper}")
     j = _check_jitter(jitter)
+    _check_staggering(h_staggering)
     if not (np.isfinite(grading) and 1.0 <= grading <= 3.0):
         raise ParameterError("grading", f"must be in [1, 3] (largest over smallest spacing), got {grading}")
     _require_cells("spacing", np.prod((hi - lo) / spacing), 2, per_axis=(hi - lo) / spacing)
@@ -226,6 +273,11 @@ def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int =
                   0.5 * (nodes[1][cy.ravel()] + nodes[1][cy.ravel() + 1])], axis=1)
     h_spacing = np.maximum(widths[0][cx.ravel()], widths[1][cy.ravel()])
     node_width = [np.maximum(np.r_[w[0], w], np.r_[w, w[-1]]) for w in widths]  # the larger adjacent cell
+    carries = None
+    if h_staggering == "edges":
+        h, carries, (ix_x, jy_x, iy_y, jx_y) = _edge_points(nodes[0], nodes[1])
+        h_spacing = np.r_[np.maximum(node_width[0][ix_x], widths[1][jy_x]),
+                          np.maximum(widths[0][iy_y], node_width[1][jx_y])]
     e_spacing = np.maximum(node_width[0][ix.ravel()], node_width[1][iy.ravel()])
     smallest = float(min(w.min() for w in widths))
     e, h = _pad3(e), _pad3(h)
@@ -235,16 +287,18 @@ def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int =
         h = _jitter(h, np.zeros(h.shape[0], bool), j * smallest, 2, rng)
     nominal = float(((hi - lo) / cells).max())
     return StaggeredLayout(2, e, h, e_spacing, h_spacing, on_wall, nominal,
-                           lo, hi, lambda p: np.all((p[:, :2] >= lo) & (p[:, :2] <= hi), axis=1))
+                           lo, hi, lambda p: np.all((p[:, :2] >= lo) & (p[:, :2] <= hi), axis=1), carries)
 
 
-def staggered_disk(centre, radius: float, spacing: float, jitter: float = 0.0, seed: int = 0) -> StaggeredLayout:
-    """2D disk: lattice nodes (E) farther than Δ/2 from the circle, cell centres (H) farther than Δ/5 (so that
-    every E node has H particles on its wall side too), and a ring of E particles on the circle at about Δ apart
-    (``on_wall``): the cavity wall."""
+def staggered_disk(centre, radius: float, spacing: float, jitter: float = 0.0, seed: int = 0,
+                   h_staggering: str = "centres") -> StaggeredLayout:
+    """2D disk: lattice nodes (E) farther than Δ/2 from the circle, H points (cell centres, or Yee's side midpoints
+    with ``h_staggering="edges"``) farther than Δ/5 (so that every E node has H particles on its wall side too), and
+    a ring of E particles on the circle at about Δ apart (``on_wall``): the cavity wall."""
     radius = require_positive("radius", radius)
     spacing = require_positive("spacing", spacing)
     j = _check_jitter(jitter)
+    _check_staggering(h_staggering)
     c = np.asarray(centre, float)[:2]
     _require_cells("spacing", np.pi * (radius / spacing) ** 2, 2, per_axis=np.full(2, 2.0 * radius / spacing))
     n = int(np.ceil(radius / spacing)) + 1
@@ -253,7 +307,12 @@ def staggered_disk(centre, radius: float, spacing: float, jitter: float = 0.0, s
     nodes = np.stack([gx.ravel(), gy.ravel()], axis=1)
     centres = nodes + 0.5 * spacing
     e_in = nodes[np.hypot(nodes[:, 0], nodes[:, 1]) < radius - 0.5 * spacing]
-    h_in = centres[np.hypot(centres[:, 0], centres[:, 1]) < radius - 0.2 * spacing]  # H between the last nodes and the ring
+    carries = None
+    if h_staggering == "edges":
+        centres, carries, _ = _edge_points(k * spacing, k * spacing, interior=False)
+    inside = np.hypot(centres[:, 0], centres[:, 1]) < radius - 0.2 * spacing  # H between the last nodes and the ring
+    h_in = centres[inside]
+    carries = None if carries is None else carries[inside]
     m = max(8, int(round(2 * np.pi * radius / spacing)))
     a = 2 * np.pi * np.arange(m) / m
     ring = radius * np.stack([np.cos(a), np.sin(a)], axis=1)
@@ -266,4 +325,5 @@ def staggered_disk(centre, radius: float, spacing: float, jitter: float = 0.0, s
         e = _jitter(e, on_wall, j * spacing, 2, rng)
         h = _jitter(h, np.zeros(h.shape[0], bool), j * spacing, 2, rng)
     return StaggeredLayout(2, e, h, np.full(e.shape[0], spacing), np.full(h.shape[0], spacing), on_wall, spacing,
-                           c - radius, c + radius, lambda p: np.hypot(p[:, 0] - c[0], p[:, 1] - c[1]) <= radius)
+                           c - radius, c + radius, lambda p: np.hypot(p[:, 0] - c[0], p[:, 1] - c[1]) <= radius,
+                           carries)

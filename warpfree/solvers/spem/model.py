@@ -31,7 +31,7 @@ from warpfree.neighbours import NeighbourGrid, NeighbourList, host_rows
 from warpfree.particles import ParticleSet
 from warpfree.space import Space
 
-from .conservative import energy_conserving_pair, pattern_reach
+from .conservative import ConservativePair, energy_conserving_pair, pattern_reach
 from .layouts import StaggeredLayout
 
 __all__ = ["EPS0", "MU0", "C0", "PML", "SPEMModel", "support_for_jitter"]
@@ -151,7 +151,13 @@ class SPEMModel:
         self.pec = require_bool("pec", pec)
         e, h = self.electric, self.magnetic
         self.held = layout.on_wall.copy() if self.pec else np.zeros(layout.n_e, bool)  # E particles not updated
-        e.add("support", self._supports(layout.e_position, layout.e_spacing, layout.h_position))
+        self.h_subsets = layout.h_subsets()
+        yee = layout.h_carries is not None
+        e_support = self._supports(layout.e_position, layout.e_spacing, layout.h_position)
+        if yee:  # enough particles of each component's own set
+            e_support = np.max([self._supports(layout.e_position, layout.e_spacing, layout.h_position[sub])
+                                for sub in self.h_subsets], axis=0)
+        e.add("support", e_support)
         h.add("support", self._supports(layout.h_position, layout.h_spacing, layout.e_position))
         e.add("inv_permittivity", 1.0 / (EPS0 * self.eps_r))
         h.add("inv_permeability", 1.0 / (MU0 * self.mu_r))
@@ -161,24 +167,79 @@ class SPEMModel:
         h.add("loss", loss_h, dtype=wp.vec2)
         e.add("cell_volume", layout.e_cell_volume())
         h.add("cell_volume", layout.h_cell_volume())
-        reach = float(max(e.numpy("support").max(), h.numpy("support").max()))
+        self.reach = float(max(e.numpy("support").max(), h.numpy("support").max()))
         self.launcher = launcher
-        # own-set volumes (2.15), then each set's rows over the other set and their coefficients
-        for s in (e, h):
-            own = NeighbourList(NeighbourGrid(launcher, reach, self.space, s.position), s.position)
-            s.add("volume")
-            launcher.launch(K.own_set_volume, s.n, [self.space.box, own.rows, s.position, s["support"], s["volume"]])
-        self.e_rows = NeighbourList(NeighbourGrid(launcher, reach, self.space, h.position), e.position)  # E -> H
-        self.h_rows = NeighbourList(NeighbourGrid(launcher, reach, self.space, e.position), h.position)  # H -> E
-        self.e_coefficient = self._coefficients(e, h, self.e_rows, self.held)
-        self.h_coefficient = self._coefficients(h, e, self.h_rows, np.zeros(h.n, bool))
+        self.e_rows = NeighbourList(NeighbourGrid(launcher, self.reach, self.space, h.position), e.position)  # E -> H
+        self.h_rows = NeighbourList(NeighbourGrid(launcher, self.reach, self.space, e.position), h.position)  # H -> E
         self.conservative = (scheme == "fpm") if conservative is None else require_bool("conservative", conservative)
         self.conservation = None
+        if yee:
+            if scheme != "fpm":
+                raise ParameterError("scheme", f"Yee's staggering (h_staggering='edges') is built for 'fpm'; "
+                                               f"{scheme!r} is kept on the cell-centred layout it was printed for")
+            self._own_set_volume(e)
+            h.add("volume", self._subset_volumes(h))
+            e_operator, h_operator = self._component_operators()
+            if self.conservative:
+                self._make_conservative(e_operator, h_operator)
+            else:
+                self.e_coefficient = self._set_operator(self.e_rows, e_operator)
+                self.h_coefficient = self._set_operator(self.h_rows, h_operator)
+            return
+        # own-set volumes (2.15), then each set's rows over the other set and their coefficients
+        for s in (e, h):
+            self._own_set_volume(s)
+        self.e_coefficient = self._coefficients(e, h, self.e_rows, self.held)
+        self.h_coefficient = self._coefficients(h, e, self.h_rows, np.zeros(h.n, bool))
         if self.conservative:  # the nearest energy-conserving pair that is still exact for linear fields
-            self._make_conservative()
+            self._make_conservative(self._operator(self.e_rows, self.e_coefficient, layout.n_h),
+                                    self._operator(self.h_rows, self.h_coefficient, layout.n_e))
         else:
             self.e_coefficient = self._compact(self.e_rows, self.e_coefficient)
             self.h_coefficient = self._compact(self.h_rows, self.h_coefficient)
+
+    def _own_set_volume(self, s: ParticleSet) -> wp.array:
+        """ω_i of eq. 2.15 over ``s``'s own particles (its field ``volume``)."""
+        own = NeighbourList(NeighbourGrid(self.launcher, self.reach, self.space, s.position), s.position)
+        s.add("volume")
+        self.launcher.launch(K.own_set_volume, s.n, [self.space.box, own.rows, s.position, s["support"], s["volume"]])
+        return s["volume"]
+
+    def _subset(self, axis: int) -> ParticleSet:
+        """The H particles of one component (those the ``axis``-derivatives connect, ``StaggeredLayout.h_subsets``)
+        as a set of their own: positions, supports and, once known, volumes."""
+        h, sub = self.magnetic, self.h_subsets[axis]
+        part = ParticleSet(f"magnetic ({'xy'[axis]} derivative)", self.layout.h_position[sub], self.dim,
+                           self.launcher.device)
+        part.add("support", h.numpy("support")[sub])
+        if "volume" in h:
+            part.add("volume", h.numpy("volume")[sub])
+        return part
+
+    def _subset_volumes(self, h: ParticleSet) -> np.ndarray:
+        """ω (2.15) of each H particle among the particles of its own component (each component is a set)."""
+        volume = np.zeros(h.n)
+        for axis, sub in enumerate(self.h_subsets):
+            volume[sub] = self._own_set_volume(self._subset(axis)).numpy()
+        return volume
+
+    def _component_operators(self) -> tuple[list, list]:
+        """Yee's staggering: per axis a, D_E^a (E rows over the H particles of a's component, ∂/∂x_a of that
+        component) and D_H^a (those H particles' rows over E, ∂Ez/∂x_a), each FPM over the component's own
+        particles, as CSR matrices over the whole sets (1/m): an H particle takes no a-derivative of another
+        component's field."""
+        e, lay = self.electric, self.layout
+        e_operator, h_operator = [], []
+        for axis, sub in enumerate(self.h_subsets):
+            part = self._subset(axis)
+            to_whole = sp.csr_matrix((np.ones(sub.size), (np.arange(sub.size), sub)), shape=(sub.size, lay.n_h))
+            rows = NeighbourList(NeighbourGrid(self.launcher, self.reach, self.space, part.position), e.position)
+            coefficient = self._coefficients(e, part, rows, self.held)
+            e_operator.append((self._operator(rows, coefficient, sub.size)[axis] @ to_whole).tocsr())
+            rows = NeighbourList(NeighbourGrid(self.launcher, self.reach, self.space, e.position), part.position)
+            coefficient = self._coefficients(part, e, rows, np.zeros(sub.size, bool))
+            h_operator.append((to_whole.T @ self._operator(rows, coefficient, lay.n_e)[axis]).tocsr())
+        return e_operator, h_operator
 
     def _compact(self, rows: NeighbourList, coefficient: wp.array) -> wp.array:
         """Drop the row entries whose coefficient is zero (candidates beyond the particle's own support: rows are
@@ -225,9 +286,9 @@ class SPEMModel:
         rows.n_pairs = int(pattern.nnz)
         return wp.array(coef if pattern.nnz else np.zeros((1, 3), np.float32), dtype=wp.vec3, device=dev)
 
-    def _make_conservative(self) -> None:
-        """Replace the FPM pair by the nearest pair that conserves energy and is exact for linear fields
-        (:mod:`.conservative`)."""
+    def _make_conservative(self, e_operator: list, h_operator: list) -> None:
+        """Replace the FPM pair (per axis CSR) by the nearest pair that conserves energy and is exact for linear
+        fields (:mod:`.conservative`), per axis on that axis's H particles."""
         lay, e, h = self.layout, self.electric, self.magnetic
         # the positions the kernels use (float32), so that FPM's rows are exact on them, and the volumes of the
         # same points: with the layout's float64 volumes a uniform line 1500 spacings long carried a 6e-5
@@ -237,11 +298,21 @@ class SPEMModel:
         ve, vh = self.quadrature = lay.quadrature_volumes(xe, xh)
         e.add("cell_volume", ve)  # the energy the pair conserves (``SPEMSolver.energy``)
         h.add("cell_volume", vh)
-        pair = energy_conserving_pair(xe, xh, self.dim, self.held, ve, vh,
-            self._operator(self.e_rows, self.e_coefficient, lay.n_h),
-            self._operator(self.h_rows, self.h_coefficient, lay.n_e),
-            pattern_reach(e.numpy("support"), lay.e_spacing), pattern_reach(h.numpy("support"), lay.h_spacing),
-            lay.spacing)
+        e_reach = pattern_reach(e.numpy("support"), lay.e_spacing)
+        h_reach = pattern_reach(h.numpy("support"), lay.h_spacing)
+        if lay.h_carries is None:
+            pair = energy_conserving_pair(xe, xh, self.dim, self.held, ve, vh, e_operator, h_operator, e_reach,
+                                          h_reach, lay.spacing)
+        else:
+            parts = []
+            for axis, sub in enumerate(self.h_subsets):
+                to_whole = sp.csr_matrix((np.ones(sub.size), (np.arange(sub.size), sub)), shape=(sub.size, lay.n_h))
+                ops = [e_operator[axis][:, sub]] * self.dim, [h_operator[axis][sub]] * self.dim
+                part = energy_conserving_pair(xe, xh[sub], self.dim, self.held, ve, vh[sub], *ops, e_reach,
+                                              h_reach[sub], lay.spacing, axes=(axis,))
+                parts.append((part.e_operator[0] @ to_whole, to_whole.T @ part.h_operator[0], part))
+            pair = ConservativePair([p[0].tocsr() for p in parts], [p[1].tocsr() for p in parts],
+                                    max(p[2].largest_change for p in parts), max(p[2].residual for p in parts))
         self.e_coefficient = self._set_operator(self.e_rows, pair.e_operator)
         self.h_coefficient = self._set_operator(self.h_rows, pair.h_operator)
         self.conservation = {"largest_change_per_spacing": pair.largest_change, "residual": pair.residual}

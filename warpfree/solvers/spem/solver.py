@@ -26,6 +26,7 @@ from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.kernels import spem as K
 from warpfree.solver import OutputSet, State, StepRule, TimeDependentSolver
 
+from .layouts import HX, HY
 from .kronecker import NodalValues
 from .model import SPEMModel
 from .plane_wave import DevicePlaneWave, PlaneWave
@@ -140,6 +141,10 @@ class SPEMSolver(TimeDependentSolver):
         ez0 = initial("ez", ez, e)
         ez0[model.held] = 0.0
         hx0, hy0 = initial("hx", hx, h), initial("hy", hy, h)
+        carries = model.layout.h_carries
+        if carries is not None:  # Yee's staggering: each H particle holds one component, the other is not there
+            hx0[carries != HX] = 0.0
+            hy0[carries != HY] = 0.0
         if kronecker:
             ez0, hx0, hy0 = self._nodal_values(model, ez0, hx0, hy0)
         self.state = SPEMState(e.add("ez", ez0), e.add("ezx", 0.5 * ez0), h.add("hx", hx0), h.add("hy", hy0))
