@@ -5,10 +5,12 @@ held at Ez = 0), Ez(r, 0) = 1 - r²/r0², H = 0. Writes ``cavity.png`` (Ez along
 the series) and into ``summary.json`` the mean error over all E particles and along that line, as a fraction
 of the initial peak, at every output and its largest value (``warpfree/validation/em_cavity_2d``).
 
-Model: E particles at the nodes of a lattice of spacing Δ = r0/``cells_per_radius`` and on the wall ring, H at
-the cell centres; the conservative FPM pair (``warpfree/solvers/spem/conservative.py``: exact for linear fields
+Model: E particles at the nodes of a lattice of spacing Δ = r0/``cells_per_radius`` and on the wall ring, H in
+Yee's staggering (Hx at the midpoints of the cell sides along y, Hy along x, each carrying its one component;
+``warpfree/solvers/spem/layouts.py``); the conservative FPM pair (``warpfree/solvers/spem/conservative.py``: exact for linear fields
 and energy-conserving, so the irregular neighbourhoods at the ring cannot make it grow), support 1.1 Δ (1.1 + 2
-jitter on jittered particles, widened where fewer than 4 particles of the other set are inside). Errors by
+jitter on jittered particles, widened where fewer than 4 particles of the other set, or of an H component, are
+inside). Errors by
 resolution and jitter, and the thesis's schemes beside them: ``bench/results/scene_studies.md``.
 """
 
@@ -33,8 +35,10 @@ SMALLEST = {"cells_per_radius": 8, "t_end": 1.0e-9, "output_interval": 0.25e-9}
 def build(radius: float = 0.1, eps_r: float = 10.0, cells_per_radius: int = 20, courant: float = 0.9,
           t_end: float = 5.5e-9, output_interval: float = 0.25e-9, scheme: str = "fpm", support: float = 0.0,
           jitter: float = 0.0, seed: int = 0, conservative: bool | None = None, kronecker: bool = False,
-          frames: bool = True, vtk: bool = True) -> TimeLoop:
+          h_staggering: str | None = None, frames: bool = True, vtk: bool = True) -> TimeLoop:
     """Times in s, lengths in m; ``support`` 0: 1.1 + 2·jitter spacings (``support_for_jitter``);
+    ``h_staggering``: "edges" (Yee's) or "centres" (None: Yee's for FPM, cell centres for the thesis's "cspm" and
+    "sph", printed for that layout);
     ``conservative``: the model's option (None: on for FPM); ``kronecker``: impose the initial profile as the
     SPH interpolant's values (nodal values solved once; "sph"/"cspm" only)."""
     params = dict(locals())
@@ -43,7 +47,8 @@ def build(radius: float = 0.1, eps_r: float = 10.0, cells_per_radius: int = 20, 
     spacing = radius / require_positive("cells_per_radius", cells_per_radius)
     centre = np.array([radius, radius])
     with reported_as(spacing="cells_per_radius"):
-        layout = staggered_disk(centre, radius, spacing, jitter=jitter, seed=seed)
+        layout = staggered_disk(centre, radius, spacing, jitter=jitter, seed=seed,
+                                h_staggering=h_staggering or ("edges" if scheme == "fpm" else "centres"))
     model = SPEMModel(layout, scheme=scheme, support=support or support_for_jitter(jitter), eps_r=eps_r,
                       conservative=conservative)
     r_e = np.hypot(*(layout.e_position[:, :2] - centre).T)

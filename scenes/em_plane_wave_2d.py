@@ -18,7 +18,8 @@ relative to the amplitude A (``warpfree/validation/em_plane_wave_2d``):
 - ``leakage``: the largest |Ez| in the scattered-field region outside the PML (ideally 0: what leaks is the
   difference between the discrete and the analytic wave).
 
-Model: E at the lattice nodes, H at the cell centres (optionally jittered by ``jitter`` spacings), Δ = λ0/
+Model: E at the lattice nodes, H in Yee's staggering (``h_staggering``; optionally all jittered by ``jitter``
+spacings), Δ = λ0/
 ``particles_per_wavelength``, the conservative FPM pair (support 1.1 + 2 jitter spacings), PML ``pml_cells``
 spacings thick graded with n = 3 from ψ = 1e-6. Errors at
 the defaults, at oblique incidence and on jittered particles: ``bench/results/scene_studies.md``.
@@ -44,10 +45,12 @@ SMALLEST = {"particles_per_wavelength": 20, "size": 0.2, "margin": 0.03, "t_end"
 def build(size: float = 0.5, frequency: float = 3.6e9, amplitude: float = 1.0, particles_per_wavelength: float = 40.0,
           pml_cells: int = 12, margin: float = 0.05, ramp: float = 2.0, courant: float = 0.95, t_end: float = 2.0e-9,
           output_interval: float = 0.25e-9, angle: float = 0.0, jitter: float = 0.0, seed: int = 0,
-          distribution: str = "blocks", frames: bool = True, vtk: bool = True) -> TimeLoop:
+          distribution: str = "blocks", h_staggering: str = "edges", frames: bool = True,
+          vtk: bool = True) -> TimeLoop:
     """Lengths in m, times in s, ``frequency`` in Hz; ``ramp``: periods of the sin² switch-on; ``margin``: the
     gap between the total-field box and the PML; ``angle``: the direction of travel, degrees from +y towards +x;
-    ``distribution``: the load distribution over threads (``warpfree/distribution.py``)."""
+    ``distribution``: the load distribution over threads (``warpfree/distribution.py``); ``h_staggering``: "edges"
+    (Yee's) or "centres" (``warpfree/solvers/spem/layouts.py``)."""
     params = dict(locals())
     require_positive("size", size)
     require_positive("frequency", frequency)
@@ -62,7 +65,7 @@ def build(size: float = 0.5, frequency: float = 3.6e9, amplitude: float = 1.0, p
     pml_thickness = pml_cells * spacing
     with reported_as(spacing="particles_per_wavelength, size, pml_cells, frequency"):
         layout = staggered_box((-pml_thickness, -pml_thickness), (size + pml_thickness, size + pml_thickness),
-                               spacing, jitter=jitter, seed=seed)
+                               spacing, jitter=jitter, seed=seed, h_staggering=h_staggering)
     model = SPEMModel(layout, pml=PML(pml_thickness), interior=((0.0, 0.0), (size, size)),
                       support=support_for_jitter(jitter))
     waveform = Waveform(frequency, ramp=ramp)

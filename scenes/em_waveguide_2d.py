@@ -9,10 +9,11 @@ exact solution a single mode, Ez = E0 sin(πx/a) u(y, t), u evaluated by Fourier
 the PML (the thesis: mean error 0.39 % at 80 particles per wavelength). Writes ``waveguide.png`` and the mean
 and largest error, relative to E0, into ``summary.json``.
 
-Model: E at the lattice nodes, H at the cell centres, Δ = λ0/``particles_per_wavelength`` (λ0 = c/f = 0.833 m),
-the conservative FPM pair over the nearest shell (``warpfree/solvers/spem/conservative.py``; on this uniform
-layout it differs from plain FPM only next to the plates and the PML's back wall, and its step limit is Δ/c,
-√2 above the Gershgorin bound); PML graded with n = 3 from ψ = 1e-6. Errors against resolution
+Model: E at the lattice nodes, H in Yee's staggering (Hx and Hy at the midpoints of the cell sides,
+``warpfree/solvers/spem/layouts.py``), Δ = λ0/``particles_per_wavelength`` (λ0 = c/f = 0.833 m), the
+conservative FPM pair over each component's nearest particles (``warpfree/solvers/spem/conservative.py``; on
+this uniform layout it is Yee's difference up to small off-axis terms, with Yee's step limit of about
+Δ/(c√2)); PML graded with n = 3 from ψ = 1e-6. Errors against resolution
 and time: ``bench/results/scene_studies.md``.
 """
 
@@ -36,10 +37,11 @@ SMALLEST = {"particles_per_wavelength": 20, "t_end": 1.64e-9}
 def build(width: float = 0.5, length: float = 0.4, pml_thickness: float = 0.1, frequency_ratio: float = 1.2,
           amplitude: float = 0.2, particles_per_wavelength: float = 40.0, courant: float = 0.95, ramp: float = 0.0,
           t_end: float = 4.1e-9, output_interval: float = 0.41e-9, line_x: float = 0.244, pml_order: int = 3,
-          pml_reflection: float = 1e-6, distribution: str = "blocks", frames: bool = True,
+          pml_reflection: float = 1e-6, distribution: str = "blocks", h_staggering: str = "edges", frames: bool = True,
           vtk: bool = True) -> TimeLoop:
     """Lengths in m, times in s; ``frequency_ratio``: f/f_c of TM1 (> 1: propagating); ``distribution``: the
-    load distribution over threads (``warpfree/distribution.py``)."""
+    load distribution over threads (``warpfree/distribution.py``); ``h_staggering``: "edges" (Yee's) or "centres"
+    (``warpfree/solvers/spem/layouts.py``)."""
     params = dict(locals())
     require_positive("width", width)
     require_positive("length", length)
@@ -52,7 +54,7 @@ def build(width: float = 0.5, length: float = 0.4, pml_thickness: float = 0.1, f
     require_positive("pml_thickness", pml_thickness)
     with reported_as(spacing="particles_per_wavelength, width, length, pml_thickness, frequency_ratio",
                      **{"pml.thickness": "pml_thickness", "pml.order": "pml_order", "pml.reflection": "pml_reflection"}):
-        layout = staggered_box((0.0, 0.0), (width, length + pml_thickness), spacing)
+        layout = staggered_box((0.0, 0.0), (width, length + pml_thickness), spacing, h_staggering=h_staggering)
         pml = PML(pml_thickness, sides=("y+",), order=pml_order, reflection=pml_reflection)
         model = SPEMModel(layout, pml=pml, interior=((0.0, 0.0), (width, length)))
     e = layout.e_position

@@ -44,7 +44,7 @@ def brute_force(position, support, dim):
 
 def box_model(jitter=0.0, support=1.1, scheme="sph"):
     device.use("cpu", 2)
-    lay = staggered_box((0, 0), (A, B), SPACING, jitter=jitter, seed=3)
+    lay = staggered_box((0, 0), (A, B), SPACING, jitter=jitter, seed=3, h_staggering="centres")
     return lay, SPEMModel(lay, scheme=scheme, support=max(support, support_for_jitter(jitter)))
 
 
@@ -59,7 +59,7 @@ def test_matrix_equals_a_brute_force_loop():
     particle to particle (W_ij uses i's support: M is not symmetric). The model's float32 ω (kernel) agrees
     to float32 rounding."""
     device.use("cpu", 2)
-    lay = staggered_box((0, 0), (0.3, 0.2), SPACING, jitter=0.3, seed=5)
+    lay = staggered_box((0, 0), (0.3, 0.2), SPACING, jitter=0.3, seed=5, h_staggering="centres")
     model = SPEMModel(lay, scheme="sph", support=support_for_jitter(0.3))
     for s in (model.electric, model.magnetic):
         p, d = s.numpy("position"), s.numpy("support").astype(np.float64)

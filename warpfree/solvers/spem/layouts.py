@@ -1,10 +1,13 @@
 """Particle layouts of SPEM: an E set and an H set interleaved in space.
 
 The layout (the thesis fixes none in 2D, §7 item 1 of the notes): E particles at the nodes of a lattice of
-spacing Δ, H particles at the centres of its cells (in 1D: E at x0 + kΔ, H at the midpoints). Every
-particle's nearest particles of the other set surround it symmetrically (4 at Δ/√2 in 2D, 2 at Δ/2 in
-1D), the staggering of Yee's scheme with both H components on one particle. "Particles per wavelength"
-is λ/Δ: one E and one H particle per Δ (per Δ² in 2D), as FDTD counts cells.
+spacing Δ; in 1D H at the midpoints; in 2D H in Yee's staggering by default (``h_staggering="edges"``: Hx at the
+midpoints of the cell sides along y, Hy of those along x, none on a box's faces, each H particle carrying its one
+component, ``StaggeredLayout.h_carries``), or both components at the cell centres (``"centres"``, the layout the
+thesis's CSPM and SPH schemes are printed for). The cell-centred layout's nearest-shell stencil is Yee's rotated
+by 45°: its E particles form two sub-lattices (i + j even / odd) that do not couple in the interior (the
+checkerboard has no curl, a one-particle source drives only its own), which the split-field PML mixes and
+reflects; Yee's staggering has neither. "Particles per wavelength" is λ/Δ, as FDTD counts cells.
 
 Layouts: ``uniform``; ``jittered`` (every particle not on a wall moved by a random offset of up to
 ``jitter``·Δ per axis); ``graded`` (1D: the spacing grows geometrically by ``ratio`` per cell from
@@ -247,7 +250,7 @@ def graded_nodes(lo: float, hi: float, cells: int, grading: float) -> np.ndarray
 
 
 def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int = 0,
-                  grading: float = 1.0, h_staggering: str = "centres") -> StaggeredLayout:
+                  grading: float = 1.0, h_staggering: str = "edges") -> StaggeredLayout:
     """2D box: E at the lattice nodes (those on the faces flagged ``on_wall``), H at the cell centres or, with
     ``h_staggering="edges"``, Yee's: Hx at the midpoints of the cell sides along y, Hy along x (none on the faces);
     Δ is adjusted per axis to fit whole cells (the larger of the two adjusted spacings is the nominal Δ).
@@ -291,7 +294,7 @@ def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int =
 
 
 def staggered_disk(centre, radius: float, spacing: float, jitter: float = 0.0, seed: int = 0,
-                   h_staggering: str = "centres") -> StaggeredLayout:
+                   h_staggering: str = "edges") -> StaggeredLayout:
     """2D disk: lattice nodes (E) farther than Δ/2 from the circle, H points (cell centres, or Yee's side midpoints
     with ``h_staggering="edges"``) farther than Δ/5 (so that every E node has H particles on its wall side too), and
     a ring of E particles on the circle at about Δ apart (``on_wall``): the cavity wall."""
