@@ -190,14 +190,15 @@ def _edge_points(x_nodes: np.ndarray, y_nodes: np.ndarray, interior: bool = True
     return np.vstack([hx, hy]), carries, (ix.ravel(), jy.ravel(), iy.ravel(), jx.ravel())
 
 
-def _require_cells(name: str, cells: float, dim: int, per_axis=None) -> None:
-    """Refuse a spacing that leaves fewer than 2 cells along an axis, or more particles (an E and an H per cell) than
-    the memory available holds (:func:`warpfree.errors.require_memory`), before anything is allocated."""
+def _require_cells(name: str, cells: float, dim: int, per_axis=None, per_cell: int = 2) -> None:
+    """Refuse a spacing that leaves fewer than 2 cells along an axis, or more particles (``per_cell`` a cell: an E and
+    an H, or an E and two H under Yee's staggering) than the memory available holds
+    (:func:`warpfree.errors.require_memory`), before anything is allocated."""
     per_axis = np.atleast_1d(cells if per_axis is None else per_axis)
     if np.any(np.round(per_axis) < 2):
         raise ParameterError(name, f"leaves fewer than 2 cells along an axis (the region spans {per_axis.tolist()} "
                                    "spacings)")
-    require_memory(name, 2.0 * float(cells), BYTES_PER_PARTICLE, "particles (E and H)")
+    require_memory(name, per_cell * float(cells), BYTES_PER_PARTICLE, "particles (E and H)")
 
 
 def staggered_line(x0: float, x1: float, spacing: float, jitter: float = 0.0, seed: int = 0,
@@ -251,8 +252,9 @@ def graded_nodes(lo: float, hi: float, cells: int, grading: float) -> np.ndarray
 
 def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int = 0,
                   grading: float = 1.0, h_staggering: str = "edges") -> StaggeredLayout:
-    """2D box: E at the lattice nodes (those on the faces flagged ``on_wall``), H at the cell centres or, with
-    ``h_staggering="edges"``, Yee's: Hx at the midpoints of the cell sides along y, Hy along x (none on the faces);
+    """2D box: E at the lattice nodes (those on the faces flagged ``on_wall``), H in Yee's staggering
+    (``h_staggering="edges"``, the default: Hx at the midpoints of the cell sides along y, Hy along x, none on the
+    faces) or at the cell centres (``"centres"``);
     Δ is adjusted per axis to fit whole cells (the larger of the two adjusted spacings is the nominal Δ).
     ``grading`` > 1: the nodes along each axis from :func:`graded_nodes` (the mean spacing stays Δ); each
     particle's local spacing is the larger side of its cell (of the cells around an E node)."""
@@ -264,7 +266,8 @@ def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int =
     _check_staggering(h_staggering)
     if not (np.isfinite(grading) and 1.0 <= grading <= 3.0):
         raise ParameterError("grading", f"must be in [1, 3] (largest over smallest spacing), got {grading}")
-    _require_cells("spacing", np.prod((hi - lo) / spacing), 2, per_axis=(hi - lo) / spacing)
+    _require_cells("spacing", np.prod((hi - lo) / spacing), 2, per_axis=(hi - lo) / spacing,
+                   per_cell=3 if h_staggering == "edges" else 2)
     cells = np.round((hi - lo) / spacing).astype(int)
     nodes = [graded_nodes(lo[a], hi[a], cells[a], grading) for a in range(2)]
     widths = [np.diff(x) for x in nodes]
@@ -295,15 +298,16 @@ def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int =
 
 def staggered_disk(centre, radius: float, spacing: float, jitter: float = 0.0, seed: int = 0,
                    h_staggering: str = "edges") -> StaggeredLayout:
-    """2D disk: lattice nodes (E) farther than Δ/2 from the circle, H points (cell centres, or Yee's side midpoints
-    with ``h_staggering="edges"``) farther than Δ/5 (so that every E node has H particles on its wall side too), and
+    """2D disk: lattice nodes (E) farther than Δ/2 from the circle, H points (Yee's side midpoints, the default
+    ``h_staggering="edges"``, or the cell centres) farther than Δ/5 (so that every E node has H particles on its wall side too), and
     a ring of E particles on the circle at about Δ apart (``on_wall``): the cavity wall."""
     radius = require_positive("radius", radius)
     spacing = require_positive("spacing", spacing)
     j = _check_jitter(jitter)
     _check_staggering(h_staggering)
     c = np.asarray(centre, float)[:2]
-    _require_cells("spacing", np.pi * (radius / spacing) ** 2, 2, per_axis=np.full(2, 2.0 * radius / spacing))
+    _require_cells("spacing", np.pi * (radius / spacing) ** 2, 2, per_axis=np.full(2, 2.0 * radius / spacing),
+                   per_cell=3 if h_staggering == "edges" else 2)
     n = int(np.ceil(radius / spacing)) + 1
     k = np.arange(-n, n + 1)
     gx, gy = np.meshgrid(k * spacing, k * spacing, indexing="ij")
