@@ -81,6 +81,7 @@ def gradient_coefficients(
     first: int,
     scheme: int,
     dim: int,
+    axis: int,
     box: Box,
     rows: NeighbourRows,
     position: wp.array(dtype=wp.vec3),
@@ -92,7 +93,10 @@ def gradient_coefficients(
 ):
     """Per pair (i, j) of row i: g_ij with ∂u/∂x_a (x_i) ≈ Σ_j g_ij,a u_j (1/m), by ``scheme`` (module
     docstring); ``condition[i]``: the Frobenius condition number of the scaled moment matrix (FPM), or
-    the inverse of the smallest relative denominator (CSPM, SPH: 1/min_a |D_a|/Σ|terms|), inf when singular."""
+    the inverse of the smallest relative denominator (CSPM, SPH: 1/min_a |D_a|/Σ|terms|), inf when singular.
+    ``axis`` >= 0 (FPM, Yee's staggering: only ∂/∂x_axis is wanted): where the neighbours lie on the line through
+    x_i along that axis (the other axis's moment below 1e-9 of this one's), the fit is the 1D one along it, as in 1D
+    (on a uniform lattice: Yee's two-point difference); -1: the full gradient."""
     i = first + wp.tid()
     xi = position[i]
     radius = support[i]
@@ -136,13 +140,25 @@ def gradient_coefficients(
             sy += wy
             axx += wp.abs(dx * wx)
             ayy += wp.abs(dy * wy)
-    if dim == 1:
+    along = 0  # 1: the fit is the 1D one along ``axis`` (collinear neighbours)
+    if dim == 2 and axis == 0 and ayy < wp.float64(1.0e-9) * axx:
+        along = 1
+    if dim == 2 and axis == 1 and axx < wp.float64(1.0e-9) * ayy:
+        along = 1
+    if dim == 1 or (along == 1 and axis == 0):
         m[0, 2] = wp.float64(0.0)
         m[1, 2] = wp.float64(0.0)
         m[2, 0] = wp.float64(0.0)
         m[2, 1] = wp.float64(0.0)
         m[2, 2] = wp.float64(1.0)
         ayy = wp.float64(1.0)
+    if along == 1 and axis == 1:
+        m[0, 1] = wp.float64(0.0)
+        m[2, 1] = wp.float64(0.0)
+        m[1, 0] = wp.float64(0.0)
+        m[1, 2] = wp.float64(0.0)
+        m[1, 1] = wp.float64(1.0)
+        axx = wp.float64(1.0)
     dxx = m[1, 1]
     dyy = m[2, 2]
     inv = wp.mat33d()
@@ -169,8 +185,10 @@ def gradient_coefficients(
                 slope = dwq / q
             wx = wp.float64(slope * d[0] * other_volume[j])
             wy = wp.float64(slope * d[1] * other_volume[j])
-            if dim == 1:
+            if dim == 1 or (along == 1 and axis == 0):
                 wy = wp.float64(0.0)
+            if along == 1 and axis == 1:
+                wx = wp.float64(0.0)
             if scheme == FPM:
                 c = inv * wp.vec3d(w, wx, wy)
                 g = wp.vec3(float(c[1]), float(c[2]), 0.0)

@@ -14,12 +14,19 @@ What it measures
     step; error: the scene's mean |Ez - exact| on (0.5, 1.5) m (``warpfree.validation.em_line_1d``). On a uniform
     line SPEM's FPM pair is Yee's difference, so the errors agree and the ratio is the cost of a step.
 
+    ``--case cavity``: the circular cavity of ``scenes/em_cavity_2d.py`` (r0 = 0.1 m, εr = 10, PEC wall, the
+    initial profile 1 - r²/r0²) to t = 5.5 ns at 10, 20, 40, 80 cells per radius, SPEM (E particles on the true
+    circle) against ``fdtd_yee.YeeCavity`` (the wall staircased: nodes at r >= r0 held at 0), both at 0.9 of their
+    stable step; error: mean |Ez - exact| over the E points in the disk against the Bessel series (4.5).
+
 Usage
     python bench/spem/spem_vs_fdtd.py                 # waveguide, 1 thread, ppw 20 40 80 160 320, 3 repeats
     python bench/spem/spem_vs_fdtd.py --case line     # the 1D line, ppw 10 20 40 80 160 320
+    python bench/spem/spem_vs_fdtd.py --case cavity   # the circular cavity, 10 20 40 80 cells per radius
     python bench/spem/spem_vs_fdtd.py --threads 2
     python bench/spem/spem_vs_fdtd.py --quick         # smoke run: ppw 20 40 (line: 10 20), 1 repeat
-Writes bench/results/spem_vs_fdtd[_quick].{json,md,png} (the line: spem_vs_fdtd_line[_quick].*).
+Writes bench/results/spem_vs_fdtd[_quick].{json,md,png} (the line: spem_vs_fdtd_line[_quick].*, the cavity:
+spem_vs_fdtd_cavity[_quick].*).
 """
 
 from __future__ import annotations
@@ -38,7 +45,7 @@ sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this fa
 import common  # noqa: E402
 
 #: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
-RUN_ALL = [[], ["--case", "line"]]
+RUN_ALL = [[], ["--case", "line"], ["--case", "cavity"]]
 
 
 def timed_spem_run(s, t_end: float) -> tuple[float, float, int]:
@@ -135,7 +142,54 @@ def run_fdtd_line(ppw: float, t_end: float, threads: int) -> tuple[float, float,
     return wall, float(err), steps
 
 
-RUNNERS = {"waveguide": (run_spem, run_fdtd), "line": (run_spem_line, run_fdtd_line)}
+CAVITY = dict(radius=0.1, eps_r=10.0)
+
+
+def cavity_error(r: np.ndarray, ez: np.ndarray, t: float) -> float:
+    """The scene's measure: mean |Ez - exact| over the points (the initial peak is 1), the Bessel series (4.5)."""
+    from warpfree.validation.em_cavity_2d import cavity_field
+
+    return float(np.mean(np.abs(ez - cavity_field(r, t, CAVITY["radius"], CAVITY["eps_r"]))))
+
+
+def run_spem_cavity(cells: float, t_end: float, threads: int) -> tuple[float, float, int]:
+    loop = common.build_scene("em_cavity_2d", threads, cells_per_radius=int(cells), t_end=t_end)
+    s = loop.solver
+    start = [a.numpy().copy() for a in (s.state.ez, s.state.ezx, s.state.hx, s.state.hy)]
+    steps = math.ceil(t_end / (0.9 * s.stable_dt()))
+    dt = t_end / steps
+    s.step(dt)  # kernel loading, then the initial state again
+    for a, v in zip((s.state.ez, s.state.ezx, s.state.hx, s.state.hy), start):
+        a.assign(v)
+    s.state.time = 0.0
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        s.step(dt)
+    wall = time.perf_counter() - t0
+    e = s.model.layout.e_position
+    r = np.hypot(e[:, 0] - CAVITY["radius"], e[:, 1] - CAVITY["radius"])
+    return wall, cavity_error(r, s.model.electric.numpy("ez"), t_end - 0.5 * dt), steps
+
+
+def run_fdtd_cavity(cells: float, t_end: float, threads: int) -> tuple[float, float, int]:
+    import warpfree.device
+    from fdtd_yee import YeeCavity
+
+    g = YeeCavity(warpfree.device.use("cpu", threads), CAVITY["radius"], CAVITY["eps_r"], int(cells))
+    steps = math.ceil(t_end / (0.9 * g.stable_dt()))
+    dt = t_end / steps
+    g.step(dt)
+    g.reset()
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        g.step(dt)
+    wall = time.perf_counter() - t0
+    inside = g.r <= CAVITY["radius"]
+    return wall, cavity_error(g.r[inside], g.ez.numpy()[inside], t_end - 0.5 * dt), steps
+
+
+RUNNERS = {"waveguide": (run_spem, run_fdtd), "line": (run_spem_line, run_fdtd_line),
+           "cavity": (run_spem_cavity, run_fdtd_cavity)}
 
 
 def main() -> None:
@@ -149,10 +203,10 @@ def main() -> None:
     ap.add_argument("--t-end", type=float, default=None, help="default: 4.1e-9 s (line: 4.75e-9 s)")
     ap.add_argument("--worker", default=None)
     args = ap.parse_args()
-    line = args.case == "line"
-    args.ppw = args.ppw or ([10, 20, 40, 80, 160, 320] if line else [20, 40, 80, 160, 320])[:2 if args.quick else None]
+    default_ppw = {"line": [10, 20, 40, 80, 160, 320], "cavity": [10, 20, 40, 80]}.get(args.case, [20, 40, 80, 160, 320])
+    args.ppw = args.ppw or default_ppw[:2 if args.quick else None]
     args.repeats = args.repeats or (1 if args.quick else 3)
-    args.t_end = args.t_end or (4.75e-9 if line else 4.1e-9)
+    args.t_end = args.t_end or {"line": 4.75e-9, "cavity": 5.5e-9}.get(args.case, 4.1e-9)
     if args.worker:
         cfg = json.loads(args.worker)
         spem, fdtd = RUNNERS[cfg["case"]]
@@ -174,7 +228,8 @@ def main() -> None:
     ratios = common.equal_error_ratio(rows["spem"], rows["fdtd"])
     md = [f"## SPEM against Yee FDTD, {args.case} to t = {args.t_end:.3g} s ({args.threads} thread(s), "
                   f"median of {args.repeats} runs, steps only)", "",
-          "| particles (cells) per λ | SPEM error | SPEM s | FDTD error | FDTD s |", "| --: | --: | --: | --: | --: |"]
+          f"| {'cells per radius' if args.case == 'cavity' else 'particles (cells) per λ'} | SPEM error | SPEM s | FDTD error | FDTD s |",
+          "| --: | --: | --: | --: | --: |"]
     for a, b in zip(rows["spem"], rows["fdtd"]):
         md.append(f"| {a['ppw']:g} | {a['error']:.3e} | {a['wall_s']:.3f} | {b['error']:.3e} | {b['wall_s']:.3f} |")
     md += ["", "SPEM time / FDTD time at SPEM's error (FDTD interpolated log-log): " +
@@ -184,10 +239,11 @@ def main() -> None:
         ax.loglog([r["wall_s"] for r in rows[code]], [r["error"] for r in rows[code]], mark, label=code.upper())
     ax.set_xlabel("wall s (steps only)")
     ax.set_ylabel("mean |Ez - exact| / amplitude")
-    ax.set_title(f"{'1D line' if line else 'Waveguide'} to {args.t_end * 1e9:.3g} ns: error against wall time")
+    title = {"line": "1D line", "cavity": "Cavity, FDTD wall staircased,"}.get(args.case, "Waveguide")
+    ax.set_title(f"{title} to {args.t_end * 1e9:.3g} ns: error vs wall time")
     ax.legend()
     fig.tight_layout()
-    common.write_results("spem_vs_fdtd_line" if line else "spem_vs_fdtd",
+    common.write_results({"line": "spem_vs_fdtd_line", "cavity": "spem_vs_fdtd_cavity"}.get(args.case, "spem_vs_fdtd"),
                          {"case": args.case, "rows": rows, "ratios": ratios, "threads": args.threads}, "\n".join(md),
                          fig, quick=args.quick)
 

@@ -107,7 +107,7 @@ def test_a_point_source_is_absorbed_by_the_pml_at_every_incidence():
     """A one-particle soft source (Gaussian pulse at 1 GHz, 20 particles per wavelength, Yee's staggering), a 12-cell
     graded PML (n = 3, ψ = 1e-6) one wavelength away; the reflection-free reference is the same run in a domain 3x
     wider; R = max|Ez - Ez_ref| / max|Ez_ref| at probes 2 spacings inside the layer, over 10 periods (the pulse
-    there and back). Measured: -97 dB at normal incidence, -104 dB at 27°, -93 dB at 45° (cell-centred H in the same
+    there and back). Measured: -96 dB at normal incidence, -100 dB at 27°, -93 dB at 45° (cell-centred H in the same
     run: -4, -10, -2 dB). Asserted: -30 dB at each."""
     device.use("cpu", 2)
     f = 1.0e9
@@ -145,9 +145,9 @@ def test_yee_staggering_keeps_each_component_on_its_own_particles():
 
 def test_yee_staggering_halves_the_cavity_frequency_error():
     """TM11 of a 1 x 0.8 m PEC box at Δ = 0.05 m (conservative pair): Yee's staggering is Yee's scheme on this layout,
-    with its dispersion at Δ where the cell-centred layout has the rotated scheme's at √2 Δ. Measured: -0.146 %
-    against -0.31 %, stable step 0.720 against 1.008 Δ/c (Yee's bound Δ/(c√2) = 0.707; the widened supports add
-    small off-axis terms). Asserted: the error below 0.6x the cell-centred one, the step within 0.70-0.75 Δ/c."""
+    with its dispersion at Δ where the cell-centred layout has the rotated scheme's at √2 Δ. Measured: -0.141 %
+    against -0.31 %, stable step 0.711 against 1.008 Δ/c (Yee's bound Δ/(c√2) = 0.707, a finite box's modes just
+    below it). Asserted: the error below 0.6x the cell-centred one, the step within 0.70-0.75 Δ/c."""
     device.use("cpu", 2)
     errors = {}
     for staggering in ("centres", "edges"):

@@ -154,11 +154,15 @@ class SPEMModel:
         self.h_subsets = layout.h_subsets()
         yee = layout.h_carries is not None
         e_support = self._supports(layout.e_position, layout.e_spacing, layout.h_position)
-        if yee:  # enough particles of each component's own set
-            e_support = np.max([self._supports(layout.e_position, layout.e_spacing, layout.h_position[sub])
-                                for sub in self.h_subsets], axis=0)
+        h_support = self._supports(layout.h_position, layout.h_spacing, layout.e_position)
+        if yee:  # enough particles of each component's own set for the one derivative it needs
+            e_support = np.max([self._axis_supports(layout.e_position, layout.e_spacing, layout.h_position[sub], a)
+                                for a, sub in enumerate(self.h_subsets)], axis=0)
+            for a, sub in enumerate(self.h_subsets):
+                h_support[sub] = self._axis_supports(layout.h_position[sub], layout.h_spacing[sub],
+                                                     layout.e_position, a)
         e.add("support", e_support)
-        h.add("support", self._supports(layout.h_position, layout.h_spacing, layout.e_position))
+        h.add("support", h_support)
         e.add("inv_permittivity", 1.0 / (EPS0 * self.eps_r))
         h.add("inv_permeability", 1.0 / (MU0 * self.mu_r))
         e.add("permittivity", EPS0 * self.eps_r)
@@ -234,10 +238,10 @@ class SPEMModel:
             part = self._subset(axis)
             to_whole = sp.csr_matrix((np.ones(sub.size), (np.arange(sub.size), sub)), shape=(sub.size, lay.n_h))
             rows = NeighbourList(NeighbourGrid(self.launcher, self.reach, self.space, part.position), e.position)
-            coefficient = self._coefficients(e, part, rows, self.held)
+            coefficient = self._coefficients(e, part, rows, self.held, axis)
             e_operator.append((self._operator(rows, coefficient, sub.size)[axis] @ to_whole).tocsr())
             rows = NeighbourList(NeighbourGrid(self.launcher, self.reach, self.space, e.position), part.position)
-            coefficient = self._coefficients(part, e, rows, np.zeros(sub.size, bool))
+            coefficient = self._coefficients(part, e, rows, np.zeros(sub.size, bool), axis)
             h_operator.append((to_whole.T @ self._operator(rows, coefficient, lay.n_e)[axis]).tocsr())
         return e_operator, h_operator
 
@@ -331,13 +335,42 @@ class SPEMModel:
             radius = np.maximum(radius, 1.05 * d[:, -1])
         return radius
 
-    def _coefficients(self, s: ParticleSet, other: ParticleSet, rows: NeighbourList, exempt: np.ndarray) -> wp.array:
+    def _axis_supports(self, points: np.ndarray, spacing: np.ndarray, other: np.ndarray, axis: int) -> np.ndarray:
+        """Support radius per particle (m) for the derivative along ``axis`` alone (Yee's staggering): ``support`` ×
+        its spacing, widened to 1.05 × the distance of the k-th nearest of ``other``, k the fewest that fix the
+        derivative: 2 when those two lie on the line through the particle along ``axis`` and no third is inside
+        the support (the 1D fit, Yee's
+        difference on a lattice), 3 when three span a triangle of area at least Δ²/8 (a well-posed 2D linear fit),
+        else 4. Set-up, once."""
+        from scipy.spatial import cKDTree
+
+        radius = self.support * spacing
+        k = min(4, other.shape[0])
+        if k < 2:
+            return radius
+        d, idx = cKDTree(other[:, :2]).query(points[:, :2], k=k)
+        perpendicular = 1 - axis
+        offset = other[idx[:, :2], perpendicular] - points[:, None, perpendicular]
+        on_line = np.all(np.abs(offset) < 1e-6 * spacing[:, None], axis=1)
+        if k >= 3:  # the 1D fit only where nothing off the line is inside the support as well
+            on_line &= d[:, 2] > radius
+        needed = np.full(points.shape[0], k)
+        if k >= 3:
+            p0, p1, p2 = (other[idx[:, n], :2] for n in range(3))
+            u, v = p1 - p0, p2 - p0
+            spread = np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]) / spacing ** 2
+            needed = np.where(spread > 0.25, 3, needed)
+        needed = np.where(on_line, 2, needed)
+        return np.maximum(radius, 1.05 * d[np.arange(points.shape[0]), needed - 1])
+
+    def _coefficients(self, s: ParticleSet, other: ParticleSet, rows: NeighbourList, exempt: np.ndarray,
+                      axis: int = -1) -> wp.array:
         """Derivative coefficients of ``s``'s rows over ``other`` (checked, except for the ``exempt`` particles,
-        which are never updated)."""
+        which are never updated); ``axis`` >= 0: only that derivative is wanted (Yee's staggering)."""
         L = self.launcher
         coef = wp.zeros(max(rows.n_pairs, 1), dtype=wp.vec3, device=L.device)
         condition = wp.zeros(s.n, dtype=float, device=L.device)
-        L.launch(K.gradient_coefficients, s.n, [K.SCHEMES[self.scheme], self.dim, self.space.box, rows.rows,
+        L.launch(K.gradient_coefficients, s.n, [K.SCHEMES[self.scheme], self.dim, axis, self.space.box, rows.rows,
                                                  s.position, s["support"], other.position, other["volume"], coef,
                                                  condition])
         cond = condition.numpy()
