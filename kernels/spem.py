@@ -145,20 +145,18 @@ def gradient_coefficients(
         along = 1
     if dim == 2 and axis == 1 and axx < wp.float64(1.0e-9) * ayy:
         along = 1
-    if dim == 1 or (along == 1 and axis == 0):
-        m[0, 2] = wp.float64(0.0)
-        m[1, 2] = wp.float64(0.0)
-        m[2, 0] = wp.float64(0.0)
-        m[2, 1] = wp.float64(0.0)
-        m[2, 2] = wp.float64(1.0)
-        ayy = wp.float64(1.0)
-    if along == 1 and axis == 1:
-        m[0, 1] = wp.float64(0.0)
-        m[2, 1] = wp.float64(0.0)
-        m[1, 0] = wp.float64(0.0)
-        m[1, 2] = wp.float64(0.0)
-        m[1, 1] = wp.float64(1.0)
-        axx = wp.float64(1.0)
+    if dim == 1 or along == 1:  # drop the axis the neighbours do not span: its row and column become the identity's
+        p = 2
+        if dim == 2 and axis == 1:
+            p = 1
+        for k in range(3):
+            m[p, k] = wp.float64(0.0)
+            m[k, p] = wp.float64(0.0)
+        m[p, p] = wp.float64(1.0)
+        if p == 2:
+            ayy = wp.float64(1.0)
+        else:
+            axx = wp.float64(1.0)
     dxx = m[1, 1]
     dyy = m[2, 2]
     inv = wp.mat33d()
