@@ -61,8 +61,9 @@ def test_diode_below_the_limit_matches_the_steady_beam(tmp_path):
 
 def test_diode_above_the_limit_turns_part_of_the_beam_back(tmp_path):
     """Γ = 2 Γ_CL: a virtual cathode forms; the anode receives less than is injected, at least the Child–Langmuir
-    flux of the gap from a virtual cathode at φ = -v0²/2 (measured 1.055 Γ_CL at 1.5x and 3x alike), the rest
-    returns to the cathode; charge balance to round-off."""
+    flux of the gap from a virtual cathode at φ = -v0²/2 (measured at the scene's defaults: 1.111 Γ_CL at 2x, 1.057 at
+    3x, above steady theory's ~Γ_CL: an open discrepancy), the rest returns to the cathode; charge balance to
+    round-off."""
     device.use("cpu", 2)
     v0 = 0.1
     run = _diode(injected_fraction=2.0, injection_speed=v0, t_end=30.0)
