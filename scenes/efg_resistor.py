@@ -31,7 +31,7 @@ from warpfree.run import OutputOptions, StaticRun
 from warpfree.solvers.efg.boundary import Essential, Free, Interface
 from warpfree.galerkin.node_layouts import grid_nodes
 from warpfree.galerkin.mls import MLSModel, MLSSettings
-from warpfree.galerkin.quadrature import QuadraturePoints, polyline_points, rectangle_cells, segment_points
+from warpfree.galerkin.quadrature import QuadraturePoints, cell_order, polyline_points, rectangle_cells, segment_points
 from warpfree.solvers.efg.solver import PoissonSolver
 from warpfree.validation import efg_resistor as ref
 
@@ -153,11 +153,14 @@ NAMES = {"cells": "per_mm", "order": "gauss", "support": "per_mm, d_max"}
 SMALLEST = {"per_mm": 4}
 
 
-def build(per_mm: int = 13, d_max: float = 1.8, weight: str = "cubic_spline", method: str = "lagrange", gauss: int = 2,
+def build(per_mm: int = 13, d_max: float = 1.8, weight: str = "cubic_spline", method: str = "lagrange",
+          gauss: int | None = None,
           truncation: bool = True, integration: str = "consistent", interface_condition: str = "nitsche",
           basis: str = "linear", frames: bool = True, vtk: bool = True) -> StaticRun:
     """``per_mm``: node spacings per mm (13: 742 nodes, the thesis's 721-node size); ``truncation``: domain
-    truncation at the interface (seed 002 §3.3), else every node serves both materials."""
+    truncation at the interface (seed 002 §3.3), else every node serves both materials; ``gauss``: points per cell
+    side (None: the basis's, ``warpfree.galerkin.quadrature.CELL_ORDER``)."""
+    gauss = cell_order(basis, gauss)
     params = dict(locals())
     require_integer("per_mm", per_mm, minimum=2)
     require_integer("gauss", gauss, minimum=1)

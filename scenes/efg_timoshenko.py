@@ -27,7 +27,7 @@ from warpfree.solvers.efg.boundary import Essential, Natural
 from warpfree.galerkin.node_layouts import box_sides, grid_nodes, random_grid_nodes
 from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.solvers.efg.plots import plot_deformed
-from warpfree.galerkin.quadrature import polyline_points, rectangle_cells
+from warpfree.galerkin.quadrature import cell_order, polyline_points, rectangle_cells
 from warpfree.solvers.efg.solver import ElasticitySolver
 from warpfree.solvers.nem import NEMModel
 from warpfree.validation import efg_timoshenko as beam
@@ -91,12 +91,14 @@ SMALLEST = {"cells_x": 12, "cells_y": 3}
 
 
 def build(cells_x: int = 48, cells_y: int = 12, layout: str = "regular", seed: int = 0, d_max: float = 3.5,
-          weight: str = "cubic_spline", basis: str = "linear", gauss: int = 2, method: str = "lagrange",
+          weight: str = "cubic_spline", basis: str = "linear", gauss: int | None = None, method: str = "lagrange",
           integration: str | None = None, model: str = "efg", refinements: int = 0, magnify: float = 200.0,
           frames: bool = True,
           vtk: bool = True) -> StaticRun:
-    """``cells_x`` x ``cells_y`` node spacings (nodes: one more each way); ``gauss``: points per cell side;
-    ``refinements``: also solve on that many layouts from 6 x 1.5 ... cells doubling (convergence study)."""
+    """``cells_x`` x ``cells_y`` node spacings (nodes: one more each way); ``gauss``: points per cell side (None: the
+    basis's, ``warpfree.galerkin.quadrature.CELL_ORDER``); ``refinements``: also solve on that many layouts from
+    6 x 1.5 ... cells doubling (convergence study)."""
+    gauss = cell_order(basis, gauss)
     params = dict(locals())
     for name in ("cells_x", "cells_y", "gauss", "refinements"):
         require_integer(name, params[name], minimum=0 if name == "refinements" else 1)

@@ -16,7 +16,7 @@ from warpfree.kernels import galerkin as gk
 
 from .shapes import ShapeData, ShapeModel
 
-__all__ = ["consistent_test_gradients"]
+__all__ = ["consistent_test_gradients", "quadratic_consistent_test_gradients"]
 
 
 def consistent_test_gradients(model: ShapeModel, shape: ShapeData, weight, boundary: list,
@@ -58,3 +58,61 @@ def consistent_test_gradients(model: ShapeModel, shape: ShapeData, weight, bound
                                                                      device=dev), regions,
                                                             wp.array(xi, dtype=wp.vec2d, device=dev), out], once=True)
     return out, xi.reshape(n_nodes, regions, 2)
+
+
+def quadratic_consistent_test_gradients(model: ShapeModel, shape: ShapeData, weight, boundary: list,
+                                        point_material=None) -> tuple[wp.array, np.ndarray]:
+    """The quadratic variationally consistent correction (Chen, Hillman & Rüter 2013, §4): ∇ψ_I(x) = ∇φ_I(x) +
+    Σ_p c_{I,p} q_p(x) with q = (1, (x - x_I)/h_I, (y - y_I)/h_I), c_I solved per node and region from the three
+    integration constraints
+
+        Σ_g w_g ∇ψ_I q_p = Σ_b w_b φ_I q_p n_b - Σ_g w_g φ_I ∇q_p,      p = 1, x, y,
+
+    (the divergence theorem for φ_I q_p), which a quadratic field's Galerkin equations need to hold exactly; the
+    linear correction (:func:`consistent_test_gradients`) is its p = 1 part. h_I: the node's spacing. Returns (∇ψ per
+    entry, c_{I,1} (N, regions, 2), the constant part). Set-up, once, float64 in NumPy (3 x 3 solves per node)."""
+    w = np.asarray(weight, dtype=np.float64)
+    n_nodes = model.node_count
+    region = np.zeros(shape.n, dtype=np.int64) if point_material is None else np.asarray(point_material, np.int64)
+    regions = int(region.max()) + 1 if region.size else 1
+    size = n_nodes * regions
+    nodes = np.asarray(model.nodes_np, dtype=np.float64)
+    h = np.broadcast_to(np.asarray(model.spacing, dtype=np.float64), (n_nodes,))
+
+    def monomials(index, points):
+        scale = h[index][:, None]
+        rel = (points - nodes[index]) / scale
+        return np.stack([np.ones(index.size), rel[:, 0], rel[:, 1]], axis=1), 1.0 / scale[:, 0]
+
+    index = shape.rows.index.numpy()[: shape.n_entries].astype(np.int64)
+    key = index * regions + np.repeat(region, shape.counts)
+    entry_weight = np.repeat(w, shape.counts)
+    q, inv_h = monomials(index, np.repeat(np.asarray(shape.points, dtype=np.float64), shape.counts, axis=0))
+    phi = shape.phi.numpy()[: shape.n_entries]
+    d = shape.dphi.numpy()[: shape.n_entries]
+    moment = np.zeros((size, 3, 3))
+    for a in range(3):
+        for b in range(a, 3):
+            moment[:, a, b] = moment[:, b, a] = np.bincount(key, weights=entry_weight * q[:, a] * q[:, b],
+                                                            minlength=size)
+    rhs = np.zeros((size, 2, 3))  # (key, gradient component k, monomial p)
+    for k in range(2):
+        for p in range(3):
+            rhs[:, k, p] -= np.bincount(key, weights=entry_weight * d[:, k] * q[:, p], minlength=size)
+        # - Σ_g w_g φ_I ∂_k q_p: only q_{1+k} = (x_k - x_I,k)/h has a derivative, 1/h
+        rhs[:, k, 1 + k] -= np.bincount(key, weights=entry_weight * phi * inv_h, minlength=size)
+    for bshape, bw, normal, piece_region in boundary:
+        b_index = bshape.rows.index.numpy()[: bshape.n_entries].astype(np.int64)
+        b_key = b_index * regions + max(int(piece_region), 0)
+        b_phi = bshape.phi.numpy()[: bshape.n_entries]
+        bq, _ = monomials(b_index, np.repeat(np.asarray(bshape.points, dtype=np.float64), bshape.counts, axis=0))
+        flux = np.repeat(np.asarray(bw)[:, None] * np.asarray(normal), bshape.counts, axis=0) * b_phi[:, None]
+        for k in range(2):
+            for p in range(3):
+                rhs[:, k, p] += np.bincount(b_key, weights=flux[:, k] * bq[:, p], minlength=size)
+    covered = np.flatnonzero(moment[:, 0, 0] > 0)
+    coefficient = np.zeros((size, 2, 3))
+    coefficient[covered] = np.linalg.solve(moment[covered][:, None], rhs[covered][..., None])[..., 0]
+    corrected = d + np.einsum("ekp,ep->ek", coefficient[key], q)
+    out = wp.array(corrected, dtype=wp.vec2d, device=model.launcher.device)
+    return out, coefficient[:, :, 0].reshape(n_nodes, regions, 2)

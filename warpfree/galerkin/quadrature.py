@@ -21,8 +21,8 @@ from numpy.polynomial.legendre import leggauss
 
 from warpfree.errors import ParameterError, require_finite, require_integer, require_memory
 
-__all__ = ["BoundaryPoints", "QuadraturePoints", "annulus_cells", "arc_points", "bilinear_map", "gauss_legendre",
-           "polyline_points", "quadrilateral_cells", "rectangle_cells", "segment_points", "structured_quadrilateral",
+__all__ = ["CELL_ORDER", "BoundaryPoints", "QuadraturePoints", "cell_order", "annulus_cells", "arc_points",
+           "bilinear_map", "gauss_legendre", "polyline_points", "quadrilateral_cells", "rectangle_cells", "segment_points", "structured_quadrilateral",
            "triangle_cells", "triangle_rule", "TRIANGLE_DEGREES"]
 
 TRIANGLE_DEGREES = (1, 2, 3, 4, 5)  # the total degrees triangle_rule integrates exactly
@@ -128,6 +128,22 @@ def _convex_ccw(name: str, corners) -> np.ndarray:
 
 
 # --- one-dimensional and tensor Gauss rules ---------------------------------------------------------------------
+
+
+#: Gauss points per background-cell side by MLS basis: the fewest that keep the basis's L2 rate on a non-convex domain
+#: with flux boundaries (``warpfree.validation.efg_l_shape``, ``bench/efg/l_shape_rates.py``): the linear basis keeps
+#: its rate at 2 x 2, the quadratic one (with its quadratic consistency correction) needs 3 x 3 (2 x 2: rates 2.0,
+#: 1.7, 2.0; 3 x 3: 2.7, 2.9, 2.7)
+CELL_ORDER = {"linear": 2, "quadratic": 3}
+
+
+def cell_order(basis: str, order: int | None = None) -> int:
+    """``order`` when given, else the basis's :data:`CELL_ORDER`."""
+    if order is not None:
+        return order
+    if basis not in CELL_ORDER:
+        raise ParameterError("basis", f"must be one of {sorted(CELL_ORDER)}, got {basis!r}")
+    return CELL_ORDER[basis]
 
 
 def gauss_legendre(order: int) -> tuple[np.ndarray, np.ndarray]:

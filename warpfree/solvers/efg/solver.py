@@ -31,7 +31,7 @@ from warpfree.solver import OutputSet, StaticSolver
 from warpfree.sparse import FactorisedSystem, PrescribedValues
 
 from warpfree.galerkin import assembly
-from warpfree.galerkin.consistent_integration import consistent_test_gradients
+from warpfree.galerkin.consistent_integration import consistent_test_gradients, quadratic_consistent_test_gradients
 from warpfree.galerkin.quadrature import BoundaryPoints, QuadraturePoints
 from warpfree.galerkin.shapes import ShapeData, ShapeModel
 
@@ -160,7 +160,9 @@ class EFGSolver(StaticSolver):
                 pieces = self._boundary_pieces(essential, natural)
                 self._check_closed(pieces)
                 self._check_nodes_inside([p for _, p, _ in pieces])
-                test, self.correction = consistent_test_gradients(
+                quadratic = getattr(getattr(model, "settings", None), "basis", "linear") == "quadratic"
+                correct = quadratic_consistent_test_gradients if quadratic else consistent_test_gradients
+                test, self.correction = correct(
                     model, self.shape, self.cells.weight, [(sh, p.weight, p.normal, r) for sh, p, r in pieces],
                     self.point_material)
         with self.phases("assembly"):

@@ -1,0 +1,97 @@
+"""EFG Poisson on an L-shaped domain with flux on the re-entrant sides: the L2 error and its rate under refinement.
+
+The manufactured case of ``warpfree/validation/efg_l_shape``: -Δu = s on the L [0, 2]² minus (1, 2]², smooth u,
+u prescribed on the outer sides (Lagrange multipliers), the flux ∂u/∂n on the two re-entrant sides (3 Gauss
+points per node spacing). Regular nodes at spacing 1/``n``, one background cell per node spacing with ``gauss`` x
+``gauss`` points (None: the basis's, ``warpfree.galerkin.quadrature.CELL_ORDER``), the cubic-spline weight,
+consistent integration (its quadratic form for the quadratic basis). Writes into ``summary.json`` the relative L2
+error (3 x 3 Gauss points on a 40 x 40 grid per unit square) and, with ``refinements`` > 0, the errors at
+spacings 1/(n·2^-k) ... and the rates between them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from warpfree.errors import ParameterError, reported_as, require_integer, require_memory, require_positive
+from warpfree.galerkin.mls import MLSModel, MLSSettings
+from warpfree.galerkin.node_layouts import BYTES_PER_NODE
+from warpfree.galerkin.quadrature import QuadraturePoints, cell_order, rectangle_cells, segment_points
+from warpfree.run import OutputOptions, StaticRun
+from warpfree.solvers.efg.boundary import Essential, Natural
+from warpfree.solvers.efg.solver import PoissonSolver
+from warpfree.validation.efg_l_shape import OUTER, SQUARES, exact, exact_gradient, source
+
+NAMES = {"cells": "n", "order": "gauss", "support": "n, d_max"}
+
+#: the smallest run of this scene worth making: the smoke tests, the installed-package test and
+#: bench/compare_commits.py run it (literal values only)
+SMALLEST = {"n": 4}
+
+
+def l_shape_solver(n: int, basis: str = "linear", d_max: float = 2.0, gauss: int | None = None) -> PoissonSolver:
+    """The case's EFG solver (not yet solved) at node spacing 1/n."""
+    order = cell_order(basis, gauss)
+    require_memory("cells", 3.0 * (n + 1.0) ** 2, BYTES_PER_NODE, "nodes")
+    g = np.arange(2 * n + 1) / n
+    x, y = np.meshgrid(g, g, indexing="ij")
+    nodes = np.c_[x.ravel(), y.ravel()]
+    nodes = nodes[~((nodes[:, 0] > 1 + 1e-12) & (nodes[:, 1] > 1 + 1e-12))]
+    parts = [rectangle_cells(lo, hi, (n, n), order) for lo, hi in SQUARES]
+    cells = QuadraturePoints(np.concatenate([q.position for q in parts]), np.concatenate([q.weight for q in parts]),
+                             np.concatenate([q.cell + k * n * n for k, q in enumerate(parts)]))
+    model = MLSModel(nodes, MLSSettings(d_max=d_max, basis=basis))
+
+    def side(a, b):  # a polyline through every boundary node of the side
+        return np.linspace(a, b, int(round(np.linalg.norm(b - a) * n)) + 1)
+
+    essential = [Essential(side(OUTER[k], OUTER[k + 1]), lambda p: exact(p)[:, None], (True,))
+                 for k in range(len(OUTER) - 1)]
+    t = np.arange(n + 1) / n
+    flux = lambda p, normal: np.sum(exact_gradient(p) * normal, axis=1)[:, None]  # noqa: E731
+    natural = [Natural(segment_points(np.c_[2 - t[:-1], np.ones(n)], np.c_[2 - t[1:], np.ones(n)], 3), flux),
+               Natural(segment_points(np.c_[np.ones(n), 1 + t[:-1]], np.c_[np.ones(n), 1 + t[1:]], 3), flux)]
+    return PoissonSolver(model, cells, source=source, essential=essential, natural=natural)
+
+
+def l2_error(solver: PoissonSolver) -> float:
+    """Relative L2 error of a solved :func:`l_shape_solver` over the L."""
+    error = norm = 0.0
+    for lo, hi in SQUARES:
+        q = rectangle_cells(lo, hi, (40, 40), 3)
+        u = exact(q.position)
+        error += float(np.sum(q.weight * (solver.field_at(q.position)[0][:, 0] - u) ** 2))
+        norm += float(np.sum(q.weight * u ** 2))
+    return float(np.sqrt(error / norm))
+
+
+def build(n: int = 16, basis: str = "linear", d_max: float = 2.0, gauss: int | None = None, refinements: int = 0,
+          frames: bool = True, vtk: bool = True) -> StaticRun:
+    """``n``: node spacings per unit length (the L is 2 x 2); ``refinements``: also solve at n/2, n/4, ... (that
+    many coarser levels, each a whole number of at least 2) for the rates."""
+    gauss = cell_order(basis, gauss)
+    params = dict(locals())
+    require_integer("n", n, minimum=2)
+    require_integer("refinements", refinements, minimum=0)
+    require_positive("d_max", d_max)
+    if n >> refinements < 2 or n % (1 << refinements):
+        raise ParameterError("refinements", f"n = {n} halved {refinements} times must stay a whole number of at "
+                                            f"least 2 spacings per unit")
+    with reported_as(**NAMES):
+        solver = l_shape_solver(n, basis, d_max, gauss)
+
+    def accuracy(run, out_dir):
+        result = {"l2_error": l2_error(run.solver), "n": n}
+        if refinements:
+            coarse = []
+            for k in range(refinements, 0, -1):
+                level = l_shape_solver(n >> k, basis, d_max, gauss)
+                level.solve()
+                coarse.append({"n": n >> k, "l2_error": l2_error(level)})
+            errors = [c["l2_error"] for c in coarse] + [result["l2_error"]]
+            result["levels"] = coarse
+            result["rates"] = np.log2(np.asarray(errors[:-1]) / np.asarray(errors[1:])).tolist()
+        return {"l_shape": result}
+
+    return StaticRun(solver, name="efg_l_shape", params=params, analyses=[accuracy],
+                     output=OutputOptions(vtk=vtk, frames=frames), reported_as=NAMES)
