@@ -190,7 +190,6 @@ class YeeCavity:
         self.free = self.r < radius * (1 - 1e-12)
         self.initial = np.where(self.free, 1.0 - (self.r / radius) ** 2, 0.0).astype(np.float32)
         dev = launcher.device
-        self._free_mask = self.free
         self.step_over_eps = wp.zeros(m, dtype=float, device=dev)
         self.ez, self.hx, self.hy = (wp.zeros(m, dtype=float, device=dev) for _ in range(3))
         self.loss_hx = wp.zeros(m, dtype=float, device=dev)
@@ -210,7 +209,7 @@ class YeeCavity:
         L, n, inv = self.launcher, self.n, 1.0 / self.dx
         m = (n + 1) ** 2
         if self.t == 0.0:
-            self.step_over_eps.assign(np.where(self._free_mask, dt / (EPS0 * self.eps_r), 0.0).astype(np.float32))
+            self.step_over_eps.assign(np.where(self.free, dt / (EPS0 * self.eps_r), 0.0).astype(np.float32))
         L.launch(update_e_medium, m, [n, n, inv, self.step_over_eps, self.hx, self.hy, self.ez])
         L.launch(update_h, m, [n, n, float(dt), inv, self.ez, self.loss_hx, self.hx, self.hy])
         self.t += dt

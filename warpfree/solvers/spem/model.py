@@ -227,6 +227,16 @@ class SPEMModel:
             volume[sub] = self._own_set_volume(self._subset(axis)).numpy()
         return volume
 
+    def _component_embedding(self, axis: int) -> sp.csr_matrix:
+        """(|S_a|, n_h) 0/1 matrix placing axis ``axis``'s H particles (``h_subsets``) among the whole H set."""
+        sub = self.h_subsets[axis]
+        return sp.csr_matrix((np.ones(sub.size), (np.arange(sub.size), sub)), shape=(sub.size, self.layout.n_h))
+
+    def electric_operator(self) -> list:
+        """The E rows as host CSR matrices per axis (n_e, n_h), 1/m: ∂Hy/∂x ≈ D[0] Hy, ∂Hx/∂y ≈ D[1] Hx. Set-up or
+        diagnostics only (a host copy)."""
+        return self._operator(self.e_rows, self.e_coefficient, self.layout.n_h)
+
     def _component_operators(self) -> tuple[list, list]:
         """Yee's staggering: per axis a, D_E^a (E rows over the H particles of a's component, ∂/∂x_a of that
         component) and D_H^a (those H particles' rows over E, ∂Ez/∂x_a), each FPM over the component's own
@@ -236,7 +246,7 @@ class SPEMModel:
         e_operator, h_operator = [], []
         for axis, sub in enumerate(self.h_subsets):
             part = self._subset(axis)
-            to_whole = sp.csr_matrix((np.ones(sub.size), (np.arange(sub.size), sub)), shape=(sub.size, lay.n_h))
+            to_whole = self._component_embedding(axis)
             rows = NeighbourList(NeighbourGrid(self.launcher, self.reach, self.space, part.position), e.position)
             coefficient = self._coefficients(e, part, rows, self.held, axis)
             e_operator.append((self._operator(rows, coefficient, sub.size)[axis] @ to_whole).tocsr())
@@ -310,7 +320,7 @@ class SPEMModel:
         else:
             parts = []
             for axis, sub in enumerate(self.h_subsets):
-                to_whole = sp.csr_matrix((np.ones(sub.size), (np.arange(sub.size), sub)), shape=(sub.size, lay.n_h))
+                to_whole = self._component_embedding(axis)
                 ops = [e_operator[axis][:, sub]] * self.dim, [h_operator[axis][sub]] * self.dim
                 part = energy_conserving_pair(xe, xh[sub], self.dim, self.held, ve, vh[sub], *ops, e_reach,
                                               h_reach[sub], lay.spacing, axes=(axis,))

@@ -264,7 +264,7 @@ class SPEMSolver(TimeDependentSolver):
         ez = e.numpy("ez").astype(np.float64)
         hx, hy = h.numpy("hx").astype(np.float64), h.numpy("hy").astype(np.float64)
         if self._curl is None:  # the E rows as host CSR matrices (set-up, once)
-            self._curl = m._operator(m.e_rows, m.e_coefficient, m.layout.n_h)
+            self._curl = m.electric_operator()
         curl = self._curl[0] @ hy - (self._curl[1] @ hx if m.dim > 1 else 0.0)
         ez_next = np.where(self.held.numpy() != 0, ez, ez + dt * e.numpy("inv_permittivity").astype(np.float64) * curl)
         we = 0.5 * np.sum(e.numpy("permittivity") * ez * ez_next * e.numpy("cell_volume"))
