@@ -89,7 +89,7 @@ def interface_terms(
     weight: wp.array(dtype=wp.float64),
     conductivity_a: wp.float64,
     conductivity_b: wp.float64,
-    penalty: wp.float64,
+    penalty: wp.array(dtype=wp.float64),
     slot_start: wp.array(dtype=wp.int32),
     out: Triplets,
 ):
@@ -99,7 +99,7 @@ def interface_terms(
         {k ∂φ/∂n} = ½ (k_a ∇φ^a + k_b ∇φ^b)·n
 
     over the entries of both sides' rows (a node on the interface appears in both): the interface term of the weak
-    form that domain truncation drops, its symmetric partner and a penalty α = β k_max / h (``penalty``)."""
+    form that domain truncation drops, its symmetric partner and a penalty α_g = β k_max / h_g per point (``penalty``)."""
     g = first + wp.tid()
     sa = side_a.rows.start[g]
     na = side_a.rows.count[g]
@@ -109,12 +109,13 @@ def interface_terms(
     s0 = slot_start[g]
     wg = weight[g]
     nv = normal[g]
+    alpha = penalty[g]
     for e in range(n):
         a = interface_entry(e, na, sa, sb, side_a, side_b, conductivity_a, conductivity_b, nv)
         for f in range(n):
             b = interface_entry(f, na, sa, sb, side_a, side_b, conductivity_a, conductivity_b, nv)
             write_triplet(out, s0 + e * n + f, a.node, b.node,
-                          wg * (-b.flux * a.jump - a.flux * b.jump + penalty * a.jump * b.jump))
+                          wg * (-b.flux * a.jump - a.flux * b.jump + alpha * a.jump * b.jump))
 
 
 @wp.kernel

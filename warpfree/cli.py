@@ -142,11 +142,16 @@ def print_summary(summary: dict, out_dir: str) -> None:
     print(f"{summary['scene']}: {done} in {summary['wall_s']:.1f} s"
           + (f", {rate['value']:,.0f} {rate['unit']}" if rate["value"] else "")
           + f" on {summary['device']} x{summary['threads']}")
+    checks = []
     for key, val in summary.get("analysis", {}).items():
         if isinstance(val, dict):
             for k2, v2 in val.items():
                 if isinstance(v2, (int, float)):
                     print(f"  {key}.{k2} = {v2:.4g}")
+            checks += [(f"{key}.{k2}", c) for k2, c in val.get("checks", {}).items()]
+    for name, c in checks:          # validation.tolerance_check records, last so that they are seen
+        print(f"  {'PASS' if c['passed'] else 'FAIL'} {name} = {c['value']:.4g} (reference {c['reference']:.4g}, "
+              f"tolerance {c['tolerance']:.4g}; {c['source']})")
     print(f"outputs in {out_dir}")
 
 

@@ -60,6 +60,11 @@ def consistent_test_gradients(model: ShapeModel, shape: ShapeData, weight, bound
     return out, xi.reshape(n_nodes, regions, 2)
 
 
+#: a node's 3 x 3 moment matrix (its q_p q_q over the region's Gauss points in its support) counts as full rank when
+#: its smallest eigenvalue exceeds this fraction of its largest
+FULL_RANK = 1e-10
+
+
 def quadratic_consistent_test_gradients(model: ShapeModel, shape: ShapeData, weight, boundary: list,
                                         point_material=None) -> tuple[wp.array, np.ndarray]:
     """The quadratic variationally consistent correction (Chen, Hillman & Rüter 2013, §4): ∇ψ_I(x) = ∇φ_I(x) +
@@ -70,7 +75,9 @@ def quadratic_consistent_test_gradients(model: ShapeModel, shape: ShapeData, wei
 
     (the divergence theorem for φ_I q_p), which a quadratic field's Galerkin equations need to hold exactly; the
     linear correction (:func:`consistent_test_gradients`) is its p = 1 part. h_I: the node's spacing. Returns (∇ψ per
-    entry, c_{I,1} (N, regions, 2), the constant part). Set-up, once, float64 in NumPy (3 x 3 solves per node)."""
+    entry, c_{I,1} (N, regions, 2), the constant part). A node whose support meets a region only at Gauss points on a
+    line (rank-deficient moments, :data:`FULL_RANK`) gets the constant part alone there, which keeps p = 1. Set-up,
+    once, float64 in NumPy (3 x 3 solves per node)."""
     w = np.asarray(weight, dtype=np.float64)
     n_nodes = model.node_count
     region = np.zeros(shape.n, dtype=np.int64) if point_material is None else np.asarray(point_material, np.int64)
@@ -110,9 +117,15 @@ def quadratic_consistent_test_gradients(model: ShapeModel, shape: ShapeData, wei
         for k in range(2):
             for p in range(3):
                 rhs[:, k, p] += np.bincount(b_key, weights=flux[:, k] * bq[:, p], minlength=size)
-    covered = np.flatnonzero(moment[:, 0, 0] > 0)
     coefficient = np.zeros((size, 2, 3))
-    coefficient[covered] = np.linalg.solve(moment[covered][:, None], rhs[covered][..., None])[..., 0]
+    covered = moment[:, 0, 0] > 0
+    eig = np.linalg.eigvalsh(moment)
+    full = covered & (eig[:, 0] > FULL_RANK * eig[:, 2])
+    coefficient[full] = np.linalg.solve(moment[full][:, None], rhs[full][..., None])[..., 0]
+    # a node whose support meets the region at Gauss points on a line (a sliver of a cell) cannot carry the linear
+    # part: the constant one alone, the linear correction's (p = 1 holds exactly, x and y as they are)
+    thin = covered & ~full
+    coefficient[thin, :, 0] = rhs[thin, :, 0] / moment[thin, 0, 0][:, None]
     corrected = d + np.einsum("ekp,ep->ek", coefficient[key], q)
     out = wp.array(corrected, dtype=wp.vec2d, device=model.launcher.device)
     return out, coefficient[:, :, 0].reshape(n_nodes, regions, 2)

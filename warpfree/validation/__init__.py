@@ -9,7 +9,7 @@ from importlib import resources
 
 import numpy as np
 
-__all__ = ["read_csv"]
+__all__ = ["read_csv", "tolerance_check"]
 
 
 def read_csv(case: str, filename: str) -> tuple[list[str], np.ndarray]:
@@ -44,3 +44,12 @@ def read_csv(case: str, filename: str) -> tuple[list[str], np.ndarray]:
                          f"{len(header)} columns ({','.join(header)})")
     data = np.array(rows, dtype=np.float64).reshape(len(rows), len(header))
     return header, data
+
+
+def tolerance_check(value: float, tolerance: float, source: str, reference: float = 0.0) -> dict:
+    """A validated quantity as ``summary.json`` reports it: its ``value``, the ``reference`` it is compared with, the
+    ``tolerance`` on |value - reference| (the quantity's own units, or a fraction for relative errors), where the
+    tolerance comes from (``source``), and ``passed``."""
+    value, reference, tolerance = float(value), float(reference), float(tolerance)
+    return {"value": value, "reference": reference, "tolerance": tolerance, "source": source,
+            "passed": bool(abs(value - reference) <= tolerance)}

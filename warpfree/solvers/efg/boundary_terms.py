@@ -51,9 +51,10 @@ def multiplier_matrix(model: ShapeModel, shape: ShapeData, weight, multiplier, m
 
 
 def interface_matrix(model: ShapeModel, side_a: ShapeData, side_b: ShapeData, normal, weight, conductivity_a: float,
-                     conductivity_b: float, penalty: float) -> sp.csr_matrix:
+                     conductivity_b: float, penalty) -> sp.csr_matrix:
     """(N, N) symmetric Nitsche terms on an interface (``kernels/efg.py: interface_terms``): ``side_a`` / ``side_b``
-    the shape functions at the interface points seen from each material, ``normal`` from a to b."""
+    the shape functions at the interface points seen from each material, ``normal`` from a to b, ``penalty`` α per
+    point (1/m · conductivity)."""
     dev, n = model.launcher.device, side_a.n
     starts, total = slot_starts((side_a.counts + side_b.counts) ** 2, dev)
     slots = TripletBuffer(total, dev)
@@ -61,7 +62,9 @@ def interface_matrix(model: ShapeModel, side_a: ShapeData, side_b: ShapeData, no
                                                   wp.array(np.asarray(normal, np.float64), dtype=wp.vec2d, device=dev),
                                                   wp.array(per_point(weight, n, "weight"), dtype=wp.float64,
                                                            device=dev),
-                                                  float(conductivity_a), float(conductivity_b), float(penalty), starts,
+                                                  float(conductivity_a), float(conductivity_b),
+                                                  wp.array(per_point(penalty, n, "penalty"), dtype=wp.float64,
+                                                           device=dev), starts,
                                                   slots.triplets], once=True)
     return to_csr(slots, (model.node_count, model.node_count))
 

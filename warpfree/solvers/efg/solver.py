@@ -25,6 +25,7 @@ from typing import ClassVar
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.spatial import cKDTree
 
 from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.solver import OutputSet, StaticSolver
@@ -386,16 +387,18 @@ class PoissonSolver(EFGSolver):
         self.source = source
 
     def interface_stiffness(self) -> sp.csr_matrix:
-        """Σ over ``interfaces`` of the symmetric Nitsche terms (``boundary_terms.interface_matrix``), α = β k_max / h with
-        h the median node spacing."""
-        h = float(np.median(self.model.spacing))
+        """Σ over ``interfaces`` of the symmetric Nitsche terms (``boundary_terms.interface_matrix``), α = β k_max / h at
+        each point, h the spacing of the node nearest to it (graded layouts keep the penalty in step with the local
+        spacing)."""
+        nearest = cKDTree(self.model.nodes_np)
         K = sp.csr_matrix((self.model.node_count, self.model.node_count))
         for face in self.interfaces:
             p = face.points
             a, b = self._interface_shapes(face)
             ka, kb = self.conductivity[face.inside], self.conductivity[face.outside]
+            h = np.asarray(self.model.spacing, dtype=np.float64)[nearest.query(p.position)[1]]
             K = K + boundary_terms.interface_matrix(self.model, a, b, p.normal, p.weight, ka, kb,
-                                              self.nitsche_penalty * max(ka, kb) / h)
+                                                    self.nitsche_penalty * max(ka, kb) / h)
         return K
 
     def point_conductivity(self) -> np.ndarray:
