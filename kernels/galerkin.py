@@ -1,5 +1,6 @@
 """Galerkin assembly kernels on shape-function rows (any shape model: MLS, NEM), shared by EFG and PIC: stiffness per
-Gauss point into slots or gathered by node rows, loads, consistent test gradients, field evaluation.
+Gauss point into slots or gathered by node rows, loads, consistent test gradients, smoothed (nodally integrated)
+gradients, field evaluation.
 
 Two race-free forms, bitwise the same for any thread count: every Gauss point writes its own slots (triplets, summed
 on the host by ``warpfree.sparse``), or every node gathers the Gauss points in its support and adds each pair into
@@ -256,3 +257,74 @@ def elastic_rows(
                               t[1] * c0[1] + t[0] * c0[2], t[1] * c1[1] + t[0] * c1[2])
             pos = pattern_position(pattern_cols, lo, hi, rows.index[s + b])
             values[pos] = values[pos] + wg * block
+
+
+# --- stabilized conforming nodal integration: smoothed gradients per cell ----------------------------------------
+
+
+@wp.func
+def row_holds(index: wp.array(dtype=wp.int32), lo: int, hi: int, node: int) -> bool:
+    """Does ``index[lo:hi]`` hold ``node``?"""
+    found = bool(False)
+    for k in range(lo, hi):
+        if index[k] == node:
+            found = True
+    return found
+
+
+@wp.kernel
+def smoothed_gradient_rows(
+    first: int,
+    centre: ShapeRows,
+    boundary: ShapeRows,
+    cell_first_point: wp.array(dtype=wp.int32),
+    flux: wp.array(dtype=wp.vec2d),
+    fill: int,
+    rows: NeighbourRows,
+    phi: wp.array(dtype=wp.float64),
+    dphi: wp.array(dtype=wp.vec2d),
+):
+    """Smoothed gradients of cell c (Chen, Wu, Yoon & You 2001, IJNME 50:435, eq 21): ∇̃φ_I(c) =
+    (1/A_c) ∮_{∂Ω_c} φ_I n dΓ = Σ_{b ∈ ∂Ω_c} φ_I(x_b) ``flux[b]``, ``flux[b]`` = w_b n_b / A_c (1/m), over the cell's
+    boundary points ``cell_first_point[c] .. cell_first_point[c + 1] - 1`` (their ``boundary`` rows are contiguous).
+    The row is the union of the centre point's row (φ_I(x_c) kept as the row's value, for loads and u^h at the cell's
+    point) and the boundary points' rows (φ = 0 where only they list a node). ``fill`` 0 writes the row's size into
+    ``rows.count``; 1 writes node ids, φ and ∇̃φ at ``rows.start[c]``. Gather form: thread c writes only its row."""
+    c = first + wp.tid()
+    cs = centre.rows.start[c]
+    ce = cs + centre.rows.count[c]
+    p0 = cell_first_point[c]
+    p1 = cell_first_point[c + 1]
+    bs = int(0)
+    be = int(0)
+    if p1 > p0:
+        bs = boundary.rows.start[p0]
+        be = boundary.rows.start[p1 - 1] + boundary.rows.count[p1 - 1]
+    base = rows.start[c]
+    count = int(0)
+    for k in range(cs, ce):
+        if fill == 1:
+            rows.index[base + count] = centre.rows.index[k]
+            phi[base + count] = centre.phi[k]
+            dphi[base + count] = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+        count += 1
+    for k in range(bs, be):
+        node = boundary.rows.index[k]
+        if not row_holds(centre.rows.index, cs, ce, node) and not row_holds(boundary.rows.index, bs, k, node):
+            if fill == 1:
+                rows.index[base + count] = node
+                phi[base + count] = wp.float64(0.0)
+                dphi[base + count] = wp.vec2d(wp.float64(0.0), wp.float64(0.0))
+            count += 1
+    if fill == 0:
+        rows.count[c] = count
+        return
+    for p in range(p0, p1):
+        fp = flux[p]
+        rs = boundary.rows.start[p]
+        for a in range(boundary.rows.count[p]):
+            node = boundary.rows.index[rs + a]
+            value = boundary.phi[rs + a]
+            for s in range(count):
+                if rows.index[base + s] == node:
+                    dphi[base + s] = dphi[base + s] + value * fp

@@ -39,7 +39,9 @@ def beam_solver(cells_x: int, cells_y: int, layout: str = "regular", seed: int =
                 weight: str = "cubic_spline", basis: str = "linear", gauss: int = 2, method: str = "lagrange",
                 integration: str | None = None, model: str = "efg") -> ElasticitySolver:
     """The beam's solver (not yet solved) on (cells_x + 1)(cells_y + 1) nodes; ``model`` "efg" or "nem" (the
-    natural element method on the same nodes: Delaunay triangles with 3 Gauss points, direct substitution)."""
+    natural element method on the same nodes, direct substitution; by default stabilized conforming nodal integration
+    on the nodes' Voronoi cells, ``integration="gauss"`` or ``"consistent"``: Delaunay triangles with 3 Gauss
+    points). With "scni" the energy-norm error is that of the smoothed strains at the nodes (cell areas as weights)."""
     p = beam.DEFAULTS
     length, depth = p["L"], p["D"]
     lower, upper = (0.0, -depth / 2), (length, depth / 2)
@@ -50,12 +52,13 @@ def beam_solver(cells_x: int, cells_y: int, layout: str = "regular", seed: int =
     else:
         raise ParameterError("layout", f"must be one of {list(LAYOUTS)}, got {layout!r}")
     x = nodes.position
-    # NEM with consistent integration passes the patch test but biases the beam (tip +0.57 % at 2425 nodes, growing
-    # with refinement): its default is the thesis's plain 3-point quadrature
-    integration = integration or ("gauss" if model == "nem" else "consistent")
+    # NEM integrates by default with stabilized conforming nodal integration (smoothing cells, the only integration
+    # of its C0 Laplace functions that converges: bench/results/nem_integration.md); "gauss" and "consistent" on
+    # the Delaunay triangles (3 points) keep an error that refinement does not remove
+    integration = integration or ("scni" if model == "nem" else "consistent")
     if model == "nem":
         shapes, method = NEMModel(x), "direct"
-        cells = shapes.integration_cells()
+        cells = shapes.smoothing_cells() if integration == "scni" else shapes.integration_cells()
     elif model == "efg":
         shapes = MLSModel(x, MLSSettings(basis=basis, weight=weight, d_max=d_max))
         cells = rectangle_cells(lower, upper, (cells_x, cells_y), gauss)
@@ -120,7 +123,7 @@ def build(cells_x: int = 48, cells_y: int = 12, layout: str = "regular", seed: i
             if out_dir:
                 _plot_convergence(os.path.join(out_dir, "convergence.png"), h, e, rate)
         if out_dir:
-            u, _, sig = run.solver.strain_stress_at(run.solver.cells.position)
+            u, _, sig = run.solver.gauss_strain_stress()
             plot_deformed(os.path.join(out_dir, "deformed.png"), run.solver.cells.position, u, sig, magnify,
                       "EFG Timoshenko beam", (8.0, 3.0))
         return result

@@ -8,8 +8,10 @@ What it measures
     * EFG: linear basis, cubic spline, d_max 3.5 (beam) / 2.5 (cylinder), 2 x 2 Gauss points per background cell,
       Lagrange multipliers, consistent integration;
     * NEM: Laplace shape functions on the same nodes, Delaunay triangles with 3 Gauss points (the thesis's rule),
-      direct substitution; plain quadrature (``nem_random``, the thesis's) and consistent integration
-      (``nem_random_consistent``); on the cylinder the domain is the polygon through the boundary nodes (straight
+      direct substitution; plain quadrature (``nem_random``, the thesis's), consistent integration
+      (``nem_random_consistent``) and stabilized conforming nodal integration on the Voronoi cells (``*_scni``, the
+      scenes' default; its energy-norm error is that of the smoothed strains at the nodes, cell areas as weights);
+      on the cylinder the domain is the polygon through the boundary nodes (straight
       chords on the arcs, as straight-sided finite elements).
     Wall times of the whole solve are recorded beside (one run each; bench/efg/efg_vs_fem.py times carefully).
 
@@ -63,7 +65,8 @@ def run_case(case: str, args) -> dict:
     out = {}
     series = {"efg_random": ("efg", "random", None), "efg_regular": ("efg", "regular", None),
               "nem_random": ("nem", "random", "gauss"), "nem_random_consistent": ("nem", "random", "consistent"),
-              "nem_regular": ("nem", "regular", "gauss")}
+              "nem_random_scni": ("nem", "random", "scni"), "nem_regular": ("nem", "regular", "gauss"),
+              "nem_regular_scni": ("nem", "regular", "scni")}
     for key, (model, layout, integration) in series.items():
         seeds = range(1, args.seeds + 1) if layout == "random" else [0]
         rows = [solve(case, n, model, layout, seed, integration) for n in levels for seed in seeds]
@@ -105,8 +108,8 @@ def markdown(result: dict) -> str:
 
 def plot(result: dict):
     fig, axes = common.new_figure(1, 2, figsize=(10, 4))
-    styles = {"efg_random": "o-", "nem_random": "s-", "nem_random_consistent": "^-", "efg_regular": "o:",
-              "nem_regular": "s:"}
+    styles = {"efg_random": "o-", "nem_random": "s-", "nem_random_consistent": "^-", "nem_random_scni": "d-",
+              "efg_regular": "o:", "nem_regular": "s:", "nem_regular_scni": "d:"}
     for ax, case in zip(axes, ("beam", "cylinder")):
         for key, runs in result[case].items():
             s = _summary(runs)

@@ -369,13 +369,14 @@ def test_two_material_layered_conductor_is_exact_with_nitsche_interface(launcher
 
 def test_nem_runs_the_beam_and_cylinder_on_random_nodes(tmp_path):
     """NEM through the same solvers (``model="nem"``). Measured 2026-11-23, random layouts (seed 1), the thesis's
-    3-point quadrature: beam 175 nodes energy-norm error 0.17, tip -0.79 %; cylinder 289 nodes 0.077, u_r(a) 0.4 %;
-    EFG on the same nodes 0.034 / 0.021 (bench/results/efg_vs_nem.md)."""
-    beam = _beam(cells_x=24, cells_y=6, layout="random", seed=1, model="nem")
+    3-point quadrature (``integration="gauss"``; the scenes' default, nodal integration, is tested in tests/nem):
+    beam 175 nodes energy-norm error 0.17, tip -0.79 %; cylinder 289 nodes 0.077, u_r(a) 0.4 %; EFG on the same
+    nodes 0.034 / 0.021 (bench/results/efg_vs_nem.md)."""
+    beam = _beam(cells_x=24, cells_y=6, layout="random", seed=1, model="nem", integration="gauss")
     b = beam.run(str(tmp_path / "beam"), progress=False)["analysis"]["beam"]
     assert b["energy_norm_error"] < 0.25 and abs(b["tip_rel_error"]) < 0.03
     cylinder = load_scene("efg_cylinder").build(
-        layout="random", seed=1, model="nem", frames=False, vtk=False)
+        layout="random", seed=1, model="nem", integration="gauss", frames=False, vtk=False)
     c = cylinder.run(str(tmp_path / "cylinder"), progress=False)["analysis"]["cylinder"]
     assert c["energy_norm_error"] < 0.12 and abs(c["u_r_inner_rel_error"]) < 0.01
 

@@ -6,6 +6,8 @@
 - :mod:`.quadrature`: integration cells and Gauss rules (rectangles, mapped quadrilaterals, ring sectors,
   triangles, boundary segments and arcs);
 - :mod:`.consistent_integration`: test gradients that restore the discrete divergence theorem;
+- :mod:`.nodal_integration`: stabilized conforming nodal integration (smoothing cells of a triangulation, smoothed
+  gradients as shape data);
 - :mod:`.assembly`: stiffness matrices (node rows or triplets) and load vectors;
 - :mod:`.node_layouts`: regular and stratified-random node grids on boxes, quadrilaterals and ring sectors.
 

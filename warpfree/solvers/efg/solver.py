@@ -33,6 +33,7 @@ from warpfree.sparse import FactorisedSystem, PrescribedValues
 
 from warpfree.galerkin import assembly
 from warpfree.galerkin.consistent_integration import consistent_test_gradients, quadratic_consistent_test_gradients
+from warpfree.galerkin.nodal_integration import SmoothingCells, smoothed_shape
 from warpfree.galerkin.quadrature import BoundaryPoints, QuadraturePoints
 from warpfree.galerkin.shapes import ShapeData, ShapeModel
 
@@ -43,7 +44,7 @@ from .plots import von_mises
 __all__ = ["EFGSolver", "PoissonSolver", "ElasticitySolver", "elasticity_matrix", "METHODS"]
 
 METHODS = ("lagrange", "penalty", "direct")
-INTEGRATIONS = ("consistent", "gauss")
+INTEGRATIONS = ("consistent", "gauss", "scni")
 #: relative tolerance of the check that the boundary pieces enclose the cells (∮ x·n dΓ = 2 · area)
 CLOSURE_RTOL = 1e-6
 #: winding number below which a node counts as outside the domain (a boundary node at an interior angle θ has
@@ -77,7 +78,10 @@ class EFGSolver(StaticSolver):
     "penalty" or "direct" (module ``boundary``); penalty: α as a multiple of the largest diagonal entry of K per
     unit boundary weight; integration: "consistent" (test gradients corrected so that the discrete divergence
     theorem holds, ``consistent_test_gradients``: linear fields exact; needs essential + natural + free to
-    cover the whole boundary) or "gauss" (plain Gauss quadrature, the thesis's); interface_condition: "nitsche"
+    cover the whole boundary), "gauss" (plain Gauss quadrature, the thesis's) or "scni" (stabilized conforming
+    nodal integration, ``warpfree.galerkin.nodal_integration``: ``cells`` are then
+    :class:`~warpfree.galerkin.nodal_integration.SmoothingCells`, one per node, and the strains at the nodes are
+    cell averages; linear fields exact; one material, no interfaces); interface_condition: "nitsche"
     (the interface term of the weak form that domain truncation drops, its symmetric partner and a penalty
     ``nitsche_penalty`` · k_max / h: a conforming interface, ``boundary_terms.interface_matrix``) or "none" (truncation
     alone, seed 002's).
@@ -99,6 +103,12 @@ class EFGSolver(StaticSolver):
                                            "(weight='singular'); use 'lagrange' or 'penalty'")
         if integration not in INTEGRATIONS:
             raise ParameterError("integration", f"must be one of {list(INTEGRATIONS)}, got {integration!r}")
+        if (integration == "scni") != isinstance(cells, SmoothingCells):
+            raise ParameterError("cells", "integration='scni' integrates on smoothing cells (SmoothingCells, e.g. "
+                                          "NEMModel.smoothing_cells()) and they need integration='scni', got "
+                                          f"integration={integration!r} with {type(cells).__name__}")
+        if integration == "scni" and (interfaces or cell_material is not None):
+            raise ParameterError("integration", "'scni' is implemented for one material without interfaces")
         self.integration = integration
         self.free = [f if isinstance(f, Free) else Free(f) for f in (free or [])]
         self.interfaces = list(interfaces or [])
@@ -152,7 +162,10 @@ class EFGSolver(StaticSolver):
     def solve(self) -> None:
         model, c = self.model, self.components
         with self.phases("shape functions"):
-            self.shape = model.shape_at(self.cells.position, self.point_material, name="Gauss point")
+            if self.integration == "scni":
+                self.shape = smoothed_shape(model, self.cells)
+            else:
+                self.shape = model.shape_at(self.cells.position, self.point_material, name="Gauss point")
             essential = [] if self.method == "direct" else [self._essential_set(b) for b in self.essential]
             natural = [(nat, self._shape(nat.points.position, nat.material, f"{nat.name} point"))
                        for nat in self.natural]
@@ -467,7 +480,14 @@ class ElasticitySolver(EFGSolver):
         return u, eps, eps @ self.D.T
 
     def gauss_strain(self) -> np.ndarray:
+        """ε at the integration points (with integration="scni": the smoothed strains at the nodes)."""
         return self.strain_from(self.gauss_field()[1])
+
+    def gauss_strain_stress(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(u (n, 2), ε (n, 3), σ (n, 3)) at the integration points, as the stiffness saw them."""
+        u, g = self.gauss_field()
+        eps = self.strain_from(g)
+        return u, eps, eps @ self.D.T
 
     def strain_energy(self) -> float:
         """½ ∫ σ:ε dΩ of the solution (Gauss points)."""

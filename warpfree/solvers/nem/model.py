@@ -5,7 +5,10 @@ A :class:`NEMModel` is a :class:`~warpfree.galerkin.shapes.ShapeModel`, as the M
 ``settings.interpolating`` (True), ``node_material`` (all -1), :meth:`shape_at` returning a
 :class:`~warpfree.galerkin.shapes.ShapeData`, :meth:`evaluate` (its nodal parameters are nodal values: the
 Laplace functions interpolate) and :meth:`describe`; and, NEM's own,
-:meth:`integration_cells`: Gauss points on the Delaunay triangles (the thesis: 3 points per triangle, degree 2).
+:meth:`integration_cells`: Gauss points on the Delaunay triangles (the thesis: 3 points per triangle, degree 2), and
+:meth:`smoothing_cells`: the nodes' Voronoi cells for stabilized conforming nodal integration
+(``warpfree.galerkin.nodal_integration``), the integration under which NEM converges (the Laplace gradients jump
+across circumcircles inside the triangles, which no fixed triangle rule follows).
 
 Shape functions: Laplace / non-Sibsonian (Belikov et al. 1997; Sukumar et al. 2001), seed 003 eqs 3.45-3.46,
 
@@ -48,6 +51,7 @@ from warpfree.device import Launcher, current_launcher
 from warpfree.errors import ParameterError
 from warpfree.kernels import nem as nk
 from warpfree.neighbours import empty_rows, lay_out_rows
+from warpfree.galerkin.nodal_integration import SmoothingCells, triangle_smoothing_cells
 from warpfree.galerkin.quadrature import QuadraturePoints, triangle_cells
 from warpfree.galerkin.shapes import ShapeData, ShapeModel, material_array, points2d
 
@@ -266,6 +270,12 @@ class NEMModel(ShapeModel):
         """Gauss points on the kept Delaunay triangles (``triangle_cells``): degree 2 = 3 points per triangle, the
         thesis's rule (seed 003 §4.1.4); degree 1-5."""
         return triangle_cells(self.nodes_np, self.triangles, degree)
+
+    def smoothing_cells(self, order: int = 1) -> SmoothingCells:
+        """One smoothing cell per node for stabilized conforming nodal integration
+        (``warpfree.galerkin.nodal_integration``): the node's Voronoi cell clipped to the kept triangles (exactly so
+        where no triangle is obtuse), ``order`` Gauss points per cell side."""
+        return triangle_smoothing_cells(self.nodes_np, self.triangles, self.adjacent, order)
 
     def describe(self) -> dict:
         s = self.settings
