@@ -22,7 +22,7 @@ from warpfree.solvers.efg.boundary import Essential, Natural
 from warpfree.galerkin.node_layouts import annulus_nodes
 from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.solvers.efg.plots import plot_deformed
-from warpfree.galerkin.quadrature import annulus_cells, arc_points, polyline_points
+from warpfree.galerkin.quadrature import annulus_cells, arc_points, cell_order, polyline_points
 from warpfree.solvers.efg.solver import ElasticitySolver
 from warpfree.solvers.nem import NEMModel
 from warpfree.validation import efg_cylinder as ring
@@ -32,7 +32,7 @@ LAYOUTS = ("regular", "random")
 
 def cylinder_solver(cells_r: int, cells_t: int, layout: str = "regular", seed: int = 0, d_max: float = 2.5,
                     gauss: int = 2, method: str = "lagrange", integration: str | None = None,
-                    model: str = "efg") -> ElasticitySolver:
+                    model: str = "efg", basis: str = "linear") -> ElasticitySolver:
     """The quarter ring's solver (not yet solved) on (cells_r + 1)(cells_t + 1) polar-grid nodes; ``model`` "efg"
     or "nem" (natural elements on the same nodes: the domain is the polygon through the boundary nodes, Delaunay
     triangles, by default stabilized conforming nodal integration on the nodes' Voronoi cells clipped to them
@@ -58,7 +58,7 @@ def cylinder_solver(cells_r: int, cells_t: int, layout: str = "regular", seed: i
     symmetry = [Essential(bottom, zero, (False, True), name="symmetry_y0"),
                 Essential(left, zero, (True, False), name="symmetry_x0")]
     if model == "efg":
-        shapes = MLSModel(x, MLSSettings(d_max=d_max))
+        shapes = MLSModel(x, MLSSettings(basis=basis, d_max=d_max))
         cells = annulus_cells(a, b, 0.0, math.pi / 2, (cells_r, cells_t), gauss)
         pressure = Natural(arc_points((0, 0), a, 0.0, math.pi / 2, cells_t, 3, outward=False),
                            lambda q, n: ring.traction_on(q, n, plane="strain"), name="pressure")
@@ -103,16 +103,18 @@ SMALLEST = {"cells_r": 4, "cells_t": 4}
 
 
 def build(cells_r: int = 16, cells_t: int = 16, layout: str = "regular", seed: int = 0, d_max: float = 2.5,
-          gauss: int = 2, method: str = "lagrange", integration: str | None = None, model: str = "efg",
-          magnify: float = 50.0,
+          gauss: int | None = None, method: str = "lagrange", integration: str | None = None, model: str = "efg",
+          basis: str = "linear", magnify: float = 50.0,
           frames: bool = True, vtk: bool = True) -> StaticRun:
-    """``cells_r`` x ``cells_t`` polar node spacings (nodes: one more each way)."""
+    """``cells_r`` x ``cells_t`` polar node spacings (nodes: one more each way); ``basis``: EFG's MLS basis, "linear"
+    or "quadratic"; ``gauss``: points per cell side (None: the basis's, ``warpfree.galerkin.quadrature.CELL_ORDER``)."""
+    gauss = cell_order(basis, gauss)
     params = dict(locals())
     for name in ("cells_r", "cells_t", "gauss"):
         require_integer(name, params[name], minimum=1)
     require_positive("magnify", magnify)
     with reported_as(**NAMES):
-        solver = cylinder_solver(cells_r, cells_t, layout, seed, d_max, gauss, method, integration, model)
+        solver = cylinder_solver(cells_r, cells_t, layout, seed, d_max, gauss, method, integration, model, basis)
 
     def accuracy(run, out_dir):
         u, _, sig = run.solver.gauss_strain_stress()

@@ -4,12 +4,13 @@ What it measures
     For each case and resolution, the wall time of a whole solve and its relative energy-norm error against the
     exact solution, for
     * EFG (``scenes/efg_timoshenko.py`` / ``scenes/efg_cylinder.py`` solvers: nodes, supports, shape functions,
-      assembly, Lagrange multipliers, SuperLU), timed from the node layout to the solution;
+      assembly, Lagrange multipliers, SuperLU), timed from the node layout to the solution, with the linear basis
+      (the scenes' default) and the quadratic one (:data:`QUADRATIC`);
     * FEM with linear (P1) and quadratic (P2) triangles from scikit-fem (``pip install scikit-fem``, the bench
       extra), timed from the mesh to the solution: mesh, basis, assembly, the traction load, the Dirichlet values
       interpolated at the boundary DOFs, condensation and a sparse direct solve.
     Errors: sqrt(½ ∫ (ε_h - ε)ᵀ D (ε_h - ε)) / sqrt(½ ∫ εᵀ D ε) by each method's own quadrature (EFG: its 2 x 2
-    Gauss points per cell; FEM: the basis quadrature of order 4). Times: the median of ``--repeats`` solves after a
+    Gauss points per cell, 3 x 3 for the quadratic basis; FEM: the basis quadrature of order 4). Times: the median of ``--repeats`` solves after a
     warm-up (kernel loads). One thread count for all (``--threads``, default all cores). The ratio EFG / FEM at
     equal error is read off the FEM curve (log-log interpolation), as for SPEM against FDTD.
 
@@ -51,18 +52,23 @@ def _timed(fn, repeats: int):
 
 
 # -- EFG -----------------------------------------------------------------------------------------------------
-def efg_beam(n: int):
+#: EFG's quadratic basis: d_max 2.5 (the beam converges at 2.2-2.4 in energy with it, 3.5 jumps between levels),
+#: 3 x 3 Gauss points per cell and its quadratic consistency correction (the solver's default for the basis)
+QUADRATIC = {"basis": "quadratic", "d_max": 2.5, "gauss": 3}
+
+
+def efg_beam(n: int, basis: str = "linear"):
     import efg_timoshenko
 
-    s = efg_timoshenko.beam_solver(4 * n, n)
+    s = efg_timoshenko.beam_solver(4 * n, n, **(QUADRATIC if basis == "quadratic" else {}))
     s.solve()
     return s
 
 
-def efg_cylinder(n: int):
+def efg_cylinder(n: int, basis: str = "linear"):
     import efg_cylinder
 
-    s = efg_cylinder.cylinder_solver(n, n)
+    s = efg_cylinder.cylinder_solver(n, n, **(QUADRATIC if basis == "quadratic" else {}))
     s.solve()
     return s
 
@@ -181,11 +187,13 @@ def fem_error(case: str, basis, u) -> float:
 def run_case(case: str, args) -> dict:
     levels = [2, 4, 8, 16, 32] if not args.quick else [2, 4, 8]
     cyl_levels = [4, 8, 16, 32, 64] if not args.quick else [4, 8]
-    out = {"efg": [], "fem_p1": [], "fem_p2": []}
+    out = {"efg": [], "efg_quadratic": [], "fem_p1": [], "fem_p2": []}
     for n in (levels if case == "beam" else cyl_levels):
-        solve_efg = (lambda n=n: efg_beam(n)) if case == "beam" else (lambda n=n: efg_cylinder(n))
-        t, s = _timed(solve_efg, args.repeats)
-        out["efg"].append({"n": n, "unknowns": 2 * s.model.node_count, "wall_s": t, "error": efg_error(case, s)})
+        for basis, key in (("linear", "efg"), ("quadratic", "efg_quadratic")):
+            solve_efg = (lambda n=n, b=basis: efg_beam(n, b)) if case == "beam" else \
+                (lambda n=n, b=basis: efg_cylinder(n, b))
+            t, s = _timed(solve_efg, args.repeats)
+            out[key].append({"n": n, "unknowns": 2 * s.model.node_count, "wall_s": t, "error": efg_error(case, s)})
         for degree in (1, 2):
             fn = (lambda n=n, d=degree: fem_solve(case, 2 * n if d == 1 else n, d))
             t, (basis, u) = _timed(fn, args.repeats)
@@ -195,6 +203,10 @@ def run_case(case: str, args) -> dict:
                                              f"err {v[-1]['error']:.2e}" for k, v in out.items()), flush=True)
     out["ratio_p1"] = common.equal_error_ratio(out["efg"], out["fem_p1"])
     out["ratio_p2"] = common.equal_error_ratio(out["efg"], out["fem_p2"])
+    out["ratio_quadratic_p2"] = common.equal_error_ratio(out["efg_quadratic"], out["fem_p2"])
+    for key in ("efg", "efg_quadratic", "fem_p2"):       # energy-norm convergence order per level (h halves)
+        e = np.array([x["error"] for x in out[key]])
+        out[f"rates_{key}"] = [float(r) for r in np.log2(e[:-1] / e[1:])]
     return out
 
 
@@ -205,15 +217,20 @@ def markdown(result: dict) -> str:
         r = result[case]
         lines += [f"## {case}", ""]
         rows = []
-        for k in ("efg", "fem_p1", "fem_p2"):
+        for k in ("efg", "efg_quadratic", "fem_p1", "fem_p2"):
             for x in r[k]:
                 rows.append([k, x["n"], x["unknowns"], common.fmt(x["wall_s"]), f"{x['error']:.3e}"])
         lines.append(common.md_table(["method", "level", "unknowns", "wall s", "energy-norm error"], rows))
-        for k in ("ratio_p1", "ratio_p2"):
+        for k, name in (("ratio_p1", "EFG (linear) / FEM P1"), ("ratio_p2", "EFG (linear) / FEM P2"),
+                        ("ratio_quadratic_p2", "EFG (quadratic) / FEM P2")):
             lines.append("")
-            lines.append(f"EFG time / FEM {k[-2:].upper()} time at equal error: " +
+            lines.append(f"{name} time at equal error: " +
                          (", ".join(f"{x['ratio']:.2f} (error {x['error']:.2e})" for x in r[k]) or
                           "no overlap of the error ranges"))
+        lines.append("")
+        lines.append("Energy-norm order per level: " + "; ".join(
+            f"{k.replace('_', ' ')} " + ", ".join(f"{v:.2f}" for v in r[f"rates_{k}"])
+            for k in ("efg", "efg_quadratic", "fem_p2")))
         lines.append("")
     return "\n".join(lines) + "\n"
 
@@ -221,7 +238,7 @@ def markdown(result: dict) -> str:
 def plot(result: dict):
     fig, axes = common.new_figure(1, 2, figsize=(10, 4))
     for ax, case in zip(axes, ("beam", "cylinder")):
-        for k, style in (("efg", "o-"), ("fem_p1", "s--"), ("fem_p2", "^--")):
+        for k, style in (("efg", "o-"), ("efg_quadratic", "D-"), ("fem_p1", "s--"), ("fem_p2", "^--")):
             rows = result[case][k]
             ax.loglog([x["wall_s"] for x in rows], [x["error"] for x in rows], style, label=k.upper().replace("_", " "))
         ax.set_xlabel("wall time (s)")
