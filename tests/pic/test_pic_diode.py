@@ -77,8 +77,8 @@ def test_beam_through_limit_against_its_classical_cases():
 # -- the diode ---------------------------------------------------------------------------------------------------
 def test_diode_below_the_limit_matches_the_steady_beam(tmp_path):
     """Default scene (Γ = Γ_CL / 2, v0 = 0.1, 32 node spacings across the gap): the mean potential within 2e-4 V of
-    the steady profile (measured 4.4e-5; 2.4e-4 at 16 spacings with width 0.5, 2.2e-5 at 64), every injected electron reaches the
-    anode, and the charge in the box equals injected - absorbed to round-off."""
+    the steady profile (measured 4.4e-5; 2.4e-4 at 16 spacings with width 0.5, 2.2e-5 at 64), every injected
+    electron reaches the anode, and the charge in the box equals injected - absorbed to round-off."""
     device.use("cpu", 2)
     run = _diode()
     summary = run.run(str(tmp_path), progress=False)
