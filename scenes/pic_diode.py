@@ -9,10 +9,11 @@ Child–Langmuir flux; the anode at y = d (potential V = ``voltage``) absorbs it
 turned back. The box is periodic along x (``width``: a slab of the infinite planar diode). No background charge.
 
 Below the space-charge limit the flow becomes steady: measured are the nodal potential averaged over the second
-half of the run, evaluated along y, against the steady profile (``warpfree.validation.pic_diode``: φ'' = Γ /
-sqrt(v0² + 2φ)), the anode current against the injected one, and the charge balance (in the box = injected -
-absorbed). Above the limit a virtual cathode turns part of the beam back: the scene reports the transmitted and
-returned currents (no steady profile exists to compare against). Writes ``history.csv``, ``energy.png``,
+half of the run, evaluated along y, against the steady monotone profile (``warpfree.validation.pic_diode``: φ'' =
+Γ / sqrt(v0² + 2φ)), the anode current against the injected one, and the charge balance (in the box = injected -
+absorbed). Steady beam-through states exist up to Γ_max (``beam_through_limit``, reported over Γ_CL; 1.112 Γ_CL at
+v0 = 0.05, V = 1); above it a virtual cathode turns part of the beam back: the scene reports the transmitted and
+returned currents. Writes ``history.csv``, ``energy.png``,
 ``profile.png`` (mean potential and the reference along y), ``phase_space.png`` (y, v_y at the end), particle
 frames and VTU.
 """
@@ -29,7 +30,7 @@ from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.solvers.pic import Injection, PICSolver, PlasmaPoisson, Species
 from warpfree.solvers.pic.scene_tools import POTENTIAL_FRAMES, lattice_nodes, plot_history, walled_box, write_history
 from warpfree.time_loop import TimeLoop
-from warpfree.validation.pic_diode import child_langmuir_flux, steady_potential
+from warpfree.validation.pic_diode import beam_through_limit, child_langmuir_flux, steady_potential
 
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
@@ -79,6 +80,10 @@ def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5
                   "anode_flux": float(anode) + 0.0, "returned_flux": float(returned) + 0.0,
                   "anode_over_injected": float(anode / flux),
                   "anode_over_child_langmuir": float(anode / child_langmuir_flux(voltage, gap)),
+                  "returned_over_injected": float(returned / flux) + 0.0,
+                  "returned_charge": float(-h["wall_charge_lower"][-1]) + 0.0,
+                  "beam_through_limit_over_child_langmuir": float(beam_through_limit(v0, voltage, gap)
+                                                                  / child_langmuir_flux(voltage, gap)),
                   "charge_balance_error": float(np.max(np.abs(balance)) / max(abs(h["injected_charge"][-1]), 1e-300)),
                   "particles": s.count, "nodes": model.node_count}
         curves = {"PIC (mean over the second half)": (y, mean)}

@@ -31,7 +31,9 @@ Two gathers (:class:`~.solver.PICSolver` ``gather=``):
   node layouts :meth:`PlasmaPoisson.nodal_field` takes its antisymmetric part (two more back-substitutions a step),
   with the same result. Energy is then conserved only approximately (finite-grid heating, small while the node
   spacing is below λ_D). The lumped mass is kept: a consistent
-  one amplifies the short-range field of a point charge (``bench/results/pic_design.md``).
+  one amplifies the short-range field of a point charge (``bench/results/pic_design.md``). Between walls the
+  projection tests with ψ_I instead of φ_I (:func:`wall_corrected_test`: the first moment about x_I corrected where a
+  wall cuts the support, G_IJ = ∫ ψ_I ∇φ_J), so that E_I is the field at the node, not half a spacing inside.
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ from warpfree.galerkin.mls import MLSModel
 from warpfree.galerkin.quadrature import rectangle_cells
 from warpfree.sparse import FactorisedSystem, PrescribedValues
 
-__all__ = ["PlasmaPoisson", "ANTISYMMETRY_TOLERANCE"]
+__all__ = ["PlasmaPoisson", "ANTISYMMETRY_TOLERANCE", "wall_corrected_test"]
 
 #: |rᵀ M⁻¹ G S r| relative to |r| |M⁻¹ G S r| above which the momentum gather adds the transposed term
 ANTISYMMETRY_TOLERANCE = 1e-10
@@ -95,10 +97,14 @@ class PlasmaPoisson:
                                                                 system.shape[0]), symmetric_pattern=True)
         self.net_charge_density = 0.0
         gx, gy = shape.gradient_matrices()
-        weighted = sp.diags(self.gauss.weight) @ self.gauss_shape
+        # the momentum gather's test functions: φ_I, with their first moment about x_I corrected at the walls
+        test = (wall_corrected_test(self.gauss_shape, self.gauss.position, self.gauss.weight, model.nodes_np,
+                                    self.length) if self.walled else self.gauss_shape)
+        weighted = sp.diags(self.gauss.weight) @ test
         gradient = [(weighted.T @ gx).tocsr(), (weighted.T @ gy).tocsr()]
-        # G = ∫ φ_I ∇φ_J: antisymmetric exactly in a periodic box (the quadrature's asymmetry, which does not
-        # integrate ∇(φ_I φ_J) to 0 exactly, is removed); walls add their boundary term, kept as assembled
+        # G = ∫ ψ_I ∇φ_J (ψ_I = φ_I in a periodic box): antisymmetric exactly in a periodic box (the quadrature's
+        # asymmetry, which does not integrate ∇(φ_I φ_J) to 0 exactly, is removed); walls add their boundary term,
+        # kept as assembled
         self.gradient = gradient if self.walled else [0.5 * (g - g.T) for g in gradient]
         #: whether the momentum gather needs the second, transposed term (:meth:`nodal_field`): not on a node lattice
         self.antisymmetrise = not self.walled and self._projection_asymmetry() > ANTISYMMETRY_TOLERANCE
@@ -182,3 +188,45 @@ class PlasmaPoisson:
         return {"walls": self.wall_potentials.tolist() if self.walled else None, "cells": list(self.cells),
                 "gauss_points": int(self.gauss.weight.size),
                 "stiffness_nnz": int(self.stiffness.nnz), "factorise_s": self.system.timings["factorise"]}
+
+
+def wall_corrected_test(shape: sp.spmatrix, points: np.ndarray, weights: np.ndarray, nodes: np.ndarray,
+                        length: np.ndarray) -> sp.csr_matrix:
+    """ψ_I(x_g) (n_g × N): the test functions of the lumped projection E_I = (1/m_I) ∫ ψ_I E dΩ, corrected so that
+    E_I is the field at the node, to second order in the spacing, also where a wall cuts φ_I's support.
+
+    The plain lumped projection (ψ_I = φ_I) gives E_I = E(c_I) + O(h²) at the centroid c_I = ∫ φ_I x / ∫ φ_I,
+    which is x_I at an interior lattice node but lies about half a spacing inside the box for a node on or near a
+    wall: there Σ_I φ_I(x) E_I misses E(x) by O(h ∂E), and at a space-charge-limited cathode, where E climbs from 0
+    steeply through the dense slow beam, that error is the largest one in the particles' field
+    (``bench/results/pic_design.md``). The reproducing-kernel correction (Liu, Jun & Zhang 1995, Int. J. Numer.
+    Meth. Fluids 20, 1081: a kernel multiplied by a linear polynomial so that it reproduces constants and linears)
+    gives
+
+        ψ_I(x) = φ_I(x) (a_I + b_I · (x - x_I)),   ∫ ψ_I = m_I,   ∫ ψ_I (x - x_I) = 0,
+
+    i.e. with the moments m_I = ∫ φ_I, μ_I = ∫ φ_I (x - x_I), S_I = ∫ φ_I (x - x_I)(x - x_I)ᵀ:
+    b_I = -a_I S_I⁻¹ μ_I, a_I = m_I / (m_I - μ_Iᵀ S_I⁻¹ μ_I) (> 0 where the 3 × 3 moment matrix of 1, x - x_I is
+    positive definite). Then E_I = E(x_I) + O(h²) for a smooth E, and, the MLS shape functions reproducing linears,
+    the projection adds no O(h) error of its own at a wall: what is left there is the error of ∇u^h itself (first
+    order for the linear basis; ``tests/pic/test_pic.py``). Interior lattice nodes have μ_I = 0 (a_I = 1, b_I = 0,
+    ψ_I = φ_I). The moments are integrated with
+    the Gauss points of K (``points``, ``weights``); offsets along x are minimum images (x periodic, side
+    ``length[0]``). float64.
+    """
+    g = shape.tocoo()
+    offset = points[g.row, :2] - nodes[g.col, :2]
+    offset[:, 0] -= length[0] * np.round(offset[:, 0] / length[0])
+    wphi = weights[g.row] * g.data
+    n = shape.shape[1]
+    mass = np.bincount(g.col, wphi, minlength=n)
+    first = np.stack([np.bincount(g.col, wphi * offset[:, a], minlength=n) for a in range(2)], axis=1)
+    second = np.empty((n, 2, 2))
+    for a in range(2):
+        for b in range(2):
+            second[:, a, b] = np.bincount(g.col, wphi * offset[:, a] * offset[:, b], minlength=n)
+    solved = np.linalg.solve(second, first[:, :, None])[:, :, 0]              # S_I⁻¹ μ_I
+    scale = mass / (mass - np.einsum("na,na->n", first, solved))               # a_I
+    slope = -scale[:, None] * solved                                            # b_I
+    factor = scale[g.col] + np.einsum("ka,ka->k", slope[g.col], offset)
+    return sp.csr_matrix((g.data * factor, (g.row, g.col)), shape=shape.shape)

@@ -12,14 +12,39 @@ Multiplied by φ' and integrated from the cathode (φ'(0) = E0, the potential gr
 
     ½ φ'² = ½ E0² + Γ (sqrt(v0² + 2φ) - v0),   y(φ) = ∫_0^φ dψ / sqrt(E0² + 2Γ (sqrt(v0² + 2ψ) - v0)),
 
-and E0 follows from y(V) = d. A monotone profile needs E0 >= 0; E0 = 0 is the space-charge limit, which for v0 = 0
-is Child's law (Child 1911, Phys. Rev. 32, 492; Langmuir 1913, Phys. Rev. 2, 450):
+and E0 follows from y(V) = d. A monotone profile needs E0 >= 0; E0 = 0 is its limit, which for v0 = 0 is Child's
+law (Child 1911, Phys. Rev. 32, 492; Langmuir 1913, Phys. Rev. 2, 450):
 
     Γ_CL = (4/9) sqrt(2) V^{3/2} / d²   (in SI: J = (4/9) ε0 sqrt(2e/m) V^{3/2} / d²),
 
-with φ = V (y/d)^{4/3}. For v0 > 0 the limit rises a little (Jaffé 1944, Phys. Rev. 65, 91); above it a virtual
-cathode forms and part of the beam returns to the cathode. The integrals are evaluated with the substitution ψ =
-φ t² (which removes the endpoint singularities) by Gauss–Legendre quadrature; E0 by Brent's method.
+with φ = V (y/d)^{4/3}. The integrals are evaluated with the substitution ψ = φ t² (which removes the endpoint
+singularities) by Gauss–Legendre quadrature; E0 by Brent's method.
+
+For v0 > 0 the beam still passes a little above E0 = 0, over a potential minimum φ_m = (v_m² - v0²)/2 inside the gap
+(0 < v_m <= v0, the speed there; Fay, Samuel & Shockley 1938, Bell Syst. Tech. J. 17, 49; Jaffé 1944, Phys. Rev. 65,
+91; Birdsall & Bridges 1966, Electron Dynamics of Diode Regions, ch. 3). The field vanishes at the minimum, so
+½ φ'² = Γ (v - v_m) on both sides, and with dφ = v dv the distance from the minimum to where the speed is v is
+
+    |y - y_m| = G(v - v_m) / sqrt(2Γ),   G(s) = (2/3) s^{3/2} + 2 v_m s^{1/2}.
+
+The cathode (v = v0) and the anode (v = v_a = sqrt(v0² + 2V)) lie on either side, so
+
+    d sqrt(2Γ) = F(v_m) = G(v0 - v_m) + G(v_a - v_m),   Γ(v_m) = F(v_m)² / (2 d²).
+
+v_m = v0 is the monotone profile's limit E0 = 0; v_m -> 0 the two Child-law regions either side of a virtual
+cathode, Γ(0) = (4/9) sqrt(2) ((v0²/2)^{3/4} + (V + v0²/2)^{3/4})² / d², the least flux at which a virtual cathode,
+once formed, can persist. Between them Γ(v_m) peaks where F'(v_m) = Σ (s - v_m)/sqrt(s) = 0 (s = v0 - v_m, v_a -
+v_m): that maximum is the largest flux with a steady beam-through state, above which part of the beam must turn
+back (:func:`beam_through_limit`). All three depend on V, d and v0 through Γ/Γ_CL(V, d) = f(v0²/V) only.
+
+With a steady virtual cathode (v = 0 and E = 0 at φ = -v0²/2, a distance d1 from the cathode) the injected Γ
+splits into Γ_t transmitted and Γ - Γ_t returned; between cathode and virtual cathode both streams pass, so two
+Child-law regions carry 2Γ - Γ_t over the drop v0²/2 and Γ_t over V + v0²/2 (Birdsall & Bridges 1966, ch. 3):
+
+    sqrt(K) ((v0²/2)^{3/4} / sqrt(2Γ - Γ_t) + (V + v0²/2)^{3/4} / sqrt(Γ_t)) = d,   K = (4/9) sqrt(2),
+
+whose left side falls monotonically in Γ_t on (0, Γ] (:func:`virtual_cathode_transmitted_flux`); a root exists
+for Γ above Γ(0).
 """
 
 from __future__ import annotations
@@ -29,7 +54,8 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
-__all__ = ["child_langmuir_flux", "steady_potential", "cathode_gradient"]
+__all__ = ["child_langmuir_flux", "steady_potential", "cathode_gradient", "beam_through_limit",
+           "beam_through_flux", "virtual_cathode_floor", "virtual_cathode_transmitted_flux"]
 
 _T, _W = np.polynomial.legendre.leggauss(200)
 _T = 0.5 * (_T + 1.0)
@@ -51,9 +77,11 @@ def _distance(phi: float, e0: float, flux: float, v0: float) -> float:
 
 
 def cathode_gradient(flux: float, v0: float, voltage: float, gap: float) -> float:
-    """E0 = φ'(0) >= 0 of the steady profile; ValueError above the space-charge limit (no monotone profile)."""
+    """E0 = φ'(0) >= 0 of the steady monotone profile; ValueError above its limit E0 = 0 (Γ(v0) below)."""
     if _distance(voltage, 0.0, flux, v0) < gap:
-        raise ValueError(f"flux {flux:.6g} is above the space-charge limit of this diode (E0 would be < 0)")
+        raise ValueError(f"flux {flux:.6g} is above the space-charge limit of a monotone profile in this diode (E0 "
+                         f"would be < 0; beam-through states, over a potential minimum, end at "
+                         f"{beam_through_limit(v0, voltage, gap):.6g})")
     hi = 2.0 * voltage / gap + 1.0
     return brentq(lambda e0: _distance(voltage, e0, flux, v0) - gap, 0.0, hi, xtol=1e-14, rtol=1e-13)
 
@@ -70,3 +98,62 @@ def steady_potential(y, flux: float, v0: float, voltage: float, gap: float) -> n
         else:
             out.append(brentq(lambda p: _distance(p, e0, flux, v0) - yy, 0.0, voltage, xtol=1e-14, rtol=1e-13))
     return np.asarray(out)
+
+
+def beam_through_flux(speed_at_minimum: float, v0: float, voltage: float, gap: float) -> float:
+    """Γ(v_m) = F(v_m)² / (2 d²), F(v_m) = G(v0 - v_m) + G(v_a - v_m), G(s) = (2/3) s^{3/2} + 2 v_m s^{1/2}: the flux
+    of the steady beam-through state whose potential minimum has speed v_m (0 <= v_m <= v0; v_a = sqrt(v0² + 2V))."""
+    vm = float(speed_at_minimum)
+    if not 0.0 <= vm <= v0:
+        raise ValueError(f"speed_at_minimum must lie in [0, v0 = {v0:.6g}], got {vm!r}")
+    va = math.sqrt(v0 ** 2 + 2.0 * voltage)
+    f = sum(2.0 / 3.0 * s ** 1.5 + 2.0 * vm * math.sqrt(s) for s in (v0 - vm, va - vm))
+    return f * f / (2.0 * gap ** 2)
+
+
+def beam_through_limit(v0: float, voltage: float, gap: float) -> float:
+    """Γ_max = max over 0 <= v_m <= v0 of Γ(v_m) (:func:`beam_through_flux`): the largest flux of a cold beam
+    injected at v0 that a steady state carries through the diode; above it part of the beam turns back. Γ_max /
+    Γ_CL = 1.1119 at v0² / V = 0.0025, 1.2361 at 0.01, -> 1 as v0² / V -> 0. The maximum, where F'(v_m) =
+    (v_a - 2 v_m)/sqrt(v_a - v_m) + (v0 - 2 v_m)/sqrt(v0 - v_m) = 0, is bracketed on a grid v_m = v0 (1 - t²) and
+    refined by Brent's method (F' > 0 at v_m = 0, -> -inf as v_m -> v0)."""
+    if not (v0 > 0.0 and voltage > 0.0 and gap > 0.0):
+        raise ValueError(f"v0, voltage and gap must be > 0, got {v0!r}, {voltage!r}, {gap!r}")
+    va = math.sqrt(v0 ** 2 + 2.0 * voltage)
+
+    def slope(vm):
+        return (va - 2.0 * vm) / math.sqrt(va - vm) + (v0 - 2.0 * vm) / math.sqrt(v0 - vm)
+
+    grid = v0 * (1.0 - np.linspace(0.0, 1.0, 401)[1:] ** 2)[::-1]          # v_m from 0 up to v0 (excluded)
+    values = [beam_through_flux(vm, v0, voltage, gap) for vm in grid]
+    k = int(np.argmax(values))
+    best = [(values[k], grid[k])]
+    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+    if slope(lo) > 0.0 > slope(hi):
+        vm = brentq(slope, lo, hi, xtol=1e-15 * v0, rtol=1e-14)
+        best.append((beam_through_flux(vm, v0, voltage, gap), vm))
+    best.append((beam_through_flux(v0, v0, voltage, gap), v0))
+    return max(best)[0]
+
+
+def virtual_cathode_floor(v0: float, voltage: float, gap: float) -> float:
+    """Γ(0) = (4/9) sqrt(2) ((v0²/2)^{3/4} + (V + v0²/2)^{3/4})² / d²: the two Child-law regions either side of a
+    virtual cathode at φ = -v0²/2 (the least flux at which a steady state with a virtual cathode exists)."""
+    return beam_through_flux(0.0, v0, voltage, gap)
+
+
+def virtual_cathode_transmitted_flux(flux: float, v0: float, voltage: float, gap: float) -> float:
+    """Γ_t of the steady virtual-cathode state at injected flux Γ > Γ(0) (:func:`virtual_cathode_floor`): the root
+    of sqrt(K) ((v0²/2)^{3/4} / sqrt(2Γ - Γ_t) + (V + v0²/2)^{3/4} / sqrt(Γ_t)) = d, by Brent's method; ValueError
+    at or below Γ(0), where no virtual cathode is steady."""
+    floor = virtual_cathode_floor(v0, voltage, gap)
+    if flux <= floor:
+        raise ValueError(f"flux {flux:.6g} is at or below {floor:.6g}, the least flux of a steady virtual cathode")
+    k = 4.0 / 9.0 * math.sqrt(2.0)
+    drop = 0.5 * v0 ** 2
+
+    def excess(transmitted):
+        return math.sqrt(k) * (drop ** 0.75 / math.sqrt(2.0 * flux - transmitted)
+                               + (voltage + drop) ** 0.75 / math.sqrt(transmitted)) - gap
+
+    return brentq(excess, 1e-12 * flux, flux, xtol=1e-15 * flux, rtol=1e-13)
