@@ -52,7 +52,8 @@ def test_standing_wave_frequency_against_linear_theory(tmp_path):
 
     Measured 2026-11-23 (h = 1.6 dx, α = 0.02, δ = 0.1, settled 3 sloshing periods): frequency error +0.93 %,
     decay rate 0.105 1/s, amplitude ratio 0.999; at dx = 0.02: +1.31 %, 0.090 1/s, 1.000; at dx = 0.08: −1.26 %.
-    The frequency does not converge between 0.04 and 0.02 (README in warpfree/validation/standing_wave_2d);
+    The frequency does not converge between 0.04 and 0.02 (README in warpfree/validation/standing_wave_2d): the
+    excess falls with the amplitude (A = 0.04 m: +0.27 %), a stiffness at sub-particle displacements;
     linear theory's own error here is ~0.1 % ((kA)²). Bounds: frequency error within 1.5 %, amplitude ratio
     within 5 %, decay rate below 0.2 1/s (a wave that keeps 55 % of its amplitude over three periods)."""
     device.use("cpu", 2)
