@@ -22,6 +22,9 @@ from warpfree import device
 from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
 from warpfree.solvers.wcsph.scene_tools import hydrostatic_density
 
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = [["--dx", "0.04"], ["--dx", "0.02"]]
+
 
 def wall_stiffness(dx: float, h_factor: float = 1.6, layers: int = 3, settle: float = 2.0,
                    wall_spacing: float = 1.0, length: float = 1.0, depth: float = 0.5, seed: int = 0) -> dict:
