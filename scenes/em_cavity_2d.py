@@ -35,11 +35,12 @@ SMALLEST = {"cells_per_radius": 8, "t_end": 1.0e-9, "output_interval": 0.25e-9}
 def build(radius: float = 0.1, eps_r: float = 10.0, cells_per_radius: int = 20, courant: float = 0.9,
           t_end: float = 5.5e-9, output_interval: float = 0.25e-9, scheme: str = "fpm", support: float = 0.0,
           jitter: float = 0.0, seed: int = 0, conservative: bool | None = None, kronecker: bool = False,
-          h_staggering: str | None = None, frames: bool = True, vtk: bool = True) -> TimeLoop:
+          h_staggering: str | None = None, pair_order: int = 1, frames: bool = True, vtk: bool = True) -> TimeLoop:
     """Times in s, lengths in m; ``support`` 0: 1.1 + 2·jitter spacings (``support_for_jitter``);
     ``h_staggering``: "edges" (Yee's) or "centres" (None: Yee's for FPM, cell centres for the thesis's "cspm" and
     "sph", printed for that layout);
-    ``conservative``: the model's option (None: on for FPM); ``kronecker``: impose the initial profile as the
+    ``conservative``: the model's option (None: on for FPM); ``pair_order``: the conservative pair's (2: also the
+    quadratic moments, for jittered layouts); ``kronecker``: impose the initial profile as the
     SPH interpolant's values (nodal values solved once; "sph"/"cspm" only)."""
     params = dict(locals())
     require_positive("radius", radius)
@@ -50,7 +51,7 @@ def build(radius: float = 0.1, eps_r: float = 10.0, cells_per_radius: int = 20, 
         layout = staggered_disk(centre, radius, spacing, jitter=jitter, seed=seed,
                                 h_staggering=h_staggering or ("edges" if scheme == "fpm" else "centres"))
     model = SPEMModel(layout, scheme=scheme, support=support or support_for_jitter(jitter), eps_r=eps_r,
-                      conservative=conservative)
+                      conservative=conservative, pair_order=pair_order)
     r_e = np.hypot(*(layout.e_position[:, :2] - centre).T)
     solver = SPEMSolver(model, ez=lambda p: 1.0 - np.sum((p[:, :2] - centre) ** 2, axis=1) / radius**2,
                         kronecker=kronecker, courant=courant)

@@ -26,6 +26,11 @@ difference): only entries within ``BAND`` spacings of a violated constraint chan
 uniform layout, everywhere on a jittered one), which keeps the solve small and the uniform interior's rows
 at their 4 terms.
 
+The order-2 pair (``order=2``) adds the quadratic moments Σ_j g_ij (x_j - x_i)_b (x_j - x_i)_c = 0 to (2),
+on a pattern ``QUADRATIC_SHELL`` spacings beyond the support, in least squares (they and (1) cannot all hold on a
+jittered layout); it lowers the jittered cavity's error from 0.63 % to 0.35 % (uniform 0.22 %), at a set-up cost
+that grows fast with the layout (``bench/results/scene_studies.md``).
+
 Units: coefficients in 1/m, volumes in m^dim; solved in float64 in units of the nominal spacing.
 """
 
@@ -46,6 +51,15 @@ __all__ = ["ConservativePair", "energy_conserving_pair", "pattern_reach"]
 #: 2D, 1.5 Δ in 1D, against the nearest at 0.71 Δ and 0.5 Δ)
 NEXT_SHELL = 0.6
 
+#: the pattern's radius beyond the FPM support for the order-2 pair (spacings): its rows fit 6 moments in 2D
+QUADRATIC_SHELL = 1.5
+
+#: the weight w of the order-2 pair's quadratic moments, min |δ|² + w² Σ (quadratic moment)²: they cannot all hold
+#: exactly with (1) (summation by parts would need the volumes to integrate cubic terms exactly, which a jittered
+#: layout's do not), so they are met in least squares; the jittered cavity's error at w = 3, 10, 30, 100:
+#: 0.38, 0.35, 0.37, 0.43 % (``bench/results/scene_studies.md``)
+QUADRATIC_WEIGHT = 10.0
+
 #: half-width (spacings) of the band around the violated constraints in which entries may change
 BAND = 4.0
 
@@ -55,9 +69,10 @@ BAND = 4.0
 RESIDUAL_LIMIT = 1e-4
 
 
-def pattern_reach(support: np.ndarray, spacing: np.ndarray) -> np.ndarray:
-    """Pattern radius per particle (m): its FPM support plus ``NEXT_SHELL`` spacings."""
-    return support + NEXT_SHELL * spacing
+def pattern_reach(support: np.ndarray, spacing: np.ndarray, order: int = 1) -> np.ndarray:
+    """Pattern radius per particle (m): its FPM support plus ``NEXT_SHELL`` spacings (``QUADRATIC_SHELL`` for the
+    order-2 pair)."""
+    return support + (NEXT_SHELL if order == 1 else QUADRATIC_SHELL) * spacing
 
 
 class ConservativePair(NamedTuple):
@@ -87,13 +102,17 @@ class _Constraints(NamedTuple):
     h_col: np.ndarray
 
 
-def _moments(dx: np.ndarray, dim: int) -> list:
-    """The monomials a row must reproduce, 1 and dx_b (lengths in spacings)."""
-    return [np.ones(dx.shape[0])] + [dx[:, b] for b in range(dim)]
+def _moments(dx: np.ndarray, dim: int, order: int = 1) -> list:
+    """The monomials a row must reproduce (lengths in spacings): 1 and dx_b; for ``order`` 2 also dx_b dx_c
+    (b <= c), whose derivative at the row's own particle is zero."""
+    out = [np.ones(dx.shape[0])] + [dx[:, b] for b in range(dim)]
+    if order == 2:
+        out += [dx[:, b] * dx[:, c] for b in range(dim) for c in range(b, dim)]
+    return out
 
 
 def _constraints(e_position, h_position, dim, held, e_volume, h_volume, e_operator, h_operator, e_reach, h_reach,
-                 spacing, axes) -> _Constraints:
+                 spacing, axes, order: int = 1) -> _Constraints:
     """The linear system C d = r of (1)-(2) in the unknown entries d (module docstring), lengths in spacings."""
     xe, xh = e_position[:, :dim] / spacing, h_position[:, :dim] / spacing
     free = np.flatnonzero(~held)
@@ -105,9 +124,9 @@ def _constraints(e_position, h_position, dim, held, e_volume, h_volume, e_operat
     hk, q2 = _pairs(xh, xe[held_idx], h_reach / spacing)
     el = held_idx[q2]
     m1, m2 = ei.size, hk.size
-    e_moments = _moments(xh[ej_h] - xe[ei], dim)
-    h_moments = _moments(xe[ei] - xh[ej_h], dim)
-    held_moments = _moments(xe[el] - xh[hk], dim)
+    e_moments = _moments(xh[ej_h] - xe[ei], dim, order)
+    h_moments = _moments(xe[ei] - xh[ej_h], dim, order)
+    held_moments = _moments(xe[el] - xh[hk], dim, order)
     nc = len(e_moments)
     row_of_free = np.full(n_e, -1)
     row_of_free[free] = np.arange(free.size)
@@ -141,15 +160,19 @@ def _constraints(e_position, h_position, dim, held, e_volume, h_volume, e_operat
 def energy_conserving_pair(e_position: np.ndarray, h_position: np.ndarray, dim: int, held: np.ndarray,
                            e_volume: np.ndarray, h_volume: np.ndarray, e_operator: list, h_operator: list,
                            e_reach: np.ndarray, h_reach: np.ndarray, spacing: float,
-                           axes: tuple[int, ...] | None = None) -> ConservativePair:
+                           axes: tuple[int, ...] | None = None, order: int = 1) -> ConservativePair:
     """The pair nearest the FPM pair (``e_operator``, ``h_operator``: per axis CSR) that satisfies (1) and (2)
     of the module docstring, for the ``axes`` given (default: all; the operators returned are those axes', in
     order): under Yee's staggering each axis has its own H particles (``StaggeredLayout.h_subsets``) and is
-    solved on its own. Raises ParameterError('conservative') when the constraints cannot be met (e.g.
-    walls without held E particles: then (1) needs a boundary term this pair does not have)."""
+    solved on its own. ``order`` 2: also the quadratic moments of (2), in least squares (:data:`QUADRATIC_WEIGHT`;
+    ``e_reach``/``h_reach`` from :func:`pattern_reach` with the same order). Raises ParameterError('conservative')
+    when the constraints cannot be met (e.g. walls without held E particles: then (1) needs a boundary term this
+    pair does not have)."""
     axes = tuple(range(dim)) if axes is None else tuple(axes)
+    if order not in (1, 2):
+        raise ParameterError("pair_order", f"must be 1 or 2, got {order!r}")
     con = _constraints(e_position, h_position, dim, held, e_volume, h_volume, e_operator, h_operator, e_reach,
-                       h_reach, spacing, axes)
+                       h_reach, spacing, axes, order)
     C, m1 = con.matrix, con.e_row.size
     n_e, n_h = e_position.shape[0], h_position.shape[0]
     # only the entries near a violated constraint change (a uniform interior is already Yee's exact pair)
@@ -158,6 +181,7 @@ def energy_conserving_pair(e_position: np.ndarray, h_position: np.ndarray, dim: 
         violated |= np.abs(con.rhs[k] - C @ con.start[k]) > RESIDUAL_LIMIT
     free = np.flatnonzero(~held)
     nc = C.shape[0] // (free.size + n_h)
+    exact_rows = np.arange(C.shape[0]) % nc < 1 + dim          # 1 and the linear moments; the rest (order 2) soft
     where = np.vstack([e_position[free], h_position])[np.flatnonzero(violated.reshape(-1, nc).any(axis=1))]
     entry_at = np.vstack([e_position[con.e_row], h_position[con.h_row]])
     unknown = np.zeros(C.shape[1], bool)
@@ -169,16 +193,25 @@ def energy_conserving_pair(e_position: np.ndarray, h_position: np.ndarray, dim: 
     cu = cu[touched]
     lu = None
     if cu.shape[1]:
-        kkt = sp.bmat([[sp.identity(cu.shape[1]), cu.T], [cu, -1e-13 * sp.identity(cu.shape[0])]]).tocsc()
+        # the soft rows' multipliers carry -1/w² on the diagonal (min |δ|² + w² |C_soft (d0 + δ)|²)
+        diagonal = np.where(exact_rows[touched], 1e-13, 1.0 / QUADRATIC_WEIGHT ** 2)
+        kkt = sp.bmat([[sp.identity(cu.shape[1]), cu.T], [cu, -sp.diags(diagonal)]]).tocsc()
         lu = spla.splu(kkt, permc_spec="MMD_AT_PLUS_A", options=dict(SymmetricMode=True), diag_pivot_thresh=0.0)
     e_out, h_out, change, residual = [], [], 0.0, 0.0
     for k in range(len(axes)):
         d0, rhs = con.start[k], con.rhs[k]
         d = d0.copy()
-        for _ in range(3 if lu is not None else 0):  # the solve, then iterative refinement
-            x = lu.solve(np.concatenate([np.zeros(cu.shape[1]), (rhs - C @ d)[touched]]))
+        if lu is not None and order == 1:
+            for _ in range(3):  # the solve, then iterative refinement
+                x = lu.solve(np.concatenate([np.zeros(cu.shape[1]), (rhs - C @ d)[touched]]))
+                d[unknown] += x[:cu.shape[1]]
+        elif lu is not None:    # refined on the KKT system itself (its soft rows are not meant to vanish)
+            b = np.concatenate([np.zeros(cu.shape[1]), (rhs - C @ d)[touched]])
+            x = lu.solve(b)
+            for _ in range(2):
+                x = x + lu.solve(b - kkt @ x)
             d[unknown] += x[:cu.shape[1]]
-        res = float(np.abs(rhs - C @ d).max())
+        res = float(np.abs(rhs - C @ d)[exact_rows].max())
         residual = max(residual, res)
         change = max(change, float(np.abs(d - d0).max()))
         de = sp.csr_matrix((d[:m1] / spacing, (con.e_row, con.e_col)), shape=(n_e, n_h))

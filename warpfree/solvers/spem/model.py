@@ -118,11 +118,13 @@ class SPEMModel:
         energy and stays exact for linear fields (:mod:`.conservative`): stable on any layout (jittered,
         graded, curved walls), with its step limit computed. Default: on for FPM; off for CSPM and SPH, which
         are kept as the thesis printed them for comparison.
+    pair_order: 1 (exact for linear fields) or 2 (also the quadratic moments, in least squares: lower error on
+        jittered layouts, a set-up that grows fast with the layout; :mod:`.conservative`).
     """
 
     def __init__(self, layout: StaggeredLayout, scheme: str = "fpm", support: float = 1.1, eps_r: Material = 1.0,
                  mu_r: Material = 1.0, pml: PML | None = None, interior=None, pec: bool = True,
-                 conservative: bool | None = None, launcher: Launcher | None = None):
+                 conservative: bool | None = None, pair_order: int = 1, launcher: Launcher | None = None):
         launcher = launcher or current_launcher()
         if scheme not in K.SCHEMES:
             raise ParameterError("scheme", f"must be one of {sorted(K.SCHEMES)}, got {scheme!r}")
@@ -176,6 +178,7 @@ class SPEMModel:
         self.e_rows = NeighbourList(NeighbourGrid(launcher, self.reach, self.space, h.position), e.position)  # E -> H
         self.h_rows = NeighbourList(NeighbourGrid(launcher, self.reach, self.space, e.position), h.position)  # H -> E
         self.conservative = (scheme == "fpm") if conservative is None else require_bool("conservative", conservative)
+        self.pair_order = require_integer("pair_order", pair_order, minimum=1, maximum=2)
         self.conservation = None
         if yee:
             if scheme != "fpm":
@@ -312,18 +315,18 @@ class SPEMModel:
         ve, vh = self.quadrature = lay.quadrature_volumes(xe, xh)
         e.add("cell_volume", ve)  # the energy the pair conserves (``SPEMSolver.energy``)
         h.add("cell_volume", vh)
-        e_reach = pattern_reach(e.numpy("support"), lay.e_spacing)
-        h_reach = pattern_reach(h.numpy("support"), lay.h_spacing)
+        e_reach = pattern_reach(e.numpy("support"), lay.e_spacing, self.pair_order)
+        h_reach = pattern_reach(h.numpy("support"), lay.h_spacing, self.pair_order)
         if lay.h_carries is None:
             pair = energy_conserving_pair(xe, xh, self.dim, self.held, ve, vh, e_operator, h_operator, e_reach,
-                                          h_reach, lay.spacing)
+                                          h_reach, lay.spacing, order=self.pair_order)
         else:
             parts = []
             for axis, sub in enumerate(self.h_subsets):
                 to_whole = self._component_embedding(axis)
                 ops = [e_operator[axis][:, sub]] * self.dim, [h_operator[axis][sub]] * self.dim
                 part = energy_conserving_pair(xe, xh[sub], self.dim, self.held, ve, vh[sub], *ops, e_reach,
-                                              h_reach[sub], lay.spacing, axes=(axis,))
+                                              h_reach[sub], lay.spacing, axes=(axis,), order=self.pair_order)
                 parts.append((part.e_operator[0] @ to_whole, to_whole.T @ part.h_operator[0], part))
             pair = ConservativePair([p[0].tocsr() for p in parts], [p[1].tocsr() for p in parts],
                                     max(p[2].largest_change for p in parts), max(p[2].residual for p in parts))
