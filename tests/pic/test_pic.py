@@ -327,15 +327,21 @@ def _walled(spacing, side=4.0):
     return space, MLSModel(lattice_nodes(space, spacing), MLSSettings(d_max=2.0), space=space)
 
 
+def _charged_slab(spacing: float):
+    """A unit charge density between grounded walls at y = 0 and 4: the field solve, its nodal potential and the
+    Gauss points' heights."""
+    _, model = _walled(spacing)
+    field = PlasmaPoisson(model, walls=(0.0, 0.0))
+    u = field.solve(np.zeros(model.node_count), background_density=1.0)
+    return field, u, field.gauss.position[:, 1]
+
+
 def test_grounded_walls_around_a_charged_slab_give_the_parabola():
     """-u'' = ρ between grounded walls at y = 0 and 4: u = ρ y (4 - y)/2; the walls by collocation multipliers.
     Measured: 2.6e-3 / 6.4e-4 of the peak at spacings 0.5 / 0.25 (second order)."""
     errors = []
     for spacing in (0.5, 0.25):
-        _, model = _walled(spacing)
-        field = PlasmaPoisson(model, walls=(0.0, 0.0))
-        u = field.solve(np.zeros(model.node_count), background_density=1.0)
-        y = field.gauss.position[:, 1]
+        field, u, y = _charged_slab(spacing)
         exact = 0.5 * y * (4.0 - y)
         errors.append(np.max(np.abs(field.gauss_shape @ u - exact)) / exact.max())
     assert errors[0] < 4e-3 and errors[1] < 1e-3
@@ -349,10 +355,7 @@ def test_momentum_gather_field_holds_its_order_up_to_the_walls():
     (the plain lumped projection: 0.126 / 0.063; ∇u^h: 0.035 / 0.017); inside (1 < y < 3) 2.9e-4 / 9.6e-5."""
     errors = []
     for spacing in (0.5, 0.25):
-        _, model = _walled(spacing)
-        field = PlasmaPoisson(model, walls=(0.0, 0.0))
-        u = field.solve(np.zeros(model.node_count), background_density=1.0)
-        y = field.gauss.position[:, 1]
+        field, u, y = _charged_slab(spacing)
         error = np.abs(field.gauss_shape @ field.nodal_field(u)[:, 1] + (2.0 - y)) / 2.0
         errors.append((error.max(), error[(y > 1.0) & (y < 3.0)].max()))
     assert errors[0][0] < 0.012 and errors[1][0] < 0.006
