@@ -473,11 +473,13 @@ class ElasticitySolver(EFGSolver):
         """Engineering strains [ε_xx, ε_yy, γ_xy] (n, 3) from ∇u (n, 2, 2) (row: component, column: ∂/∂x_b)."""
         return np.stack([gradient[:, 0, 0], gradient[:, 1, 1], gradient[:, 0, 1] + gradient[:, 1, 0]], axis=1)
 
+    def _strain_stress(self, u: np.ndarray, gradient: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        eps = self.strain_from(gradient)
+        return u, eps, eps @ self.D.T
+
     def strain_stress_at(self, points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(u (n, 2), ε (n, 3), σ (n, 3)) at ``points``."""
-        u, g = self.field_at(points)
-        eps = self.strain_from(g)
-        return u, eps, eps @ self.D.T
+        return self._strain_stress(*self.field_at(points))
 
     def gauss_strain(self) -> np.ndarray:
         """ε at the integration points (with integration="scni": the smoothed strains at the nodes)."""
@@ -485,9 +487,7 @@ class ElasticitySolver(EFGSolver):
 
     def gauss_strain_stress(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(u (n, 2), ε (n, 3), σ (n, 3)) at the integration points, as the stiffness saw them."""
-        u, g = self.gauss_field()
-        eps = self.strain_from(g)
-        return u, eps, eps @ self.D.T
+        return self._strain_stress(*self.gauss_field())
 
     def strain_energy(self) -> float:
         """½ ∫ σ:ε dΩ of the solution (Gauss points)."""

@@ -201,11 +201,7 @@ def energy_conserving_pair(e_position: np.ndarray, h_position: np.ndarray, dim: 
     for k in range(len(axes)):
         d0, rhs = con.start[k], con.rhs[k]
         d = d0.copy()
-        if lu is not None and order == 1:
-            for _ in range(3):  # the solve, then iterative refinement
-                x = lu.solve(np.concatenate([np.zeros(cu.shape[1]), (rhs - C @ d)[touched]]))
-                d[unknown] += x[:cu.shape[1]]
-        elif lu is not None:    # refined on the KKT system itself (its soft rows are not meant to vanish)
+        if lu is not None:      # the solve, refined twice on the KKT system itself (soft rows need not vanish)
             b = np.concatenate([np.zeros(cu.shape[1]), (rhs - C @ d)[touched]])
             x = lu.solve(b)
             for _ in range(2):
