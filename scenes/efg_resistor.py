@@ -99,6 +99,16 @@ def _line_field(solver: PoissonSolver, line: dict) -> tuple[np.ndarray, np.ndarr
     return v[:, 0], -g[:, 0, :]
 
 
+def interface_fields(solver: PoissonSolver):
+    """Along the interface, x in 1.1..1.9 mm (m): x, the normal-current mismatch σ1 E_y(below) / σ2 E_y(above) - 1,
+    and E (V/m) just below and just above."""
+    lines = ref.lines()
+    below, above = lines["interface_below"], lines["interface_above"]
+    keep = (below["x"] > 1.1 * MM) & (below["x"] < 1.9 * MM)
+    e_below, e_above = _line_field(solver, below)[1][keep], _line_field(solver, above)[1][keep]
+    return below["x"][keep], SIGMA[0] * e_below[:, 1] / (SIGMA[1] * e_above[:, 1]) - 1.0, e_below, e_above
+
+
 def resistor_errors(solver: PoissonSolver) -> dict:
     """Errors against the reference (module docstring)."""
     lines = ref.lines()
@@ -129,17 +139,13 @@ def resistor_errors(solver: PoissonSolver) -> dict:
     out["potential_uniform_mean_error"] = float(err.mean())
     out["potential_uniform_max_error"] = float(err.max())
     out["potential_uniform_max_error_beyond_corners"] = float(err[~near].max())
-    below, above = lines["interface_below"], lines["interface_above"]
-    keep = (below["x"] > 1.1 * MM) & (below["x"] < 1.9 * MM)
-    _, e_below = _line_field(solver, below)
-    _, e_above = _line_field(solver, above)
-    jn = SIGMA[0] * e_below[keep, 1] / (SIGMA[1] * e_above[keep, 1]) - 1.0
+    x, jn, e_below, e_above = interface_fields(solver)
     out["normal_current_max_mismatch"] = float(np.abs(jn).max())
     out["normal_current_mean_mismatch"] = float(np.abs(jn).mean())
-    middle = (below["x"][keep] > 1.4 * MM) & (below["x"][keep] < 1.6 * MM)      # farthest from the singular corners
+    middle = (x > 1.4 * MM) & (x < 1.6 * MM)      # farthest from the singular corners
     out["normal_current_middle_mean_mismatch"] = float(np.abs(jn[middle]).mean())
-    out["tangential_field_max_mismatch"] = float(np.abs(e_below[keep, 0] - e_above[keep, 0]).max()
-                                                 / np.abs(e_above[keep, 1]).max())
+    out["tangential_field_max_mismatch"] = float(np.abs(e_below[:, 0] - e_above[:, 0]).max()
+                                                 / np.abs(e_above[:, 1]).max())
     bottom = segment_points(np.array([[0.0, 0.0]]), np.array([[3 * MM, 0.0]]), 48)
     _, g = solver.field_at(bottom.position, np.zeros(len(bottom.weight), dtype=int)
                            if solver._node_point_material() is not None else None)
@@ -197,32 +203,51 @@ def build(per_mm: int = 40, d_max: float = 2.5, weight: str = "cubic_spline", me
         result["checks"] = resistor_checks(result)
         line = ref.lines()["crossing"]
         v, e = _line_field(run.solver, line)
-        _plot_line(os.path.join(out_dir, "lines.png"), line, v, np.hypot(*e.T))
+        _plot_line(os.path.join(out_dir, "lines.png"), line, v, np.hypot(*e.T), interface_fields(run.solver)[:2],
+                   result["checks"]["normal_current_mean_mismatch"]["tolerance"])
         return {"resistor": result}
 
     return StaticRun(solver, name="efg_resistor", params=params, analyses=[accuracy],
                      output=OutputOptions(vtk=vtk, frames=frames), reported_as=NAMES)
 
 
-def _plot_line(path, line, v, e):
+def _plot_line(path, line, v, e, interface, tolerance: float):
+    """The crossing line against the reference (above) and the errors (below): V and |E| along the line, and the
+    normal-current mismatch along the interface with its tolerance."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (a, b) = plt.subplots(1, 2, figsize=(9, 3.5), dpi=120)
+    fig, ((a, b, c), (ea, eb, ec)) = plt.subplots(2, 3, figsize=(13, 6), dpi=110, sharex="col",
+                                                  gridspec_kw={"height_ratios": (3, 2)})
     y = line["y"] / MM
     a.plot(y, line["V"], "k-", lw=1, label="Q9 FEM reference")
     a.plot(y, v, "--", label="EFG")
-    a.set_xlabel("y (mm), x = 1.5 mm")
     a.set_ylabel("V (V)")
     b.plot(y, line["E"], "k-", lw=1, label="Q9 FEM reference")
     b.plot(y, e, "--", label="EFG")
-    b.set_xlabel("y (mm), x = 1.5 mm")
     b.set_ylabel("|E| (V/m)")
-    for ax in (a, b):
+    ea.plot(y, (v - line["V"]) * 1e3, "C0-", lw=1)
+    ea.set_ylabel("V − reference (mV)")
+    eb.plot(y, (e / line["E"] - 1.0) * 100, "C0-", lw=1)
+    eb.set_ylabel("|E| / reference − 1 (%)")
+    for ax in (ea, eb):
+        ax.set_xlabel("y (mm), x = 1.5 mm")
+    for ax in (a, b, ea, eb):
         ax.axvline(1.0, color="0.7", lw=0.8)
+    for ax in (a, b):
         ax.legend(fontsize=7)
-    fig.suptitle("Two-material resistor: the crossing line")
+    x, jn = interface
+    c.axis("off")
+    c.text(0.0, 0.5, f"normal current σ1 E_y(below) / σ2 E_y(above) − 1\nalong the interface y = 1 mm:\n"
+                     f"mean |·| {np.abs(jn).mean() * 100:.3f} %, largest {np.abs(jn).max() * 100:.3f} %\n"
+                     f"tolerance (mean) {tolerance * 100:g} %", fontsize=9, va="center", transform=c.transAxes)
+    ec.plot(x / MM, jn * 100, "C0-", lw=1, label="EFG")
+    ec.axhspan(-tolerance * 100, tolerance * 100, color="C2", alpha=0.2, label=f"±{tolerance * 100:g} %")
+    ec.set_xlabel("x (mm), y = 1 mm")
+    ec.set_ylabel("normal-current mismatch (%)")
+    ec.legend(fontsize=7)
+    fig.suptitle("Two-material resistor against the Q9 FEM reference")
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
