@@ -50,7 +50,7 @@ ROOT = BENCH.parent
 #: families run first, in this order; any other family folder follows, alphabetically
 FAMILY_ORDER = ("core", "wcsph", "spem", "efg", "pic")
 #: folders under bench/ that are not families
-NOT_FAMILIES = {"results", "__pycache__"}
+NOT_FAMILIES = {"results", "work", "__pycache__"}
 
 
 @dataclass

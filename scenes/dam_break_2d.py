@@ -23,7 +23,7 @@ import numpy as np
 from warpfree.geometry import lattice_box
 from warpfree.errors import ParameterError, reported_as
 from warpfree.solvers.wcsph.scene_tools import (box_2d, box_walls_2d, front_position, hydrostatic_density,
-                                                 require_scene_values)
+                                                 require_scene_values, require_wall_cover)
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
 from warpfree.time_loop import TimeLoop
@@ -61,6 +61,7 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
                          wall_artificial_viscosity=wall_artificial, lj_d=2.0 * g * height,
                          lj_r0=dx if boundary_model == "lennard_jones" else wall_safety * dx,
                          container_lo=(0.0, 0.0, -1.0), container_hi=(length, top, 1.0))
+        require_wall_cover(wall_layers, dx, fp.support, fp.boundary_model)
         model = WCSPHModel(fluid, walls, fp, containers=[box_2d(length, top)])
         solver = WCSPHSolver(model, density=hydrostatic_density(fluid[:, 1], height, rho0, c0, g))
 

@@ -23,7 +23,8 @@ import numpy as np
 from warpfree.geometry import fill_mesh, load_mesh
 from warpfree.solvers.wcsph.surface_layers import surface_layers
 from warpfree.errors import ParameterError, reported_as
-from warpfree.solvers.wcsph.scene_tools import clear_of, hydrostatic_density, require_scene_values
+from warpfree.solvers.wcsph.scene_tools import (clear_of, hydrostatic_density, require_scene_values,
+                                                 require_wall_cover)
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
 from warpfree.time_loop import TimeLoop
@@ -71,6 +72,7 @@ def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
         fp = FluidParams(dim=3, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
                          delta=delta, gravity=(0.0, 0.0, -g), cfl=cfl, lj_d=2.0 * g * column_height,
                          lj_r0=wall_safety * dx, container_lo=tuple(lo), container_hi=tuple(hi))
+        require_wall_cover(wall_layers, dx, fp.support, fp.boundary_model)
         density = hydrostatic_density(fluid[:, 2], lo[2] + column_height, rho0, c0, g)
         model = WCSPHModel(fluid, walls, fp, obstacle_boundary=obstacle_walls, containers=[tank],
                            obstacles=[obstacle] if obstacle is not None else [])

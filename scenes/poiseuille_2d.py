@@ -24,7 +24,6 @@ now divides the laminar term by S (``warpfree.solvers.wcsph.model.lattice_second
 model's ``viscosity_factor``), and the error against the series converges.
 """
 
-import math
 import os
 
 import numpy as np
@@ -34,7 +33,7 @@ from warpfree.geometry import lattice_box
 from warpfree.kernels.smoothing import KERNELS
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
-from warpfree.solvers.wcsph.scene_tools import require_scene_values
+from warpfree.solvers.wcsph.scene_tools import require_scene_values, require_wall_cover
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import poiseuille_2d as exact
 
@@ -76,10 +75,7 @@ def build(n: int = 40, width: float = 1.0e-3, channel_length: float = 1.0e-3, nu
     if channel_length < 2.0 * support * 1.15:
         raise ParameterError("channel_length", f"must hold two neighbour radii, >= {2.3 * support:.6g} m at this "
                                                f"resolution, got {channel_length}")
-    if wall_layers * dx < support - 0.5 * dx:  # the fluid row nearest a wall stands dx/2 from it
-        raise ParameterError("wall_layers", f"{wall_layers} layers of {dx:.6g} m do not cover the kernel support "
-                                            f"{support:.6g} m of the fluid row dx/2 from the wall: need >= "
-                                            f"{math.ceil((support - 0.5 * dx) / dx - 1e-9)}")
+    require_wall_cover(wall_layers, dx, support)
     u_c = exact.centre_velocity(force, nu, width)
     c0 = u_c / mach
     with reported_as(dx="n, channel_length, wall_layers"):  # the count: channel_length/dx x (n + 2 wall_layers)

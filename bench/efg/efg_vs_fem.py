@@ -148,8 +148,26 @@ def fem_solve(case: str, n: int, degree: int):
     else:
         dofs = np.concatenate([basis.get_dofs(lambda x: np.isclose(x[1], 0.0)).keep("u^2").flatten(),   # u_y = 0
                                basis.get_dofs(lambda x: np.isclose(x[0], 0.0)).keep("u^1").flatten()])  # u_x = 0
-    u = solve(*condense(K, f, x=u, D=dofs))
+    system = condense(K, f, x=u, D=dofs)
+    u = solve(*system)
+    fem_solve.last_matrix = system[0]       # the condensed stiffness, for factor_stats
     return basis, u
+
+
+def factor_stats(matrix) -> dict:
+    """Size, entries per row, LU fill and factorisation time of ``matrix`` under one SuperLU setting for both
+    methods (the EFG solver's: minimum degree on Aᵀ + A, diagonal pivots, ``warpfree.sparse.FactorisedSystem``)."""
+    import scipy.sparse.linalg as spla
+
+    from warpfree.sparse import FactorisedSystem
+
+    a = matrix.tocsc()
+    start = time.perf_counter()
+    lu = spla.splu(a, permc_spec="MMD_AT_PLUS_A", options=dict(SymmetricMode=True),
+                   diag_pivot_thresh=FactorisedSystem.SYMMETRIC_PIVOT_THRESHOLD)
+    seconds = time.perf_counter() - start
+    return {"rows": int(a.shape[0]), "entries_per_row": a.nnz / a.shape[0], "fill": int(lu.L.nnz + lu.U.nnz),
+            "factor_s": seconds}
 
 
 def fem_error(case: str, basis, u) -> float:
@@ -187,7 +205,7 @@ def fem_error(case: str, basis, u) -> float:
 def run_case(case: str, args) -> dict:
     levels = [2, 4, 8, 16, 32] if not args.quick else [2, 4, 8]
     cyl_levels = [4, 8, 16, 32, 64] if not args.quick else [4, 8]
-    out = {"efg": [], "efg_quadratic": [], "fem_p1": [], "fem_p2": []}
+    out = {"efg": [], "efg_quadratic": [], "fem_p1": [], "fem_p2": [], "factor": []}
     for n in (levels if case == "beam" else cyl_levels):
         for basis, key in (("linear", "efg"), ("quadratic", "efg_quadratic")):
             solve_efg = (lambda n=n, b=basis: efg_beam(n, b)) if case == "beam" else \
@@ -199,8 +217,14 @@ def run_case(case: str, args) -> dict:
             t, (basis, u) = _timed(fn, args.repeats)
             out[f"fem_p{degree}"].append({"n": n, "unknowns": int(basis.N), "wall_s": t,
                                           "error": fem_error(case, basis, u)})
+        # the factorisations side by side: EFG's quadratic basis and P2 reach about the same error at the same level
+        efg_q = efg_beam(n, "quadratic") if case == "beam" else efg_cylinder(n, "quadratic")
+        fem_solve(case, n, 2)
+        out["factor"].append({"n": n, "efg_quadratic": factor_stats(efg_q.system.K_ff),
+                              "fem_p2": factor_stats(fem_solve.last_matrix)})
         print(f"  {case} n={n}: " + ", ".join(f"{k} {v[-1]['unknowns']} dof {v[-1]['wall_s']:.3f} s "
-                                             f"err {v[-1]['error']:.2e}" for k, v in out.items()), flush=True)
+                                             f"err {v[-1]['error']:.2e}" for k, v in out.items()
+                                             if k != "factor"), flush=True)
     out["ratio_p1"] = common.equal_error_ratio(out["efg"], out["fem_p1"])
     out["ratio_p2"] = common.equal_error_ratio(out["efg"], out["fem_p2"])
     out["ratio_quadratic_p2"] = common.equal_error_ratio(out["efg_quadratic"], out["fem_p2"])
@@ -231,6 +255,16 @@ def markdown(result: dict) -> str:
         lines.append("Energy-norm order per level: " + "; ".join(
             f"{k.replace('_', ' ')} " + ", ".join(f"{v:.2f}" for v in r[f"rates_{k}"])
             for k in ("efg", "efg_quadratic", "fem_p2")))
+        lines += ["", "The factorisations at each level (EFG quadratic and P2 reach about the same error there), "
+                      "one SuperLU setting for both (minimum degree on Aᵀ + A, diagonal pivots):", ""]
+        rows = []
+        for x in r["factor"]:
+            e, f = x["efg_quadratic"], x["fem_p2"]
+            rows.append([x["n"], e["rows"], f"{e['entries_per_row']:.0f}", f"{e['fill'] / 1e6:.2f}",
+                         common.fmt(e["factor_s"]), f["rows"], f"{f['entries_per_row']:.0f}", f"{f['fill'] / 1e6:.2f}", common.fmt(f["factor_s"]),
+                         f"{e['factor_s'] / f['factor_s']:.1f}"])
+        lines.append(common.md_table(["level", "EFG q rows", "entries/row", "LU fill (M)", "factor s", "P2 rows",
+                                      "entries/row", "LU fill (M)", "factor s", "EFG q / P2 factor time"], rows))
         lines.append("")
     return "\n".join(lines) + "\n"
 

@@ -15,7 +15,7 @@ from helpers import ROOT
 
 BENCH = ROOT / "bench"
 #: folders under bench/ that hold no benchmarks
-NOT_FAMILIES = {"results", "__pycache__"}
+NOT_FAMILIES = {"results", "work", "__pycache__"}
 FAMILY_DIRS = sorted(p for p in BENCH.iterdir() if p.is_dir() and p.name not in NOT_FAMILIES
                      and not p.name.startswith("."))
 

@@ -3,10 +3,11 @@ u = U sin(k y) x̂ in a doubly periodic box is an exact steady solution of the E
 background pressure p0.
 
 An arrangement whose pressure term resisted shear with a modulus G = c p0 would turn that flow into a standing
-shear wave of frequency k sqrt(G/ρ). The standing wave in a tank runs about 1 % fast, which a modulus of
-c = 0.01 of the hydrostatic pressure would explain exactly (the Rayleigh quotient of the first sloshing mode with
-G = c ρ g (d − y) gives δω/ω = c for any k and d: ``warpfree/validation/standing_wave_2d/README.md``); this test
-bounds the bulk's c far below that, so the excess does not come from the bulk's pressure term."""
+shear wave of frequency k sqrt(G/ρ). With the kernel at 1.6 dx the standing wave in a tank runs about 1 % fast,
+which a modulus of c = 0.01 of the hydrostatic pressure would explain exactly (the Rayleigh quotient of the first
+sloshing mode with G = c ρ g (d − y) gives δω/ω = c for any k and d); this test bounds the bulk's c far below that:
+the excess is not a shear stiffness of the bulk under pressure (its cause:
+``warpfree/validation/standing_wave_2d/README.md``)."""
 
 import math
 

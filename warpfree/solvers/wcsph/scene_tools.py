@@ -17,6 +17,18 @@ def require_scene_values(positive: dict | None = None, layers: dict | None = Non
         require_integer(name, value, minimum=1)
 
 
+def require_wall_cover(wall_layers: int, dx: float, support: float, boundary_model: str = "dynamic") -> None:
+    """Dynamic walls must fill the kernel support (m) of the fluid row nearest them, which stands dx/2 from the wall:
+    ``wall_layers`` dx >= support - dx/2. Thinner walls leave part of that row's support empty, and the pressure term
+    pushes the row into the wall. The error names ``wall_layers``."""
+    if boundary_model != "dynamic":
+        return
+    need = int(np.ceil((support - 0.5 * dx) / dx - 1e-9))
+    if wall_layers < need:
+        raise ParameterError("wall_layers", f"{wall_layers} layers of dx = {dx:.6g} m do not cover the kernel support "
+                                            f"{support:.6g} m of the fluid row dx/2 from a wall: need >= {need}")
+
+
 def hydrostatic_density(y: np.ndarray, surface: float, rho0: float, c0: float, g: float,
                         gamma: float = 7.0) -> np.ndarray:
     """ρ(y) = ρ0 [1 + ρ0 g (surface - y)/B]^(1/γ), B = ρ0 c0²/γ: the Tait EOS inverted for p = ρ0 g depth."""
@@ -70,6 +82,7 @@ def still_water_2d(tank: np.ndarray, level: float, dx: float, fluid: dict, wall_
     params = FluidParams(dim=2, dx=dx, container_lo=(*tank.min(axis=0), -1.0), container_hi=(*tank.max(axis=0), 1.0),
                          **fluid)
     params.validate()
+    require_wall_cover(wall_layers, dx, params.support, params.boundary_model)
     if relax:
         particles = relax_particles(particles, dx, water, walls=walls, containers=[tank], kernel=params.kernel,
                                     h_factor=params.h_factor).positions
