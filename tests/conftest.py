@@ -1,6 +1,10 @@
-"""Shared fixtures: CPU launchers (closed at teardown) and small helpers for Warp arrays."""
+"""Shared fixtures: CPU launchers (closed at teardown) and small helpers for Warp arrays; and, when
+``WARPFREE_CUDA_COMPILE`` names GPU architectures (``80,90``), the CUDA compile check at the end of the session."""
 
 from __future__ import annotations
+
+import os
+import time
 
 import numpy as np
 import pytest
@@ -45,3 +49,33 @@ def vec3():
         return wp.array(p.astype(np.float32), dtype=wp.vec3, device="cpu")
 
     return convert
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """With ``WARPFREE_CUDA_COMPILE=80,90`` (CI sets it): compile every ``warpfree`` Warp module this session loaded,
+    each kernel module and every compile-time variant the tests and the scenes' smoke runs made, for those GPU
+    architectures with the wheel's NVRTC (``warpfree.cuda_compile``); any compile error fails the session."""
+    archs = os.environ.get("WARPFREE_CUDA_COMPILE", "").strip()
+    if not archs:
+        return
+    from warpfree import cuda_compile
+
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    modules = cuda_compile.loaded_modules()
+    start = time.perf_counter()
+    results = cuda_compile.compile_modules(modules, cuda_compile.parse_archs(archs))
+    wall = time.perf_counter() - start
+    failed = [r for r in results if r.error]
+    seconds = sum(r.seconds for r in results)
+    lines = [f"CUDA compile check: {len(results)} modules for sm_{', sm_'.join(map(str, results[0].archs))}, "
+             f"{wall:.0f} s ({seconds:.0f} s of compiling on 2 threads), {len(failed)} failed" if results else
+             "CUDA compile check: no warpfree module was loaded"]
+    for r in failed:
+        lines += [f"  FAILED {r.module} ({r.origin}):"] + [f"    {line}" for line in r.error.splitlines()[:20]]
+    for line in lines:
+        if reporter is not None:
+            reporter.write_line(line)
+        else:
+            print(line)
+    if failed:
+        session.exitstatus = 1
