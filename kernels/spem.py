@@ -42,6 +42,7 @@ and these kernels are the whole SPEM step.
 
 import warp as wp
 
+from .clock import STEP, TIME
 from .neighbours import NeighbourRows
 from .smoothing import unit_cubic_spline
 from .space import Box, displacement
@@ -224,7 +225,7 @@ def exponential_step(kappa: float, dt: float, inv_material: float) -> wp.vec2:
 def update_electric(
     first: int,
     order: wp.array(dtype=wp.int32),
-    dt: float,
+    clock: wp.array(dtype=wp.float64),
     rows: NeighbourRows,
     coefficient: wp.array(dtype=wp.vec3),
     hx: wp.array(dtype=float),
@@ -238,10 +239,11 @@ def update_electric(
     """Ez^{n+1/2} from Ez^{n-1/2} and H^n (3.13; split field 3.17/3.18 with exponential loss):
     Ezx ← a_x Ezx + b_x ∂Hy/∂x, Ezy ← a_y Ezy - b_y ∂Hx/∂y, Ez = Ezx + Ezy. Held particles (PEC walls,
     hard sources) keep their value. Thread item ``first + tid`` updates particle ``order[first + tid]`` (the
-    load distribution, ``warpfree/distribution.py``)."""
+    load distribution, ``warpfree/distribution.py``). Δt from the device clock (``kernels/clock.py``)."""
     i = order[first + wp.tid()]
     if held[i] != 0:
         return
+    dt = float(clock[STEP])
     dhy_dx = float(0.0)
     dhx_dy = float(0.0)
     for n in range(rows.start[i], rows.start[i] + rows.count[i]):
@@ -265,7 +267,7 @@ def update_electric(
 def update_magnetic(
     first: int,
     order: wp.array(dtype=wp.int32),
-    dt: float,
+    clock: wp.array(dtype=wp.float64),
     rows: NeighbourRows,
     coefficient: wp.array(dtype=wp.vec3),
     ez: wp.array(dtype=float),
@@ -275,8 +277,9 @@ def update_magnetic(
     hy: wp.array(dtype=float),
 ):
     """H^{n+1} from H^n and Ez^{n+1/2} (3.14/3.15; PML 3.19/3.20 with Hx damped by σy*, Hy by σx*):
-    Hx ← a_y Hx - b_y ∂Ez/∂y, Hy ← a_x Hy + b_x ∂Ez/∂x; particle ``order[first + tid]``."""
+    Hx ← a_y Hx - b_y ∂Ez/∂y, Hy ← a_x Hy + b_x ∂Ez/∂x; particle ``order[first + tid]``; Δt from the clock."""
     i = order[first + wp.tid()]
+    dt = float(clock[STEP])
     dez_dx = float(0.0)
     dez_dy = float(0.0)
     for n in range(rows.start[i], rows.start[i] + rows.count[i]):
@@ -293,20 +296,53 @@ def update_magnetic(
     hy[i] = px[0] * hy[i] + px[1] * dez_dx
 
 
+@wp.struct
+class SourceSignal:
+    """A source's waveform f(t) (float64, evaluated on the device at the step's half time): ``kind`` 0 a sine
+    sin(2π f t + φ) with a sin² ramp over ``ramp`` periods (0: none), 1 a Gaussian pulse
+    sin(2π f (t - delay)) exp(-((t - delay)/width)²). Units: Hz, rad, periods, s."""
+
+    kind: int
+    frequency: wp.float64
+    phase: wp.float64
+    ramp: wp.float64
+    width: wp.float64
+    delay: wp.float64
+
+
+@wp.func
+def source_signal(w: SourceSignal, t: wp.float64) -> wp.float64:
+    """f(t) of :class:`SourceSignal`, as ``warpfree.solvers.spem.solver.Waveform`` / ``GaussianPulse`` compute it on
+    the host (the same float64 operations)."""
+    two_pi = wp.float64(6.283185307179586)
+    if w.kind == 0:
+        envelope = wp.float64(1.0)
+        if w.ramp > wp.float64(0.0):
+            s = wp.min(wp.float64(1.0), t * w.frequency / w.ramp)
+            r = wp.sin(wp.float64(1.5707963267948966) * s)
+            envelope = r * r
+        return envelope * wp.sin(two_pi * w.frequency * t + w.phase)
+    u = (t - w.delay) / w.width
+    return wp.exp(-u * u) * wp.sin(two_pi * w.frequency * (t - w.delay))
+
+
 @wp.kernel
 def set_source(
     first: int,
     particles: wp.array(dtype=wp.int32),
     amplitude: wp.array(dtype=float),
-    value: float,
+    signal: SourceSignal,
+    clock: wp.array(dtype=wp.float64),
     additive: int,
     ez: wp.array(dtype=float),
     ezx: wp.array(dtype=float),
 ):
-    """Source on E particles: hard (Ez = A_p f(t), the split parts set to Ez and 0) or soft (Ez += A_p f(t),
-    added to the x part). Source particles are distinct, so the kernel is race-free."""
+    """Source on E particles at the step's half time t + Δt/2 (the clock's): hard (Ez = A_p f(t), the split parts
+    set to Ez and 0) or soft (Ez += A_p f(t), added to the x part). Source particles are distinct, so the kernel is
+    race-free."""
     s = first + wp.tid()
     i = particles[s]
+    value = float(source_signal(signal, clock[TIME] + wp.float64(0.5) * clock[STEP]))
     v = amplitude[s] * value
     if additive != 0:
         ez[i] = ez[i] + v
@@ -394,8 +430,7 @@ def incident_sums(wave: IncidentWave, rows: NeighbourRows, s: int, coefficient: 
 @wp.kernel
 def plane_wave_electric(
     first: int,
-    dt: float,
-    t: float,
+    clock: wp.array(dtype=wp.float64),
     wave: IncidentWave,
     targets: wp.array(dtype=wp.int32),
     rows: NeighbourRows,
@@ -408,13 +443,15 @@ def plane_wave_electric(
     ezx: wp.array(dtype=float),
 ):
     """Total-field/scattered-field correction of the E phase: E particle ``targets[s]`` whose row crosses the
-    TF/SF boundary adds the incident H^n (time ``t``) of its partners across it, with the sign folded into the
-    coefficients (+ seen from the total side, - from the scattered side): Ezx += b_x Σ g_x Hy_inc,
+    TF/SF boundary adds the incident H^n (the clock's time t) of its partners across it, with the sign folded into
+    the coefficients (+ seen from the total side, - from the scattered side): Ezx += b_x Σ g_x Hy_inc,
     Ezy -= b_y Σ g_y Hx_inc. Targets are distinct: race-free."""
     s = first + wp.tid()
     i = targets[s]
     if held[i] != 0:
         return
+    dt = float(clock[STEP])
+    t = float(clock[TIME])
     sums = incident_sums(wave, rows, s, coefficient, h_position, t)
     h0 = wave.amplitude * wave.admittance  # Hx_inc = h0 f d_y, Hy_inc = -h0 f d_x
     dhy_dx = -h0 * wave.direction[0] * sums[0]
@@ -429,8 +466,7 @@ def plane_wave_electric(
 @wp.kernel
 def plane_wave_magnetic(
     first: int,
-    dt: float,
-    t: float,
+    clock: wp.array(dtype=wp.float64),
     wave: IncidentWave,
     targets: wp.array(dtype=wp.int32),
     rows: NeighbourRows,
@@ -441,9 +477,11 @@ def plane_wave_magnetic(
     hx: wp.array(dtype=float),
     hy: wp.array(dtype=float),
 ):
-    """TF/SF correction of the H phase with the incident Ez at ``t`` (= t^{n+1/2}): Hx -= b_y Σ g_y Ez_inc,
-    Hy += b_x Σ g_x Ez_inc over the row's partners across the boundary (signed coefficients)."""
+    """TF/SF correction of the H phase with the incident Ez at t^{n+1/2} = t + Δt/2 (the clock's): Hx -= b_y Σ g_y
+    Ez_inc, Hy += b_x Σ g_x Ez_inc over the row's partners across the boundary (signed coefficients)."""
     s = first + wp.tid()
+    dt = float(clock[STEP])
+    t = float(clock[TIME] + wp.float64(0.5) * clock[STEP])
     k = targets[s]
     sums = incident_sums(wave, rows, s, coefficient, e_position, t)
     dez_dx = wave.amplitude * sums[0]

@@ -54,6 +54,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from .clock import LIMIT, SLOTS, STEP
 from .neighbours import NeighbourRows
 from .smoothing import kernel_grad_coef, kernel_shape, kernel_w
 from .space import Box, displacement, displacement_function, image_displacement, wrap
@@ -191,6 +192,46 @@ def equation_of_state(first: int, c: FluidConstants, density: wp.array(dtype=flo
     pressure[i] = tait_pressure(density[i], c.rho0, c.b, c.gamma)
 
 
+@wp.struct
+class StepLimits:
+    """The terms of the stable step (``WCSPHSolver.stable_dt``), float64 as the host computes them: ``cfl_h`` = C h,
+    ``h``, ``c0``, and the constant limits of the viscosity (0.125 h² ρ0/μ) and of particle shifting
+    (0.125 h/(A U)), +inf when the term is off."""
+
+    cfl_h: wp.float64
+    h: wp.float64
+    c0: wp.float64
+    viscous: wp.float64
+    shifting: wp.float64
+
+
+#: the clock slots after ``kernels/clock.py``'s own that hold the fluid's reduced step report: max |Δx|², |v|², |a|²,
+#: status
+REPORT_SLOTS = wp.constant(4)
+
+
+@wp.kernel
+def finish_step(first: int, limits: StepLimits, report: wp.array(dtype=wp.vec4), clock: wp.array(dtype=wp.float64)):
+    """The reduced report into the clock's report slots (float64), and the next step's stable Δt into its LIMIT:
+    Δt = min(C h/(max|v| + c0), 0.25 sqrt(h/max|a|), viscous, shifting) (seed 5-12; ``WCSPHSolver.stable_dt``, the
+    same float64 operations; a min keeps the first operand unless the second is smaller, as Python's ``min``)."""
+    r = report[0]
+    v2 = wp.float64(r[1])
+    a2 = wp.float64(r[2])
+    for k in range(REPORT_SLOTS):
+        clock[SLOTS + k] = wp.float64(r[k])
+    dt = limits.cfl_h / (wp.sqrt(v2) + limits.c0)
+    if a2 > wp.float64(0.0):
+        other = wp.float64(0.25) * wp.sqrt(limits.h / wp.sqrt(a2))
+        if other < dt:
+            dt = other
+    if limits.viscous < dt:
+        dt = limits.viscous
+    if limits.shifting < dt:
+        dt = limits.shifting
+    clock[LIMIT] = dt
+
+
 @wp.kernel
 def step_report(first: int, c: FluidConstants, f: FluidArrays):
     """report[i] for fluid particle i (at the start, and after a checkpoint was loaded)."""
@@ -311,11 +352,12 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
         return out
 
     @wp.kernel(module="unique")
-    def drift(first: int, c: FluidConstants, f: FluidArrays, dt: float):
+    def drift(first: int, c: FluidConstants, f: FluidArrays, clock: wp.array(dtype=wp.float64)):
         """First half kick and drift (seed 5-3): v ← v + ½Δt a, ρ ← ρ + ½Δt dρ/dt, x ← x + Δt v (wrapped into
         the periodic box); then the predictor for the rate evaluation (Monaghan 1994): v* = v + ½Δt a,
-        ρ* = ρ + ½Δt dρ/dt, p* = EOS(ρ*)."""
+        ρ* = ρ + ½Δt dρ/dt, p* = EOS(ρ*). Δt from the device clock (``kernels/clock.py``)."""
         i = first + wp.tid()
+        dt = float(clock[STEP])
         a = f.acceleration[i]
         d = f.density_rate[i]
         vh = f.velocity[i] + (0.5 * dt) * a
@@ -431,11 +473,12 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
             f.shift_density_rate[i] = wp.dot(sh.grad_density, du)
 
     @wp.kernel(module="unique")
-    def kick(first: int, c: FluidConstants, f: FluidArrays, dt: float):
+    def kick(first: int, c: FluidConstants, f: FluidArrays, clock: wp.array(dtype=wp.float64)):
         """Second half kick: v ← v + ½Δt a(t+Δt), ρ ← ρ + ½Δt dρ/dt(t+Δt) (seed 5-3/5-4); with shifting, the
         particle then moves by Δt δu carrying v and ρ along; then the step report of the particle (moved²,
         |v|², |a|², status), reduced on the device. While a fluid settles, v ← v e^(-γΔt) after the kick."""
         i = first + wp.tid()
+        dt = float(clock[STEP])
         f.velocity[i] = f.velocity[i] + (0.5 * dt) * f.acceleration[i]
         f.density[i] = f.density[i] + (0.5 * dt) * f.density_rate[i]
         if wp.static(terms.shifting):

@@ -15,6 +15,17 @@ from warpfree.device import Launcher, init_warp
 init_warp()
 
 
+def pytest_addoption(parser):
+    parser.addoption("--device", default="cpu", help="the device of the tests marked cuda: cpu (default), cuda or "
+                                                     "cuda:N (bench/core/gpu_check.py runs them with cuda)")
+
+
+@pytest.fixture
+def device_name(request) -> str:
+    """The device the tests marked ``cuda`` run on (``--device``, default cpu)."""
+    return request.config.getoption("--device")
+
+
 @pytest.fixture
 def make_launcher():
     """Factory ``make_launcher(threads=2, device="cpu")``; every launcher made is closed afterwards."""

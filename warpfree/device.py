@@ -17,6 +17,7 @@ import importlib
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 
 import warp as wp
 
@@ -109,6 +110,7 @@ class Launcher:
         self._timings: dict = {}  # launch site -> _Timing: measured wall of whole and split launches
         # (kernel, first, count) -> (recorded command, the arguments it holds: one set per key stays alive)
         self._recorded: dict = {}
+        self._capture = None  # the Warp capture under way (:meth:`capturing`)
         self.handover_s = self._measure_handover() if self._pool is not None else 0.0
 
     def _measure_handover(self) -> float:
@@ -183,6 +185,9 @@ class Launcher:
             # grown a kernel since it was loaded, made by a factory, is loaded again: keyed by kernel, not module).
             wp.load_module(kernel.module, device=self.device)
             self._loaded.add(kernel)
+        if self._capture is not None:  # recorded whole, on this thread, with plain launches (:meth:`capturing`)
+            wp.launch(kernel, dim=n, inputs=[0, *inputs], device=self.device)
+            return
         if self._pool is None:
             self._run(kernel, 0, n, inputs)
             return
@@ -230,6 +235,20 @@ class Launcher:
         command = wp.launch(kernel, dim=count, inputs=[first, *inputs], device=self.device, record_cmd=True)
         self._recorded[key] = (command, args)
         command.launch()
+
+    @contextmanager
+    def capturing(self):
+        """Record the launches made inside as a Warp graph (``wp.ScopedCapture``; nothing runs until it is replayed
+        with ``wp.capture_launch(graph)``). Launches are recorded whole, on the calling thread: a graph replays them in
+        order, and gather kernels give bitwise the same results whole or split. Yields the capture (its ``graph``)."""
+        if self._capture is not None:
+            raise RuntimeError("a capture is already under way on this launcher")
+        with wp.ScopedCapture(device=self.device) as capture:
+            self._capture = capture
+            try:
+                yield capture
+            finally:
+                self._capture = None
 
     def synchronize(self) -> None:
         if not self.is_cpu:

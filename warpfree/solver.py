@@ -271,10 +271,23 @@ class TimeDependentSolver(Solver):
     #: rebuilt inside the phase "neighbours": the benchmark harness forces its rebuilds at a developed flow's
     #: rate when it times steps from rest
     moving_neighbours = None
+    #: the run's time on the device (:class:`warpfree.clock.DeviceClock`, in the state) of a solver whose step needs
+    #: nothing from the host: the time loop then calls :meth:`advance`, which picks Δt on the device, and reads the
+    #: clock's report once per step. None: the loop picks Δt on the host and calls :meth:`step`.
+    clock = None
 
     @abstractmethod
     def step(self, dt: float) -> None:
         """Advance the state by ``dt`` seconds."""
+
+    def advance(self) -> None:
+        """One step with the Δt the device clock picks (solvers with a :attr:`clock`): no host write, no read."""
+        raise NotImplementedError(f"{type(self).__name__} has no device clock: the time loop calls step(dt)")
+
+    def record_step(self):
+        """A :class:`warpfree.graph.StepGraph` that replays :meth:`advance` as recorded Warp graphs (solvers with a
+        :attr:`clock`). None: the solver's step cannot be recorded."""
+        return None
 
     @abstractmethod
     def stable_dt(self) -> float:

@@ -24,6 +24,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from .clock import choose_step, refusal
 from .errors import ParameterError, RunError, require_integer, require_positive
 from .io import checkpoint
 from .run import Analysis, OutputOptions, Run, RunDirectory
@@ -123,23 +124,14 @@ class TimeLoop(Run):
         return self.n_outputs * self.output_interval
 
     def next_dt(self) -> float:
-        """The step to take now: stable or fixed, shortened to land on the next output time or the end."""
+        """The step to take now: stable or fixed, shortened to land on the next output time or the end
+        (``warpfree.clock.choose_step``, the host twin of the device clock's choice)."""
         limit = self.solver.stable_dt() if self.rule.kind == "variable" else self.rule.value
-        if math.isnan(limit) or limit <= 0:
-            raise RunError(f"non-finite or broken state: the stable time step is {limit}", self.step_count)
-        if self.dt_fixed is not None:
-            if self.dt_fixed > limit * (1 + 1e-6):
-                unit = self.solver.time_unit
-                raise RunError(f"dt = {self.dt_fixed:.4g} {unit} exceeds the stable (CFL) limit {limit:.4g} {unit}",
-                               self.step_count)
-            dt = self.dt_fixed
-        else:
-            dt = limit
-        remaining = min(self._next_output_time(), self.t_end) - self.time
-        if remaining <= dt * (1 + 1e-9):
-            dt = remaining
-        elif remaining < 2 * dt:
-            dt = 0.5 * remaining  # no sliver step before the output time
+        fixed = self.dt_fixed or 0.0
+        dt, status = choose_step(self.time, self._next_output_time(), self.t_end, fixed, limit)
+        refused = refusal(status, fixed, limit, self.solver.time_unit)
+        if refused:
+            raise RunError(refused, self.step_count)
         return dt
 
     # -- outputs and the last good state ------------------------------------------------------------
@@ -202,6 +194,8 @@ class TimeLoop(Run):
     def load_checkpoint(self, path: str) -> None:
         loop, series, state = checkpoint.load(path)
         self.solver.state.assign(state, f"checkpoint {path}")
+        if self.solver.clock is not None:  # its array was loaded with the state: read it anew
+            self.solver.clock.invalidate()
         self.solver.after_load()
         self.time = float(loop["time"])
         self.step_count = int(loop["step"])
@@ -246,25 +240,42 @@ class TimeLoop(Run):
             self._record(directory)
             if directory is not None and self.checkpoint_every:
                 self.save_checkpoint(directory)
+        clock = self.solver.clock
+        if clock is not None:
+            self._start_clock(clock)
         bar = _progress(self.t_end, self.time, progress, self.name, self.solver.time_unit)
         steps0 = self.step_count
         try:
             while self.time < self.t_end * (1 - 1e-12):
                 if self.max_steps is not None and self.step_count - steps0 >= self.max_steps:
                     break
-                dt = self.next_dt()
-                t0 = time.perf_counter()
-                self.solver.step(dt)
-                problem = self.solver.problem()  # the step's one read-back
+                if clock is None:
+                    dt = self.next_dt()
+                    t0 = time.perf_counter()
+                    self.solver.step(dt)
+                    problem = self.solver.problem()  # the step's one read-back
+                else:  # the step chosen, taken and timed on the device; its report is the one read-back
+                    t0 = time.perf_counter()
+                    self.solver.advance()
+                    refused = clock.problem(self.solver.time_unit)
+                    if refused:
+                        raise RunError(refused, self.step_count)
+                    problem = self.solver.problem()
                 self.step_s += time.perf_counter() - t0
                 self.step_count += 1
                 self.steps_this_run = self.step_count - steps0
                 target = self._next_output_time()
-                self.time = target if abs(self.time + dt - target) <= 1e-12 * max(1.0, self.time) else self.time + dt
+                if clock is None:
+                    self.time = (target if abs(self.time + dt - target) <= 1e-12 * max(1.0, self.time)
+                                 else self.time + dt)
+                else:
+                    self.time = clock.time
                 if problem:
                     raise RunError(problem, self.step_count)
                 if self.time >= target * (1 - 1e-12) or self.time >= self.t_end * (1 - 1e-12):
                     self._record(directory)
+                    if clock is not None:
+                        clock.set(next_output=self._next_output_time())
                 if directory is not None and self.checkpoint_every and self.step_count % self.checkpoint_every == 0:
                     self.save_checkpoint(directory)
                 if bar is not None:
@@ -272,6 +283,16 @@ class TimeLoop(Run):
         finally:
             if bar is not None:
                 bar.close()
+
+    def _start_clock(self, clock) -> None:
+        """Set up a device clock (``warpfree.clock``) as :meth:`next_dt` would step: the time, the next output time, the
+        end, the run's fixed step and, for a constant or fixed rule, the limit it is checked against (a variable rule's
+        limit is the solver's, computed on the device every step)."""
+        slots = dict(time=self.time, next_output=self._next_output_time(), end=self.t_end,
+                     fixed=self.dt_fixed or 0.0)
+        if self.rule.kind != "variable":
+            slots["limit"] = self.rule.value
+        clock.set(**slots)
 
     def _current_step(self) -> int | None:
         return self.step_count

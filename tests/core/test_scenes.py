@@ -13,12 +13,15 @@ from warpfree.scene_loader import load_scene, scene_parameters, shipped_scenes, 
 SCENES = sorted(shipped_scenes())
 
 
+@pytest.mark.cuda
 @pytest.mark.parametrize("name", SCENES)
-def test_every_shipped_scene_runs_by_name_at_its_smallest_size(name, tmp_path):
+def test_every_shipped_scene_runs_by_name_at_its_smallest_size(name, tmp_path, device_name):
+    """On the CPU, or on the device ``--device`` names (the one-shot GPU check)."""
     module = load_scene(name)
     sets = [a for k, v in module.SMALLEST.items() for a in ("--set", f"{k}={value_text(v)}")]
     out = tmp_path / name
-    assert main(["run", name, *sets, "--out", str(out), "--no-progress", "--threads", "2"]) == 0
+    assert main(["run", name, *sets, "--out", str(out), "--no-progress", "--threads", "2",
+                 "--device", device_name]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "ok" and summary["scene"] == name and summary["analysis"]
     assert summary["throughput"]["value"] > 0

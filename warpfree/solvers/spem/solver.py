@@ -20,10 +20,12 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
+from warpfree.clock import DeviceClock
 from warpfree.device import Launcher, current_launcher
 from warpfree.distribution import launch_order
 from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.kernels import spem as K
+from warpfree.graph import StepGraph
 from warpfree.solver import OutputSet, State, StepRule, TimeDependentSolver
 
 from .layouts import HX, HY
@@ -78,11 +80,11 @@ class Source:
 
 
 class SPEMState(State):
-    """Ez and its x part Ezx on the E set (V/m), Hx and Hy on the H set (A/m), and ``time``, t of H (s, a host
-    value)."""
+    """Ez and its x part Ezx on the E set (V/m), Hx and Hy on the H set (A/m), and ``clock``, the device clock's array
+    (``warpfree.clock``: t of H in s, Δt, ...)."""
 
-    def __init__(self, ez, ezx, hx, hy, time: float = 0.0):
-        self.ez, self.ezx, self.hx, self.hy, self.time = ez, ezx, hx, hy, float(time)
+    def __init__(self, ez, ezx, hx, hy, clock):
+        self.ez, self.ezx, self.hx, self.hy, self.clock = ez, ezx, hx, hy, clock
 
 
 class _DeviceSource:
@@ -101,6 +103,19 @@ class _DeviceSource:
         self.particles = wp.array(idx.astype(np.int32), dtype=wp.int32, device=device)
         self.amplitude = wp.array(amp.astype(np.float32), dtype=float, device=device)
         self.additive = int(source.kind == "soft")
+        self.signal = source_signal(source.waveform)
+
+
+def source_signal(waveform) -> K.SourceSignal:
+    """The device form (``kernels/spem.py: SourceSignal``) of a :class:`Waveform` or :class:`GaussianPulse`."""
+    signal = K.SourceSignal()
+    signal.kind = 1 if isinstance(waveform, GaussianPulse) else 0
+    signal.frequency = wp.float64(waveform.frequency)
+    signal.phase = wp.float64(getattr(waveform, "phase", 0.0))
+    signal.ramp = wp.float64(getattr(waveform, "ramp", 0.0))
+    signal.width = wp.float64(getattr(waveform, "width", 1.0))
+    signal.delay = wp.float64(getattr(waveform, "delay", 0.0))
+    return signal
 
 
 class SPEMSolver(TimeDependentSolver):
@@ -147,7 +162,9 @@ class SPEMSolver(TimeDependentSolver):
             hy0[carries != HY] = 0.0
         if kronecker:
             ez0, hx0, hy0 = self._nodal_values(model, ez0, hx0, hy0)
-        self.state = SPEMState(e.add("ez", ez0), e.add("ezx", 0.5 * ez0), h.add("hx", hx0), h.add("hy", hy0))
+        self.clock = DeviceClock(self.launcher)
+        self.state = SPEMState(e.add("ez", ez0), e.add("ezx", 0.5 * ez0), h.add("hx", hx0), h.add("hy", hy0),
+                               self.clock.values)
         sources = list(sources or [])
         for s in sources:
             if not isinstance(s, Source | PlaneWave):
@@ -161,7 +178,6 @@ class SPEMSolver(TimeDependentSolver):
         self.held = e.add("held", held.astype(np.int32), dtype=wp.int32)
         self._dt_max = model.stable_dt()
         self._run_step: float | None = None   # the run's constant step (use_step)
-        self._last_step = 0.0
         self._curl = None
         self.distribution = distribution
         parts = self.launcher.threads
@@ -185,30 +201,44 @@ class SPEMSolver(TimeDependentSolver):
 
     # -- stepping --------------------------------------------------------------------------------
     def step(self, dt: float) -> None:
-        """Ez to t + Δt/2, sources there, then H to t + Δt (3.13-3.15)."""
-        m, L, st = self.model, self.launcher, self.state
+        """Ez to t + Δt/2, sources there, then H to t + Δt (3.13-3.15), with the given Δt (written to the clock)."""
+        self.clock.set_step(dt)
+        self._launch_step()
+        self.clock.launch_advance()
+
+    def advance(self) -> None:
+        """One step of the Δt the device clock picks (the run's constant step, shortened to land on an output)."""
+        self.clock.launch_choose()
+        self._launch_step()
+        self.clock.launch_advance()
+
+    def record_step(self) -> StepGraph:
+        """:meth:`advance` recorded as one Warp graph."""
+        with self.launcher.capturing() as capture:
+            self.advance()
+        return StepGraph([capture.graph], after=self.clock.invalidate)
+
+    def _launch_step(self) -> None:
+        """The step's launches; t and Δt from the clock (``kernels/clock.py``)."""
+        m, L, st, clock = self.model, self.launcher, self.state, self.clock.values
         e, h = m.electric, m.magnetic
         with self.phases("electric"):
-            L.launch(K.update_electric, e.n, [self.e_order, float(dt), m.e_rows.rows, m.e_coefficient, st.hx, st.hy,
+            L.launch(K.update_electric, e.n, [self.e_order, clock, m.e_rows.rows, m.e_coefficient, st.hx, st.hy,
                                               e["inv_permittivity"], e["loss"], self.held, st.ez, st.ezx])
             for w in self.plane_waves:  # TF/SF: the incident H^n across the box's boundary
-                L.launch(K.plane_wave_electric, w.n_e, [float(dt), float(self.t), w.struct, w.e_targets, w.e_rows,
-                                                        w.e_coefficient, h.position, e["inv_permittivity"], e["loss"],
-                                                        self.held, st.ez, st.ezx])
+                L.launch(K.plane_wave_electric, w.n_e, [clock, w.struct, w.e_targets, w.e_rows, w.e_coefficient,
+                                                        h.position, e["inv_permittivity"], e["loss"], self.held,
+                                                        st.ez, st.ezx])
         with self.phases("sources"):
-            t_half = self.t + 0.5 * dt
             for s in self.sources:
-                L.launch(K.set_source, s.index.size, [s.particles, s.amplitude, float(s.source.waveform(t_half)),
-                                                      s.additive, st.ez, st.ezx])
+                L.launch(K.set_source, s.index.size, [s.particles, s.amplitude, s.signal, clock, s.additive, st.ez,
+                                                      st.ezx])
         with self.phases("magnetic"):
-            L.launch(K.update_magnetic, h.n, [self.h_order, float(dt), m.h_rows.rows, m.h_coefficient, st.ez,
+            L.launch(K.update_magnetic, h.n, [self.h_order, clock, m.h_rows.rows, m.h_coefficient, st.ez,
                                               h["inv_permeability"], h["loss"], st.hx, st.hy])
             for w in self.plane_waves:  # TF/SF: the incident Ez^{n+1/2}
-                L.launch(K.plane_wave_magnetic, w.n_h, [float(dt), float(t_half), w.struct, w.h_targets, w.h_rows,
-                                                        w.h_coefficient, e.position, h["inv_permeability"], h["loss"],
-                                                        st.hx, st.hy])
-        st.time = self.t + dt
-        self._last_step = float(dt)
+                L.launch(K.plane_wave_magnetic, w.n_h, [clock, w.struct, w.h_targets, w.h_rows, w.h_coefficient,
+                                                        e.position, h["inv_permeability"], h["loss"], st.hx, st.hy])
 
     def stable_dt(self) -> float:
         return self._dt_max
@@ -219,8 +249,8 @@ class SPEMSolver(TimeDependentSolver):
 
     @property
     def t(self) -> float:
-        """The time of H (s), the state's."""
-        return self.state.time
+        """The time of H (s), the clock's (read once after a step)."""
+        return self.clock.time
 
     def problem(self) -> str | None:
         return None
@@ -260,7 +290,7 @@ class SPEMSolver(TimeDependentSolver):
         float64, from the float32 state."""
         e, h, m = self.model.electric, self.model.magnetic, self.model
         if dt is None:
-            dt = self._run_step if self._run_step is not None else self._last_step
+            dt = self._run_step if self._run_step is not None else self.clock.step
         ez = e.numpy("ez").astype(np.float64)
         hx, hy = h.numpy("hx").astype(np.float64), h.numpy("hy").astype(np.float64)
         if self._curl is None:  # the E rows as host CSR matrices (set-up, once)

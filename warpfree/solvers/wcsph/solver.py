@@ -21,6 +21,9 @@ from warpfree.errors import ParameterError, RunError, require_memory, require_po
 from warpfree.kernels import wcsph as K
 from warpfree.neighbours import MovingNeighbours, NeighbourGrid, NeighbourList, empty_rows
 from warpfree.particles import ParticleSet, to_vec3
+from warpfree.clock import DeviceClock
+from warpfree.graph import StepGraph
+from warpfree.kernels import clock as ck
 from warpfree.reduce import Reduction
 from warpfree.kernels.wcsph_solids import add_surface_penalty
 from warpfree.solver import OutputSet, State, TimeDependentSolver
@@ -38,10 +41,11 @@ class WCSPHState(State):
     """What changes in time (the checkpoint): combined fluid + wall arrays and the fluid's rates.
 
     position, velocity, density, pressure (n); acceleration, density_rate (nf); position_at_build (nf):
-    the fluid positions of the last neighbour-table build (the tables are rebuilt from it on resume).
+    the fluid positions of the last neighbour-table build (the tables are rebuilt from it on resume); clock: the
+    device clock's array (``warpfree.clock``: t, Δt, the next stable step and the last step report).
     """
 
-    def __init__(self, position, velocity, density, pressure, acceleration, density_rate, position_at_build):
+    def __init__(self, position, velocity, density, pressure, acceleration, density_rate, position_at_build, clock):
         self.position = position
         self.velocity = velocity
         self.density = density
@@ -49,6 +53,7 @@ class WCSPHState(State):
         self.acceleration = acceleration
         self.density_rate = density_rate
         self.position_at_build = position_at_build
+        self.clock = clock
 
 
 class WCSPHSolver(TimeDependentSolver):
@@ -84,6 +89,7 @@ class WCSPHSolver(TimeDependentSolver):
             return wp.array(values, dtype=dtype, device=dev)
 
         position = arr(model.position_np, wp.vec3)
+        self.clock = DeviceClock(launcher, K.REPORT_SLOTS)
         self.state = WCSPHState(
             position=position,
             velocity=arr(np.vstack([v_f, np.zeros((nb, 3))]).astype(np.float32), wp.vec3),
@@ -91,7 +97,8 @@ class WCSPHSolver(TimeDependentSolver):
             pressure=wp.zeros(n, dtype=float, device=dev),
             acceleration=wp.zeros(nf, dtype=wp.vec3, device=dev),
             density_rate=wp.zeros(nf, dtype=float, device=dev),
-            position_at_build=wp.zeros(nf, dtype=wp.vec3, device=dev))
+            position_at_build=wp.zeros(nf, dtype=wp.vec3, device=dev),
+            clock=self.clock.values)
         S = self.state
         self.arrays = K.FluidArrays()
         a = self.arrays
@@ -140,6 +147,7 @@ class WCSPHSolver(TimeDependentSolver):
         else:  # valid empty rows for the kernels
             self.fluid_wall = self.wall_fluid = SimpleNamespace(rows=empty_rows(nf, dev))
         self._report = Reduction(launcher, wp.vec4, "max")
+        self._limits = self._step_limits()
         self.solids = model.solids
         if self.solids is not None:
             inside = self.solids.penetration(self.fluid.position)
@@ -218,43 +226,94 @@ class WCSPHSolver(TimeDependentSolver):
                 L.launch(add_surface_penalty, self.model.nf, [self._penalty, self.fluid_wall.rows.count,
                                                               self.fluid.position, a.acceleration])
 
+    def _step_limits(self) -> K.StepLimits:
+        """The stable step's terms as the device computes them (``kernels/wcsph.py: finish_step``)."""
+        P = self.model.params
+        limits = K.StepLimits()
+        limits.cfl_h = wp.float64(P.cfl * P.h)
+        limits.h = wp.float64(P.h)
+        limits.c0 = wp.float64(P.c0)
+        limits.viscous = wp.float64(0.125 * P.h * P.h * P.rho0 * self.model.viscosity_factor / P.mu
+                                    if P.mu > 0 else math.inf)
+        limits.shifting = wp.float64(0.125 * P.h / (P.shifting * P.shift_speed) if P.shifting > 0 else math.inf)
+        return limits
+
+    def _finish(self) -> None:
+        """The step's report reduced on the device, then copied into the clock with the next stable step."""
+        self._report.launch(self.arrays.report)
+        self.launcher.launch(K.finish_step, 1, [self._limits, self._report.result, self.clock.values])
+        self.clock.invalidate()
+
     def _launch_report(self) -> None:
         self.launcher.launch(K.step_report, self.model.nf, [self.model.constants, self.arrays])
-        self._report.launch(self.arrays.report)
+        self._finish()
 
     def report(self) -> np.ndarray:
-        """The last step's reduced report (one read per step): max |Δx since build|², |v|², |a|², status."""
-        return np.asarray(self._report.value(), dtype=np.float64)
+        """The last step's reduced report (one read per step, the clock's): max |Δx since build|², |v|², |a|², status."""
+        return self.clock.report()[ck.SLOTS: ck.SLOTS + K.REPORT_SLOTS]
 
     def stable_dt(self) -> float:
         """Δt = min(C h/(max|v| + c0) [seed 5-12], 0.25 sqrt(h/max|a|), 0.125 h² ρ0/μ, 0.125 h²/(A h U)): the last
-        two are the explicit-diffusion limits of the viscosity and of particle shifting (diffusivity A h U)."""
-        P = self.model.params
-        _, v2, a2, _ = self.report()
-        dt = P.cfl * P.h / (math.sqrt(v2) + P.c0)
-        if a2 > 0:
-            dt = min(dt, 0.25 * math.sqrt(P.h / math.sqrt(a2)))
-        if P.mu > 0:
-            dt = min(dt, 0.125 * P.h * P.h * P.rho0 * self.model.viscosity_factor / P.mu)
-        if P.shifting > 0:
-            dt = min(dt, 0.125 * P.h / (P.shifting * P.shift_speed))
-        return dt
+        two are the explicit-diffusion limits of the viscosity and of particle shifting (diffusivity A h U). Computed
+        on the device from the last report (``kernels/wcsph.py: finish_step``), read with it."""
+        return float(self.clock.report()[ck.LIMIT])
 
     def step(self, dt: float) -> None:
-        """Advance one leapfrog step of ``dt`` seconds (kick–drift, rates, kick)."""
-        L, a, c, nf = self.launcher, self.arrays, self.model.constants, self.model.nf
-        moved2, v2, a2, _ = self.report()  # at the end of the previous step
-        # bound on the displacement since the build after this drift: |Δx| <= Δt (|v| + ½Δt |a|)
-        moved_bound = math.sqrt(moved2) + dt * (math.sqrt(v2) + 0.5 * dt * math.sqrt(a2))
+        """Advance one leapfrog step of ``dt`` seconds (kick–drift, rates, kick), the Δt written to the clock."""
+        moved_bound = self._moved_bound(dt)
+        self.clock.set_step(dt)
+        self._launch_step(moved_bound)
+
+    def advance(self) -> None:
+        """One step of the Δt the device clock picks (the stable step, or the run's, landing on outputs)."""
+        moved_bound = self._moved_bound(self.clock.next_step())
+        self.clock.launch_choose()
+        self._launch_step(moved_bound)
+
+    def record_step(self) -> StepGraph:
+        """:meth:`advance` as two Warp graphs around the host's rebuild decision: (choose Δt, drift), then a neighbour
+        rebuild if the last report says a particle may have moved past the skin, then (rates, kick, report)."""
+        L, a, c = self.launcher, self.arrays, self.model.constants
+        with L.capturing() as first:
+            self.clock.launch_choose()
+            with self.phases("integrate"):
+                L.launch(self.kernels.drift, self.model.nf, [c, a, self.clock.values])
+        with L.capturing() as second:
+            self._after_drift()
+
+        def rebuild_if_needed():
+            if self.moving_neighbours.needs_rebuild(self._bound):
+                with self.phases("neighbours"):
+                    self.moving_neighbours.rebuild()
+
+        def decide():
+            self._bound = self._moved_bound(self.clock.next_step())
+
+        return StepGraph([decide, first.graph, rebuild_if_needed, second.graph], after=self.clock.invalidate)
+
+    def _moved_bound(self, dt: float) -> float:
+        """Bound on the displacement since the table build after a drift of ``dt``: |Δx| <= Δt (|v| + ½Δt |a|) from
+        the last report."""
+        moved2, v2, a2, _ = self.report()
+        return math.sqrt(moved2) + dt * (math.sqrt(v2) + 0.5 * dt * math.sqrt(a2))
+
+    def _launch_step(self, moved_bound: float) -> None:
         with self.phases("integrate"):
-            L.launch(self.kernels.drift, nf, [c, a, float(dt)])
+            self.launcher.launch(self.kernels.drift, self.model.nf, [self.model.constants, self.arrays,
+                                                                      self.clock.values])
         if self.moving_neighbours.needs_rebuild(moved_bound):
             with self.phases("neighbours"):
                 self.moving_neighbours.rebuild()
+        self._after_drift()
+
+    def _after_drift(self) -> None:
+        """Rates at the predicted state, the second kick, the step report and the clock's time."""
         self.compute_rates()
         with self.phases("integrate"):
-            L.launch(self.kernels.kick, nf, [c, a, float(dt)])
-            self._report.launch(a.report)
+            self.launcher.launch(self.kernels.kick, self.model.nf, [self.model.constants, self.arrays,
+                                                                     self.clock.values])
+            self._finish()
+            self.clock.launch_advance()
 
     def problem(self) -> str | None:
         """Non-finite values or particles outside the container after the last step (from its report)."""

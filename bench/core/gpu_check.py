@@ -1,0 +1,228 @@
+"""The one-shot GPU check: what warpfree does on a CUDA device, in at most about 8 minutes.
+
+What it does, in order, each part within its share of ``--budget`` seconds (a part that would pass it stops and the
+report says what was left out):
+
+1. **Tests** (``--tests``, 20 %): ``pytest -m cuda --device cuda``: every shipped scene at its smallest size through the
+   command line, and the device clock's checks (one read and no write per step, replayed graphs bitwise equal to
+   stepping) for WCSPH and SPEM, on the GPU.
+2. **Scenes** (45 %): every shipped scene at its default on the GPU (frames and VTU off), cheapest first; each
+   analysis figure (the numbers under ``summary["analysis"]``) against the CPU's from ``--reference`` (written on a
+   CPU machine by ``--device cpu --write-reference``): the relative difference per figure. A scene's checks against
+   its tolerances (``summary["checks"]``) are reported as they are.
+3. **Throughput** (35 %): work items per second at three sizes per family (WCSPH dam break, SPEM cavity, PIC thermal
+   plasma, EFG beam, SPH heat conduction), on the CPU with all its threads and on the GPU, measured side by side in
+   one run (``bench/common.py``: warm-up first, median of timed blocks).
+
+Usage (on a machine with a GPU and warpfree installed: ``pip install -e '.[test]'``)
+    python bench/core/gpu_check.py                      # everything, --budget 480
+    python bench/core/gpu_check.py --device cpu --write-reference    # the CPU figures (bench/results), no GPU
+Writes bench/results/gpu_check.{json,md} (``--write-reference``: bench/results/default_figures.json).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+_HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this family's folder
+import common  # noqa: E402
+
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = []
+RUN_ALL_SKIPPED = "needs a GPU: run it once on a machine with one (python bench/core/gpu_check.py)"
+
+REFERENCE = common.RESULTS / "default_figures.json"
+#: the parts' shares of the budget
+SHARES = {"tests": 0.20, "scenes": 0.45, "throughput": 0.35}
+#: the scenes' defaults, cheapest first (seconds on 2 CPU cores, roughly): a budget cut drops the dearest
+SCENE_ORDER = ["efg_cook", "efg_cylinder", "efg_timoshenko", "efg_l_shape", "heat_conduction_2d", "em_line_1d",
+               "pic_two_stream", "pic_plasma_oscillation", "poiseuille_2d", "taylor_green_2d", "em_cavity_2d",
+               "efg_resistor", "tank_at_rest_2d", "dam_break_2d", "em_waveguide_2d", "pic_diode", "em_plane_wave_2d",
+               "standing_wave_2d", "pic_thermal_plasma", "dam_break_3d"]
+#: family -> (scene, the parameter that sets the size, three values, steps timed per block)
+SIZES = {"wcsph": ("dam_break_2d", "dx", [0.04, 0.02, 0.01], 40),
+         "spem": ("em_cavity_2d", "cells_per_radius", [20, 40, 80], 100),
+         "pic": ("pic_thermal_plasma", "box", [(16.0, 32.0), (32.0, 64.0), (64.0, 128.0)], 20),
+         "efg": ("efg_timoshenko", "cells_x", [24, 48, 96], 1),
+         "heat": ("heat_conduction_2d", "n", [40, 160, 640], 100)}
+
+
+def run_tests(device: str, budget: float) -> dict:
+    cmd = [common.PYTHON, "-m", "pytest", "-q", "-m", "cuda", "--device", device, "-p", "no:cacheprovider"]
+    start = time.perf_counter()
+    try:
+        proc = subprocess.run(cmd, cwd=common.ROOT, capture_output=True, text=True, timeout=budget)
+        tail = proc.stdout.strip().splitlines()[-1:] or [""]
+        return {"command": " ".join(cmd[2:]), "returncode": proc.returncode, "summary": tail[0],
+                "wall_s": time.perf_counter() - start, "output": proc.stdout[-4000:] + proc.stderr[-2000:]}
+    except subprocess.TimeoutExpired:
+        return {"command": " ".join(cmd[2:]), "returncode": None, "summary": f"cut at the budget ({budget:.0f} s)",
+                "wall_s": time.perf_counter() - start}
+
+
+def _numbers(tree, prefix: str = "") -> dict[str, float]:
+    """The finite numbers of a summary section, flattened to 'a/b/c' keys (lists: their first 3 items)."""
+    out = {}
+    if isinstance(tree, dict):
+        for k, v in tree.items():
+            out.update(_numbers(v, f"{prefix}{k}/"))
+    elif isinstance(tree, list):
+        for i, v in enumerate(tree[:3]):
+            out.update(_numbers(v, f"{prefix}{i}/"))
+    elif isinstance(tree, (int, float)) and not isinstance(tree, bool) and math.isfinite(tree):
+        out[prefix.rstrip("/")] = float(tree)
+    return out
+
+
+def run_scene(name: str, device: str, timeout: float) -> dict:
+    """One scene at its default on ``device`` through the command line; its analysis figures and checks."""
+    with tempfile.TemporaryDirectory() as out:
+        cmd = [common.PYTHON, "-m", "warpfree", "run", name, "--out", f"{out}/{name}", "--no-frames", "--no-progress",
+               "--set", "vtk=false", "--device", device]
+        start = time.perf_counter()
+        try:
+            proc = subprocess.run(cmd, cwd=common.ROOT, capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            return {"scene": name, "status": f"cut at {timeout:.0f} s"}
+        wall = time.perf_counter() - start
+        summary_path = Path(out) / name / "summary.json"
+        if proc.returncode != 0 or not summary_path.exists():
+            return {"scene": name, "status": f"exit {proc.returncode}", "wall_s": wall,
+                    "output": (proc.stdout + proc.stderr)[-2000:]}
+        summary = json.loads(summary_path.read_text())
+    return {"scene": name, "status": summary.get("status"), "wall_s": wall,
+            "figures": _numbers(summary.get("analysis", {})), "checks": summary.get("checks")}
+
+
+def compare(figures: dict[str, float], reference: dict[str, float]) -> dict:
+    """The relative difference of every figure both runs have: |a - b| / max(|b|, 1e-300)."""
+    diffs = {k: abs(v - reference[k]) / max(abs(reference[k]), 1e-300) for k, v in figures.items() if k in reference}
+    worst = max(diffs.items(), key=lambda kv: kv[1]) if diffs else (None, None)
+    return {"compared": len(diffs), "largest": worst[1], "largest_figure": worst[0], "differences": diffs}
+
+
+def run_scenes(device: str, budget: float, reference: dict | None) -> list[dict]:
+    rows, start = [], time.perf_counter()
+    for name in SCENE_ORDER:
+        left = budget - (time.perf_counter() - start)
+        if left <= 5:
+            rows.append({"scene": name, "status": "not run (budget)"})
+            continue
+        row = run_scene(name, device, left)
+        if reference and name in reference and "figures" in row:
+            row["against_cpu"] = compare(row["figures"], reference[name]["figures"])
+        rows.append(row)
+        print(f"  {name}: {row['status']} in {row.get('wall_s', 0):.1f} s", flush=True)
+    return rows
+
+
+def measure(family: str, value, device: str, threads: int | None) -> dict:
+    """Work items per second of one size of a family on ``device`` (in this process)."""
+    scene, param, _, steps = SIZES[family]
+    run = common.build_scene(scene, threads or common.cpu_count(), device=device, **{param: value})
+    solver = run.solver
+    if hasattr(solver, "solve"):  # a static solve: the solve timed, work items = its Gauss points
+        timing = common.time_steps(solver.solve, 1, warmup=1, repeats=3)
+        return {"work_items": solver.work_items, "unit": f"{solver.work_unit}/s",
+                "work_per_s": solver.work_items / timing["median_s"], "s": timing["median_s"]}
+    dt = run.step_size or solver.stable_dt()
+    timing = common.time_solver(solver, dt, steps, warmup=3, repeats=3)
+    return {"work_items": timing["work_items"], "unit": timing["unit"], "work_per_s": timing["work_per_s"],
+            "s": timing["s_per_step"]}
+
+
+def run_throughput(device: str, budget: float) -> list[dict]:
+    rows, start = [], time.perf_counter()
+    for family, (scene, param, values, _) in SIZES.items():
+        for value in values:
+            if time.perf_counter() - start > budget:
+                rows.append({"family": family, "scene": scene, param: value, "status": "not run (budget)"})
+                continue
+            row = {"family": family, "scene": scene, "size": f"{param}={value}"}
+            for where in ("cpu", device) if device != "cpu" else ("cpu",):
+                try:
+                    row[where] = measure(family, value, where, None)
+                except Exception as exc:  # a size a device cannot hold: said, not fatal
+                    row[where] = {"error": f"{type(exc).__name__}: {exc}"[:300]}
+            rows.append(row)
+            print(f"  {family} {row['size']}: " + ", ".join(
+                f"{w} {row[w].get('work_per_s', float('nan')):.3g}/s" for w in ("cpu", device) if w in row), flush=True)
+    return rows
+
+
+def markdown(result: dict) -> str:
+    device = result["device"]
+    lines = [f"# GPU check on {result.get('gpu') or device}", "",
+             f"Budget {result['budget_s']:.0f} s; took {result['wall_s']:.0f} s.", ""]
+    t = result.get("tests")
+    if t:
+        lines += ["## Tests marked cuda", "", f"`{t['command']}`: {t['summary']} ({t['wall_s']:.0f} s)", ""]
+    rows = []
+    for r in result.get("scenes", []):
+        c = r.get("against_cpu") or {}
+        rows.append([r["scene"], r["status"], common.fmt(r.get("wall_s")), c.get("compared", "–"),
+                     "–" if c.get("largest") is None else f"{c['largest']:.2e} ({c['largest_figure']})"])
+    if rows:
+        lines += ["## Scenes at their defaults", "",
+                  common.md_table(["scene", "status", "wall s", "figures compared", "largest relative difference "
+                                   "from the CPU"], rows), ""]
+    rows = []
+    for r in result.get("throughput", []):
+        cpu, gpu = r.get("cpu", {}), r.get(device, {}) if device != "cpu" else {}
+        ratio = (gpu["work_per_s"] / cpu["work_per_s"]) if "work_per_s" in gpu and "work_per_s" in cpu else None
+        rows.append([r["family"], r.get("size", r.get("status")), cpu.get("work_items", "–"), cpu.get("unit", "–"),
+                     common.fmt_rate(cpu.get("work_per_s")), common.fmt_rate(gpu.get("work_per_s")),
+                     "–" if ratio is None else f"{ratio:.1f}"])
+    if rows:
+        lines += ["## Throughput, CPU (all threads) against the GPU, same run", "",
+                  common.md_table(["family", "size", "work items", "unit", "CPU", "GPU", "GPU / CPU"], rows), ""]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--device", default="cuda")
+    p.add_argument("--budget", type=float, default=480.0, help="seconds for the three parts together")
+    p.add_argument("--write-reference", action="store_true",
+                   help="run the scenes' defaults on --device and write their figures to " + str(REFERENCE))
+    p.add_argument("--reference", default=str(REFERENCE))
+    p.add_argument("--skip", default="", help="parts to leave out: tests,scenes,throughput")
+    args = p.parse_args(argv)
+    skip = set(filter(None, args.skip.split(",")))
+    start = time.perf_counter()
+    if args.write_reference:
+        rows = run_scenes(args.device, math.inf, None)
+        ref = {r["scene"]: {"figures": r["figures"], "wall_s": r["wall_s"]} for r in rows if "figures" in r}
+        REFERENCE.write_text(json.dumps({"machine": common.machine_info(), "device": args.device, **ref}, indent=1))
+        print(f"wrote {REFERENCE.relative_to(common.ROOT)}")
+        return 0
+    reference = json.loads(Path(args.reference).read_text()) if Path(args.reference).exists() else None
+    result = {"machine": common.machine_info(), "device": args.device, "budget_s": args.budget}
+    try:
+        import warp as wp
+
+        wp.init()
+        result["gpu"] = str(wp.get_device(args.device).name) if args.device != "cpu" else None
+    except Exception as exc:
+        result["gpu"] = f"no such device ({exc})"
+    if "tests" not in skip:
+        result["tests"] = run_tests(args.device, SHARES["tests"] * args.budget)
+    if "scenes" not in skip:
+        result["scenes"] = run_scenes(args.device, SHARES["scenes"] * args.budget, reference)
+    if "throughput" not in skip:
+        result["throughput"] = run_throughput(args.device, SHARES["throughput"] * args.budget)
+    result["wall_s"] = time.perf_counter() - start
+    common.write_results("gpu_check", result, markdown(result))
+    return 0 if (result.get("tests") or {}).get("returncode", 0) == 0 else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,91 @@
+"""Steps that never wait on the host: with a device clock (``warpfree.clock``) a time-dependent solver's step picks its
+Δt on the device, writes nothing from the host and reads back one small report; the step can be recorded as Warp
+graphs and replayed, bitwise equal to stepping. Counted on the CPU device through the code path a GPU takes
+(``tests/helpers/host_traffic.py``)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from helpers.host_traffic import host_traffic
+from warpfree import device
+from warpfree.scene_loader import load_scene
+from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
+from warpfree.solvers.wcsph.scene_tools import box_walls_2d, hydrostatic_density
+from warpfree.geometry import lattice_box
+
+
+def _column(skin: float = 0.15) -> WCSPHSolver:
+    """A 0.2 x 0.4 m water column collapsing in a 0.6 m box, dx = 0.02 (200 fluid particles)."""
+    dx, g = 0.02, 9.81
+    fluid = lattice_box((0.0, 0.0), (0.2, 0.4), dx)
+    params = FluidParams(dim=2, dx=dx, c0=10.0 * math.sqrt(2 * g * 0.4), alpha=0.1, delta=0.1, skin=skin,
+                         gravity=(0.0, -g, 0.0), cfl=0.4, container_lo=(0.0, 0.0, -1.0),
+                         container_hi=(0.6, 0.6, 1.0))
+    model = WCSPHModel(fluid, box_walls_2d(0.6, 0.6, dx, 3), params)
+    return WCSPHSolver(model, density=hydrostatic_density(fluid[:, 1], 0.4, params.rho0, params.c0, g))
+
+
+def _spem():
+    module = load_scene("em_waveguide_2d")
+    return module.build(**module.SMALLEST, frames=False, vtk=False).solver
+
+
+def _start(solver) -> None:
+    """The clock set up as a run's time loop sets it (an end far away, no output on the way)."""
+    rule = solver.step_rule()
+    slots = dict(time=0.0, next_output=math.inf, end=math.inf, fixed=0.0)
+    if rule.kind != "variable":
+        slots.update(fixed=rule.value, limit=rule.value)
+    solver.clock.set(**slots)
+
+
+def _run(solver, steps: int) -> int:
+    """``steps`` steps as the time loop takes them (advance, then the step's report); the neighbour rebuilds made."""
+    builds = solver.moving_neighbours.builds if solver.moving_neighbours is not None else 0
+    for _ in range(steps):
+        solver.advance()
+        assert solver.clock.problem() is None and solver.problem() is None
+    return (solver.moving_neighbours.builds if solver.moving_neighbours is not None else 0) - builds
+
+
+@pytest.mark.cuda
+@pytest.mark.parametrize("make", [_column, _spem], ids=["wcsph", "spem"])
+def test_a_step_reads_one_report_and_writes_nothing(make, device_name):
+    """Per step: one read (the clock with the step report), no write. A WCSPH step that rebuilds its neighbour tables
+    also reads each table's longest row (three tables: a table grows when a row overflows)."""
+    device.use(device_name, 2)
+    solver = make()
+    _start(solver)
+    solver.clock.report()
+    steps = 40
+    with host_traffic() as traffic:
+        rebuilds = _run(solver, steps)
+    assert traffic.writes == 0, traffic.where
+    assert traffic.reads == steps + 3 * rebuilds, (rebuilds, traffic.where)
+
+
+@pytest.mark.parametrize("make,steps", [(_column, 40), (lambda: _column(skin=0.0), 6), (_spem, 40)],
+                         ids=["wcsph", "wcsph-rebuild-every-step", "spem"])
+@pytest.mark.cuda
+def test_replayed_steps_are_bitwise_the_stepped_ones(make, steps, device_name):
+    """The same steps taken by :meth:`advance` and replayed from the recorded graphs give bitwise the same state
+    (with a neighbour rebuild every step too: the host decides between the graphs)."""
+    device.use(device_name, 2)
+    stepped, replayed = make(), make()
+    for s in (stepped, replayed):
+        _start(s)
+    _run(stepped, steps)
+    graph = replayed.record_step()
+    assert graph.graphs >= 1
+    for _ in range(steps):
+        graph.replay()
+        assert replayed.clock.problem() is None and replayed.problem() is None
+    a, b = stepped.state.numpy(), replayed.state.numpy()
+    assert a.keys() == b.keys()
+    for k in a:
+        assert np.array_equal(a[k].view(np.uint8), b[k].view(np.uint8)), k
+    assert stepped.clock.time == replayed.clock.time > 0.0

@@ -1,0 +1,122 @@
+"""The time of a run on the device, so that a step needs nothing from the host and reads back one small report.
+
+:class:`DeviceClock` holds t, Δt, the landing times and the step's status in one float64 array
+(``warpfree.kernels.clock``), followed by slots a solver fills with its own step report (WCSPH: the largest
+displacement, speed, acceleration and its status). The solver's kernels read t and Δt there; each step
+:meth:`DeviceClock.launch_choose` picks the step on the device and :meth:`DeviceClock.launch_advance` moves the time
+on; :meth:`DeviceClock.report` reads the whole array back, once per step (on a GPU the step's only synchronisation),
+and caches it until the next launch. The host writes only when the run sets the clock up, at each output (the next
+landing time) and for a step taken with a given Δt (:meth:`set_step`, tests and set-up).
+
+The array is part of the solver's state (checkpointed with it: a resumed run continues on the same clock).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import warp as wp
+
+from warpfree.kernels import clock as K
+
+from .device import Launcher
+
+__all__ = ["DeviceClock", "choose_step", "refusal"]
+
+_NAMES = {"time": K.TIME, "step": K.STEP, "next_output": K.NEXT_OUTPUT, "end": K.END, "fixed": K.FIXED,
+          "status": K.STATUS, "limit": K.LIMIT}
+
+
+def choose_step(time: float, next_output: float, end: float, fixed: float, limit: float) -> tuple[float, float]:
+    """(Δt, status) of the step to take now: the host twin of ``kernels/clock.py: choose_step`` (the same float64
+    operations), used by the time loop for solvers without a clock and by a solver deciding on the host what the
+    device's step will be (a neighbour rebuild). ``fixed`` 0: none."""
+    status = K.STATUS_OK
+    if not limit > 0.0:
+        status = K.STATUS_BROKEN
+    elif fixed > 0.0 and fixed > limit * (1.0 + 1e-6):
+        status = K.STATUS_ABOVE
+    dt = fixed if fixed > 0.0 else limit
+    remaining = min(next_output, end) - time
+    if remaining <= dt * (1.0 + 1e-9):
+        dt = remaining
+    elif remaining < 2.0 * dt:
+        dt = 0.5 * remaining
+    return (0.0 if status != K.STATUS_OK else dt), status
+
+
+def refusal(status: float, fixed: float, limit: float, unit: str = "s") -> str | None:
+    """The message of a step refused with ``status`` (None when it was taken)."""
+    if status == K.STATUS_BROKEN:
+        return f"non-finite or broken state: the stable time step is {limit}"
+    if status == K.STATUS_ABOVE:
+        return f"dt = {fixed:.4g} {unit} exceeds the stable (CFL) limit {limit:.4g} {unit}"
+    return None
+
+
+class DeviceClock:
+    """t, Δt and the landing times of a run on ``launcher``'s device, plus ``report_slots`` of the solver's own."""
+
+    def __init__(self, launcher: Launcher, report_slots: int = 0, time: float = 0.0):
+        self.launcher = launcher
+        self.report_slots = int(report_slots)
+        host = np.zeros(K.SLOTS + self.report_slots)
+        host[K.TIME] = float(time)
+        host[K.NEXT_OUTPUT] = host[K.END] = math.inf
+        self.values = wp.array(host, dtype=wp.float64, device=launcher.device)
+        self._host: np.ndarray | None = host.copy()
+
+    # -- host side: set-up, outputs, the one read per step --------------------------------------------------------
+    def set(self, **slots: float) -> None:
+        """Write clock slots by name (``time``, ``next_output``, ``end``, ``fixed``, ``limit``, ``step``): one host
+        write of the clock's slots (the solver's report slots are left as they are)."""
+        host = self.report().copy()
+        for name, value in slots.items():
+            host[_NAMES[name]] = float(value)
+        self.values[: K.SLOTS].assign(host[: K.SLOTS])
+        self._host = host
+
+    def report(self) -> np.ndarray:
+        """The whole clock array on the host, read once after each launch (cached until the next)."""
+        if self._host is None:
+            self._host = self.values.numpy().copy()
+        return self._host
+
+    def invalidate(self) -> None:
+        """The device array changed (a launch that writes it): the next :meth:`report` reads it again."""
+        self._host = None
+
+    @property
+    def time(self) -> float:
+        return float(self.report()[K.TIME])
+
+    @property
+    def step(self) -> float:
+        return float(self.report()[K.STEP])
+
+    def problem(self, unit: str = "s") -> str | None:
+        """The message of a step the clock refused (a broken limit, a fixed step above it), else None."""
+        r = self.report()
+        return refusal(r[K.STATUS], r[K.FIXED], r[K.LIMIT], unit)
+
+    def next_step(self) -> float:
+        """The Δt the device will pick at the next :meth:`launch_choose`, from the last report (no read if it is
+        cached): :func:`choose_step` on the clock's slots."""
+        r = self.report()
+        return choose_step(r[K.TIME], r[K.NEXT_OUTPUT], r[K.END], r[K.FIXED], r[K.LIMIT])[0]
+
+    def set_step(self, dt: float) -> None:
+        """A step of a given ``dt`` (``solver.step(dt)``): Δt written, no landing time (t + Δt as it is)."""
+        self.set(step=dt, next_output=math.inf, end=math.inf)
+
+    # -- device side ------------------------------------------------------------------------------------------------
+    def launch_choose(self) -> None:
+        """Pick this step's Δt on the device (``kernels/clock.py: choose_step``)."""
+        self.launcher.launch(K.choose_step, 1, [self.values])
+        self._host = None
+
+    def launch_advance(self) -> None:
+        """Move the time on by the step's Δt (``kernels/clock.py: advance_time``)."""
+        self.launcher.launch(K.advance_time, 1, [self.values])
+        self._host = None
