@@ -29,6 +29,8 @@ Units: lengths in the scene's unit; shape functions dimensionless, gradients per
 """
 
 
+from types import SimpleNamespace
+
 import warp as wp
 
 from .neighbours import NeighbourRows
@@ -39,7 +41,6 @@ MAX_TERMS = 6
 #: most nearest neighbours the support sizing ranks (k of the k-th nearest node)
 MAX_RANK = 16
 vec6d = wp.types.vector(length=MAX_TERMS, dtype=wp.float64)
-mat66d = wp.types.matrix(shape=(MAX_TERMS, MAX_TERMS), dtype=wp.float64)
 vec16d = wp.types.vector(length=MAX_RANK, dtype=wp.float64)
 
 CUBIC_SPLINE = wp.constant(0)
@@ -88,29 +89,38 @@ def weight_and_slope(kind: int, r: wp.float64) -> wp.vec2d:
     return wp.vec2d(w, dw)
 
 
-@wp.func
-def node_weight(params: MLSParams, d: wp.vec2d, support: wp.vec2d) -> wp.vec3d:
-    """(w, ∂w/∂x, ∂w/∂y) of a node at offset d = x - x_I with support half-widths ``support``."""
-    zero = wp.float64(0.0)
-    if params.rectangular != 0:
-        sx = wp.abs(d[0]) / support[0]
-        sy = wp.abs(d[1]) / support[1]
-        # the singular weight's 1/r² belongs to the distance, not to each axis: rectangular uses the cubic
-        kind = params.weight
-        if kind == SINGULAR:
-            kind = CUBIC_SPLINE
-        wx = weight_and_slope(kind, sx)
-        wy = weight_and_slope(kind, sy)
-        gx = wp.sign(d[0]) * wx[1] / support[0] * wy[0]
-        gy = wp.sign(d[1]) * wy[1] / support[1] * wx[0]
-        return wp.vec3d(wx[0] * wy[0], gx, gy)
-    dist = wp.sqrt(d[0] * d[0] + d[1] * d[1])
-    r = dist / support[0]
-    w = weight_and_slope(params.weight, r)
-    if dist > zero:
-        s = w[1] / (support[0] * dist)
-        return wp.vec3d(w[0], s * d[0], s * d[1])
-    return wp.vec3d(w[0], zero, zero)
+_WEIGHT_FUNCTIONS: dict = {}
+
+
+def weight_function(kind: int, rectangular: bool):
+    """``weight(d, support) -> (w, ∂w/∂x, ∂w/∂y)`` of a node at offset d = x - x_I with support half-widths
+    ``support``, for one weight ``kind`` on circular or ``rectangular`` supports, fixed when the kernel is compiled
+    (cached). A kernel that picks its weight at run time carries every weight's code at once: on a GPU the loop over a
+    point's nodes then held 158 registers a thread against 72-89."""
+    key = (int(kind), bool(rectangular))
+    if key in _WEIGHT_FUNCTIONS:
+        return _WEIGHT_FUNCTIONS[key]
+    # the singular weight's 1/r² belongs to the distance, not to each axis: rectangular uses the cubic
+    axis_kind = CUBIC_SPLINE if key[0] == SINGULAR else key[0]
+
+    @wp.func
+    def weight(d: wp.vec2d, support: wp.vec2d) -> wp.vec3d:
+        zero = wp.float64(0.0)
+        if wp.static(key[1]):
+            wx = weight_and_slope(wp.static(axis_kind), wp.abs(d[0]) / support[0])
+            wy = weight_and_slope(wp.static(axis_kind), wp.abs(d[1]) / support[1])
+            gx = wp.sign(d[0]) * wx[1] / support[0] * wy[0]
+            gy = wp.sign(d[1]) * wy[1] / support[1] * wx[0]
+            return wp.vec3d(wx[0] * wy[0], gx, gy)
+        dist = wp.sqrt(d[0] * d[0] + d[1] * d[1])
+        w = weight_and_slope(wp.static(key[0]), dist / support[0])
+        if dist > zero:
+            s = w[1] / (support[0] * dist)
+            return wp.vec3d(w[0], s * d[0], s * d[1])
+        return wp.vec3d(w[0], zero, zero)
+
+    _WEIGHT_FUNCTIONS[key] = weight
+    return weight
 
 
 @wp.func
@@ -129,60 +139,6 @@ def serves(params: MLSParams, d: wp.vec2d, material: int, support: wp.vec2d, nod
     if not inside_support(params, d, support):
         return False
     return node_material < 0 or material < 0 or node_material == material
-
-
-@wp.func
-def basis(d: wp.vec2d, inv_scale: wp.float64, terms: int) -> vec6d:
-    """p(d/s): [1, ξ, η] or [1, ξ, η, ξ², ξη, η²] (unused terms 0)."""
-    p = vec6d()
-    xi = d[0] * inv_scale
-    eta = d[1] * inv_scale
-    p[0] = wp.float64(1.0)
-    p[1] = xi
-    p[2] = eta
-    if terms == 6:
-        p[3] = xi * xi
-        p[4] = xi * eta
-        p[5] = eta * eta
-    return p
-
-
-@wp.func
-def cholesky(a: mat66d, terms: int) -> mat66d:
-    """Lower factor L (L Lᵀ = a) of the leading terms × terms block; a non-positive pivot leaves L_kk = 0."""
-    lo = mat66d()
-    for j in range(terms):
-        s = a[j, j]
-        for k in range(j):
-            s = s - lo[j, k] * lo[j, k]
-        if s > wp.float64(0.0):
-            lo[j, j] = wp.sqrt(s)
-        for i in range(j + 1, terms):
-            t = a[i, j]
-            for k in range(j):
-                t = t - lo[i, k] * lo[j, k]
-            if lo[j, j] > wp.float64(0.0):
-                lo[i, j] = t / lo[j, j]
-    return lo
-
-
-@wp.func
-def cholesky_solve(lo: mat66d, b: vec6d, terms: int) -> vec6d:
-    """x with L Lᵀ x = b (leading terms)."""
-    y = vec6d()
-    for i in range(terms):
-        t = b[i]
-        for k in range(i):
-            t = t - lo[i, k] * y[k]
-        y[i] = t / lo[i, i]
-    x = vec6d()
-    for ii in range(terms):
-        i = terms - 1 - ii
-        t = y[i]
-        for k in range(i + 1, terms):
-            t = t - lo[k, i] * x[k]
-        x[i] = t / lo[i, i]
-    return x
 
 
 @wp.func
@@ -346,32 +302,53 @@ def support_rows_brute(
         rows.count[i] = n
 
 
-@wp.func
-def solve_scaled(lo: mat66d, sc: vec6d, b: vec6d, terms: int) -> vec6d:
-    """γ = A⁻¹ b from the Cholesky factor of the scaled A_s = S A S: γ = S A_s⁻¹ S b."""
-    sb = vec6d()
-    for r in range(terms):
-        sb[r] = sc[r] * b[r]
-    y = cholesky_solve(lo, sb, terms)
-    for r in range(terms):
-        y[r] = y[r] * sc[r]
-    return y
-
-
 @wp.struct
-class Moments:
-    """A point's moment matrix A = Σ_I w_I p_I p_Iᵀ and its derivatives ∂_x A = Σ_I ∂_x w_I p_I p_Iᵀ, ∂_y A (module
-    docstring; the leading terms × terms block)."""
+class MLSFit:
+    """The γ-form of an MLS fit at one point, stored at the largest basis size (module docstring): γ = A⁻¹ p(0), its
+    derivatives ∂γ/∂x and ∂γ/∂y (the leading terms; the rest 0), and ``rcond``, the smallest pivot of the
+    Jacobi-scaled A (0: singular, γ not computed)."""
 
-    a: mat66d
-    ax: mat66d
-    ay: mat66d
+    gamma: vec6d
+    gamma_x: vec6d
+    gamma_y: vec6d
+    rcond: wp.float64
 
 
-def _node_adder(terms: int):
+def _algebra(terms: int) -> SimpleNamespace:
+    """The MLS algebra of one basis size, on vectors and matrices of exactly ``terms`` (constant loop bounds: on a
+    GPU every entry stays in a register; a 6 x 6 matrix for the linear basis held 213-255 registers a thread):
+
+    - ``Moments``: A = Σ_I w_I p_I p_Iᵀ and ∂_x A, ∂_y A (terms x terms);
+    - ``local_basis(d, inv_scale)``: p(d/s) = [1, ξ, η] or [1, ξ, η, ξ², ξη, η²];
+    - ``add_node(m, w, p)``: ``m`` plus one node's share (weight and slopes ``w`` = (w_I, ∂_x w_I, ∂_y w_I), p = p_I);
+    - ``mls_fit(m, inv_scale)``: γ and ∂_a γ = A⁻¹ (e_{1+a}/s - ∂_a A γ) by a Cholesky factorisation of the
+      Jacobi-scaled A (:class:`MLSFit`);
+    - ``shape_value(fit, w, p)``: (φ_I, ∂φ_I/∂x, ∂φ_I/∂y) = (w γ·p, w ∂_xγ·p + ∂_x w γ·p, w ∂_yγ·p + ∂_y w γ·p)."""
+    vec = wp.types.vector(length=terms, dtype=wp.float64)
+    mat = wp.types.matrix(shape=(terms, terms), dtype=wp.float64)
+
+    @wp.struct
+    class Moments:
+        a: mat
+        ax: mat
+        ay: mat
+
     @wp.func
-    def add_node(m: Moments, w: wp.vec3d, p: vec6d) -> Moments:
-        """``m`` plus one node's share: weight and slopes ``w`` = (w_I, ∂_x w_I, ∂_y w_I), shifted basis ``p`` = p_I."""
+    def local_basis(d: wp.vec2d, inv_scale: wp.float64) -> vec:
+        p = vec()
+        xi = d[0] * inv_scale
+        eta = d[1] * inv_scale
+        p[0] = wp.float64(1.0)
+        p[1] = xi
+        p[2] = eta
+        if wp.static(terms == 6):
+            p[3] = xi * xi
+            p[4] = xi * eta
+            p[5] = eta * eta
+        return p
+
+    @wp.func
+    def add_node(m: Moments, w: wp.vec3d, p: vec) -> Moments:
         a = m.a
         ax = m.ax
         ay = m.ay
@@ -387,93 +364,167 @@ def _node_adder(terms: int):
         out.ay = ay
         return out
 
-    return add_node
+    @wp.func
+    def cholesky(a: mat) -> mat:
+        """Lower factor L (L Lᵀ = a); a non-positive pivot leaves L_kk = 0."""
+        lo = mat()
+        for j in range(wp.static(terms)):
+            s = a[j, j]
+            for k in range(j):
+                s = s - lo[j, k] * lo[j, k]
+            if s > wp.float64(0.0):
+                lo[j, j] = wp.sqrt(s)
+            for i in range(j + 1, wp.static(terms)):
+                t = a[i, j]
+                for k in range(j):
+                    t = t - lo[i, k] * lo[j, k]
+                if lo[j, j] > wp.float64(0.0):
+                    lo[i, j] = t / lo[j, j]
+        return lo
+
+    @wp.func
+    def solve_scaled(lo: mat, sc: vec, b: vec) -> vec:
+        """γ = A⁻¹ b from the Cholesky factor of the scaled A_s = S A S: γ = S A_s⁻¹ S b."""
+        y = vec()
+        for i in range(wp.static(terms)):
+            t = sc[i] * b[i]
+            for k in range(i):
+                t = t - lo[i, k] * y[k]
+            y[i] = t / lo[i, i]
+        x = vec()
+        for ii in range(wp.static(terms)):
+            i = wp.static(terms) - 1 - ii
+            t = y[i]
+            for k in range(i + 1, wp.static(terms)):
+                t = t - lo[k, i] * x[k]
+            x[i] = t / lo[i, i]
+        for r in range(wp.static(terms)):
+            x[r] = x[r] * sc[r]
+        return x
+
+    @wp.func
+    def factor(a: mat):
+        """(L, S, rcond): the Cholesky factor L of the Jacobi-scaled A_s = S A S, S = diag(1/sqrt(A_rr)), and its
+        smallest pivot L_rr² (0: singular)."""
+        sc = vec()
+        scaled = mat()
+        for r in range(wp.static(terms)):
+            sc[r] = wp.float64(1.0) / wp.sqrt(a[r, r])
+        for r in range(wp.static(terms)):
+            for c in range(wp.static(terms)):
+                scaled[r, c] = a[r, c] * sc[r] * sc[c]
+        lo = cholesky(scaled)
+        smallest = wp.float64(1.0)
+        for r in range(wp.static(terms)):
+            smallest = wp.min(smallest, lo[r, r] * lo[r, r])
+        return lo, sc, smallest
+
+    @wp.func
+    def first_solve(lo: mat, sc: vec) -> vec:
+        """γ = A⁻¹ p(0)."""
+        p0 = vec()
+        p0[0] = wp.float64(1.0)
+        return solve_scaled(lo, sc, p0)
+
+    @wp.func
+    def slope_solves(lo: mat, sc: vec, gamma: vec, bx: vec, by: vec, inv_scale: wp.float64,
+                     rcond: wp.float64) -> MLSFit:
+        """The fit: γ, and ∂_a γ = A⁻¹ (e_{1+a}/s + b_a) for b_a = -∂_a A γ."""
+        bx[1] = bx[1] + inv_scale
+        by[2] = by[2] + inv_scale
+        gx = solve_scaled(lo, sc, bx)
+        gy = solve_scaled(lo, sc, by)
+        out = MLSFit()
+        out.rcond = rcond
+        for r in range(wp.static(terms)):
+            out.gamma[r] = gamma[r]
+            out.gamma_x[r] = gx[r]
+            out.gamma_y[r] = gy[r]
+        return out
+
+    @wp.func
+    def mls_fit(m: Moments, inv_scale: wp.float64) -> MLSFit:
+        fit = MLSFit()
+        zero = wp.float64(0.0)
+        lo, sc, smallest = factor(m.a)
+        fit.rcond = smallest
+        if smallest <= zero:
+            return fit
+        gamma = first_solve(lo, sc)
+        bx = vec()
+        by = vec()
+        for r in range(wp.static(terms)):
+            sx = zero
+            sy = zero
+            for c in range(wp.static(terms)):
+                sx = sx + m.ax[r, c] * gamma[c]
+                sy = sy + m.ay[r, c] * gamma[c]
+            bx[r] = -sx
+            by[r] = -sy
+        return slope_solves(lo, sc, gamma, bx, by, inv_scale, smallest)
+
+    @wp.func
+    def add_moment(a: mat, w: wp.float64, p: vec) -> mat:
+        """A + w p pᵀ (the moment matrix alone: the slopes come from :func:`add_slope` once γ is known)."""
+        out = a
+        for r in range(wp.static(terms)):
+            for c in range(wp.static(terms)):
+                out[r, c] = out[r, c] + w * (p[r] * p[c])
+        return out
+
+    @wp.func
+    def add_slope(b: vec, w_slope: wp.float64, p: vec, gamma: vec) -> vec:
+        """b - ∂_a w_I p_I (p_I·γ): one node's share of -∂_a A γ, accumulated after γ without the matrices ∂_a A."""
+        pg = wp.float64(0.0)
+        for r in range(wp.static(terms)):
+            pg = pg + p[r] * gamma[r]
+        out = b
+        for r in range(wp.static(terms)):
+            out[r] = out[r] - w_slope * pg * p[r]
+        return out
+
+    @wp.func
+    def shape_value(fit: MLSFit, w: wp.vec3d, p: vec) -> wp.vec3d:
+        gp = wp.float64(0.0)
+        gxp = wp.float64(0.0)
+        gyp = wp.float64(0.0)
+        for r in range(wp.static(terms)):
+            gp = gp + fit.gamma[r] * p[r]
+            gxp = gxp + fit.gamma_x[r] * p[r]
+            gyp = gyp + fit.gamma_y[r] * p[r]
+        return wp.vec3d(w[0] * gp, w[0] * gxp + w[1] * gp, w[0] * gyp + w[2] * gp)
+
+    @wp.func
+    def shape(fit: MLSFit, w: wp.vec3d, p: vec) -> wp.float64:
+        """φ_I = w γ·p alone."""
+        gp = wp.float64(0.0)
+        for r in range(wp.static(terms)):
+            gp = gp + fit.gamma[r] * p[r]
+        return w[0] * gp
+
+    return SimpleNamespace(vec=vec, mat=mat, Moments=Moments, local_basis=local_basis, add_node=add_node,
+                           mls_fit=mls_fit, factor=factor, first_solve=first_solve, slope_solves=slope_solves,
+                           add_moment=add_moment, add_slope=add_slope, shape_value=shape_value, shape=shape)
 
 
-#: basis size -> ``add_node(m, w, p) -> Moments``, the moment accumulation of every MLS fit (shape functions here, the
-#: PIC particles' fits), made for each basis size at import so that its loops have constant bounds (the PIC fits
-#: run twice as long with the size read at run time)
-NODE_ADDERS = {terms: _node_adder(terms) for terms in (3, MAX_TERMS)}
-
-
-@wp.struct
-class MLSFit:
-    """The γ-form of an MLS fit at one point (module docstring): γ = A⁻¹ p(0), its derivatives ∂γ/∂x and ∂γ/∂y,
-    and ``rcond``, the smallest pivot of the Jacobi-scaled A (0: singular, γ not computed)."""
-
-    gamma: vec6d
-    gamma_x: vec6d
-    gamma_y: vec6d
-    rcond: wp.float64
-
-
-@wp.func
-def mls_fit(m: Moments, terms: int, inv_scale: wp.float64) -> MLSFit:
-    """γ and ∂_a γ = A⁻¹ (e_{1+a}/s - ∂_a A γ) from the moment matrix A and its derivatives ∂_x A, ∂_y A."""
-    fit = MLSFit()
-    a = m.a
-    ax = m.ax
-    ay = m.ay
-    zero = wp.float64(0.0)
-    # Jacobi scaling: A_s = S A S, S = diag(1/sqrt(A_rr)); solve A γ = b as A_s (S⁻¹γ) = S b
-    sc = vec6d()
-    scaled = mat66d()
-    for r in range(terms):
-        sc[r] = wp.float64(1.0) / wp.sqrt(a[r, r])
-    for r in range(terms):
-        for c in range(terms):
-            scaled[r, c] = a[r, c] * sc[r] * sc[c]
-    lo = cholesky(scaled, terms)
-    smallest = wp.float64(1.0)
-    for r in range(terms):
-        smallest = wp.min(smallest, lo[r, r] * lo[r, r])
-    fit.rcond = smallest
-    if smallest <= zero:
-        return fit
-    p0 = vec6d()
-    p0[0] = wp.float64(1.0)
-    gamma = solve_scaled(lo, sc, p0, terms)
-    bx = vec6d()
-    by = vec6d()
-    for r in range(terms):
-        sx = zero
-        sy = zero
-        for c in range(terms):
-            sx = sx + ax[r, c] * gamma[c]
-            sy = sy + ay[r, c] * gamma[c]
-        bx[r] = -sx
-        by[r] = -sy
-    bx[1] = bx[1] + inv_scale
-    by[2] = by[2] + inv_scale
-    fit.gamma = gamma
-    fit.gamma_x = solve_scaled(lo, sc, bx, terms)
-    fit.gamma_y = solve_scaled(lo, sc, by, terms)
-    return fit
-
-
-@wp.func
-def shape_value(fit: MLSFit, w: wp.vec3d, p: vec6d, terms: int) -> wp.vec3d:
-    """(φ_I, ∂φ_I/∂x, ∂φ_I/∂y) = (w γ·p, w ∂_xγ·p + ∂_x w γ·p, w ∂_yγ·p + ∂_y w γ·p) of a node with weight and
-    slopes ``w`` and shifted basis ``p``."""
-    gp = wp.float64(0.0)
-    gxp = wp.float64(0.0)
-    gyp = wp.float64(0.0)
-    for r in range(terms):
-        gp = gp + fit.gamma[r] * p[r]
-        gxp = gxp + fit.gamma_x[r] * p[r]
-        gyp = gyp + fit.gamma_y[r] * p[r]
-    return wp.vec3d(w[0] * gp, w[0] * gxp + w[1] * gp, w[0] * gyp + w[2] * gp)
+#: basis size -> the MLS algebra of that size (:func:`_algebra`): the moment accumulation and fit of every MLS fit
+#: (shape functions here, the PIC particles' fits), made for each basis size at import so that its loops have constant
+#: bounds (the PIC fits ran twice as long with the size read at run time)
+ALGEBRA = {terms: _algebra(terms) for terms in (3, MAX_TERMS)}
 
 
 _SHAPE_FUNCTIONS: dict = {}
 
 
-def shape_functions_kernel(basis_terms: int):
+def shape_functions_kernel(basis_terms: int, weight_kind: int = 0, rectangular: bool = False):
     """The kernel ``shape_functions`` for a basis of ``basis_terms`` (3 linear, 6 quadratic; ``params.terms`` must
-    be the same), its moment loops of constant bounds (cached: one compile per basis size)."""
-    if basis_terms in _SHAPE_FUNCTIONS:
-        return _SHAPE_FUNCTIONS[basis_terms]
-    add_node = NODE_ADDERS[basis_terms]
+    be the same) and the weight ``weight_kind`` on circular or ``rectangular`` supports (``params``' own), its moment
+    loops of constant bounds (cached: one compile per combination)."""
+    key = (basis_terms, int(weight_kind), bool(rectangular))
+    if key in _SHAPE_FUNCTIONS:
+        return _SHAPE_FUNCTIONS[key]
+    alg = ALGEBRA[basis_terms]
+    node_weight = weight_function(weight_kind, rectangular)
 
     @wp.kernel(module="unique")
     def shape_functions(
@@ -506,12 +557,28 @@ def shape_functions_kernel(basis_terms: int):
                 dphi[start + k] = wp.vec2d(zero, zero)
             return
         inv_scale = wp.float64(count) / scale
-        moments = Moments()
+        # three passes over the row: A (then γ), -∂_a A γ (then ∂_a γ), the shape functions: the matrices ∂_a A are
+        # never held (on a GPU 130 registers a thread instead of 255 with the linear basis)
+        a = alg.mat()
         for k in range(count):
             j = rows.index[start + k]
             d = offset2d(box, x, nodes[j])
-            moments = add_node(moments, node_weight(params, d, support[j]), basis(-d, inv_scale, terms))
-        fit = mls_fit(moments, terms, inv_scale)
+            a = alg.add_moment(a, node_weight(d, support[j])[0], alg.local_basis(-d, inv_scale))
+        fit = MLSFit()
+        lo, sc, smallest = alg.factor(a)
+        fit.rcond = smallest
+        if smallest > zero:
+            gamma = alg.first_solve(lo, sc)
+            bx = alg.vec()
+            by = alg.vec()
+            for k in range(count):
+                j = rows.index[start + k]
+                d = offset2d(box, x, nodes[j])
+                w = node_weight(d, support[j])
+                p = alg.local_basis(-d, inv_scale)
+                bx = alg.add_slope(bx, w[1], p, gamma)
+                by = alg.add_slope(by, w[2], p, gamma)
+            fit = alg.slope_solves(lo, sc, gamma, bx, by, inv_scale, smallest)
         rcond[i] = fit.rcond
         if fit.rcond <= zero:
             for k in range(count):
@@ -521,9 +588,9 @@ def shape_functions_kernel(basis_terms: int):
         for k in range(count):
             j = rows.index[start + k]
             d = offset2d(box, x, nodes[j])
-            v = shape_value(fit, node_weight(params, d, support[j]), basis(-d, inv_scale, terms), terms)
+            v = alg.shape_value(fit, node_weight(d, support[j]), alg.local_basis(-d, inv_scale))
             phi[start + k] = v[0]
             dphi[start + k] = wp.vec2d(v[1], v[2])
 
-    _SHAPE_FUNCTIONS[basis_terms] = shape_functions
+    _SHAPE_FUNCTIONS[key] = shape_functions
     return shape_functions

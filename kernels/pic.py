@@ -29,8 +29,7 @@ Periodic boxes: the node grid holds the nodes' periodic images and the particle 
 
 import warp as wp
 
-from .mls import (MLSFit, Moments, NodeSet, basis, inside_support, mls_fit, nearest_copy, node_weight,
-                  NODE_ADDERS, serving_node, shape_value)
+from .mls import ALGEBRA, MLSFit, NodeSet, inside_support, nearest_copy, serving_node, weight_function
 from .space import Box2d, offset2d, wrap2d
 
 
@@ -47,11 +46,14 @@ class MLSKernels:
 _MLS_KERNELS: dict = {}
 
 
-def mls_kernels(basis_terms: int) -> MLSKernels:
-    """:class:`MLSKernels` for ``basis_terms`` (cached: one compile per basis size)."""
-    if basis_terms in _MLS_KERNELS:
-        return _MLS_KERNELS[basis_terms]
-    add_node = NODE_ADDERS[basis_terms]
+def mls_kernels(basis_terms: int, weight_kind: int = 0, rectangular: bool = False) -> MLSKernels:
+    """:class:`MLSKernels` for ``basis_terms`` and the nodes' weight (``kernels/mls.py: weight_function``; cached:
+    one compile per combination)."""
+    key = (basis_terms, int(weight_kind), bool(rectangular))
+    if key in _MLS_KERNELS:
+        return _MLS_KERNELS[key]
+    alg = ALGEBRA[basis_terms]
+    node_weight = weight_function(weight_kind, rectangular)
 
     @wp.kernel
     def particle_fits(
@@ -71,7 +73,7 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
         x = position[i]
         terms = wp.static(basis_terms)
         n = int(0)
-        moments = Moments()
+        moments = alg.Moments()
         query = wp.hash_grid_query(ns.grid, position32[i], ns.reach)
         k = int(0)
         while wp.hash_grid_query_next(query, k):
@@ -80,13 +82,13 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
                 continue
             d = offset2d(ns.box, x, ns.nodes[j])
             n += 1
-            moments = add_node(moments, node_weight(ns.params, d, ns.support[j]), basis(-d, inv_scale, terms))
+            moments = alg.add_node(moments, node_weight(d, ns.support[j]), alg.local_basis(-d, inv_scale))
         count[i] = n
         if n < terms:
             empty = MLSFit()
             fit[i] = empty
             return
-        fit[i] = mls_fit(moments, terms, inv_scale)
+        fit[i] = alg.mls_fit(moments, inv_scale)
 
     @wp.kernel
     def deposit(
@@ -106,7 +108,6 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
         over the particles and their periodic images, cell = ``ns.reach``); q_p = ``macro_charge[species[p]]``."""
         i = first + wp.tid()
         xi = ns.nodes[i]
-        terms = wp.static(basis_terms)
         q = wp.float64(0.0)
         query = wp.hash_grid_query(grid, ns.nodes32[i], ns.reach)
         k = int(0)
@@ -117,7 +118,7 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
             d = offset2d(ns.box, position[p], xi)
             if not inside_support(ns.params, d, ns.support[i]):
                 continue
-            phi = node_weight(ns.params, d, ns.support[i])[0] * wp.dot(fit[p].gamma, basis(-d, inv_scale, terms))
+            phi = alg.shape(fit[p], node_weight(d, ns.support[i]), alg.local_basis(-d, inv_scale))
             q = q + macro_charge[species[p]] * phi
         charge[i] = q
 
@@ -139,7 +140,6 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
         ``warpfree.solvers.pic.field``)."""
         i = first + wp.tid()
         x = position[i]
-        terms = wp.static(basis_terms)
         zero = wp.float64(0.0)
         ex = zero
         ey = zero
@@ -150,20 +150,20 @@ def mls_kernels(basis_terms: int) -> MLSKernels:
             if j < 0:
                 continue
             d = offset2d(ns.box, x, ns.nodes[j])
-            w = node_weight(ns.params, d, ns.support[j])
-            p = basis(-d, inv_scale, terms)
+            w = node_weight(d, ns.support[j])
+            p = alg.local_basis(-d, inv_scale)
             if interpolate != 0:
-                phi = w[0] * wp.dot(fit[i].gamma, p)
+                phi = alg.shape(fit[i], w, p)
                 ex = ex + phi * nodal_field[j][0]
                 ey = ey + phi * nodal_field[j][1]
             else:
-                v = shape_value(fit[i], w, p, terms)
+                v = alg.shape_value(fit[i], w, p)
                 ex = ex - potential[j] * v[1]
                 ey = ey - potential[j] * v[2]
         field[i] = wp.vec2d(ex, ey)
 
-    _MLS_KERNELS[basis_terms] = MLSKernels(particle_fits, deposit, particle_field)
-    return _MLS_KERNELS[basis_terms]
+    _MLS_KERNELS[key] = MLSKernels(particle_fits, deposit, particle_field)
+    return _MLS_KERNELS[key]
 
 
 @wp.func

@@ -83,6 +83,10 @@ class MLSSettings:
         p.rectangular = int(self.support == "rectangular")
         return p
 
+    def kernel_key(self) -> tuple[int, int, bool]:
+        """(basis terms, weight id, rectangular): what the MLS kernels are compiled for (``kernels/mls.py``)."""
+        return self.terms, WEIGHTS[self.weight], self.support == "rectangular"
+
     @property
     def interpolating(self) -> bool:
         """φ_I(x_J) = δ_IJ (the singular weight): essential conditions by direct substitution."""
@@ -219,7 +223,7 @@ class MLSModel(ShapeModel):
         phi = wp.zeros(max(total, 1), dtype=wp.float64, device=dev)
         dphi = wp.zeros(max(total, 1), dtype=wp.vec2d, device=dev)
         rcond = wp.zeros(n, dtype=wp.float64, device=dev)
-        self.launcher.launch(mk.shape_functions_kernel(self.settings.terms), n,
+        self.launcher.launch(mk.shape_functions_kernel(*self.settings.kernel_key()), n,
                              [self.box, points64, rows, self.nodes, self.support, self._params, phi, dphi, rcond],
                              once=True)
         self._check(p, counts, rcond.numpy(), name)

@@ -49,7 +49,7 @@ class NodeCoupling:
         self.background_density = background_density
         self.gather = gather
         self.phases = phases
-        self.kernels = pk.mls_kernels(model.settings.terms)
+        self.kernels = pk.mls_kernels(*model.settings.kernel_key())
         self.node_set = model.node_set()
         self.particle_grid = NeighbourGrid(self.launcher, model.reach, model.space)
         self.inv_scale = wp.float64(1.0 / float(np.mean(model.support_np[:, 0])))
