@@ -7,7 +7,7 @@ import warp as wp
 from warpfree.reduce import BLOCK, Reduction, any_set, reduce
 
 
-@pytest.mark.parametrize("n", [0, 1, 7, BLOCK, BLOCK + 1, 5 * BLOCK + 3])
+@pytest.mark.parametrize("n", [0, 1, 7, BLOCK, BLOCK + 1, 5 * BLOCK + 3, BLOCK ** 2 + 1, BLOCK ** 3 + 7])
 def test_max_min_sum_of_float32_against_numpy(launcher, n):
     x = np.random.default_rng(n).standard_normal(n).astype(np.float32)
     a = wp.array(x, dtype=float)
@@ -40,3 +40,11 @@ def test_sums_bitwise_identical_for_1_2_3_threads(make_launcher):
     x = wp.array(np.random.default_rng(3).standard_normal(50_000).astype(np.float32), dtype=float)
     sums = [reduce(make_launcher(threads=t), x, "sum") for t in (1, 2, 3)]
     assert sums[0] == sums[1] == sums[2]
+
+
+def test_every_pass_has_work_for_a_gpu(launcher):
+    """A tree of passes over blocks of BLOCK items: each pass runs n/BLOCK^k threads, never one thread over a long
+    list (262 144 items: 8 192, 256, 8 and 1 threads)."""
+    r = Reduction(launcher, wp.float32, "max")
+    assert r._passes(262_144) == [8192, 256, 8, 1]
+    assert r._passes(0) == [1] and r._passes(BLOCK) == [1] and r._passes(BLOCK + 1) == [2, 1]
