@@ -41,11 +41,13 @@ SMALLEST = {"node_spacing": 0.0625, "width": 0.5, "particles_per_step": 20.0, "t
 
 def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5, injection_speed: float = 0.1,
           node_spacing: float = 1.0 / 32.0, width: float = 0.25, d_max: float = 2.0, particles_per_step: float = 20.0,
-          dt: float = 0.02, t_end: float = 20.0, output_every: int = 100, frames: bool = True,
+          dt: float = 0.02, t_end: float = 20.0, output_every: int = 100,
+          field_solve: str | None = None, frames: bool = True,
           vtk: bool = True) -> TimeLoop:
     """``voltage`` V and ``gap`` d of the diode; ``injected_fraction``: Γ / Γ_CL; ``injection_speed`` v0; ``width``
     of the periodic slab along x; ``particles_per_step``: macro-particles the cathode emits per step; ``dt``,
-    ``t_end`` in the normalised time unit (the potential is averaged over the second half)."""
+    ``t_end`` in the normalised time unit (the potential is averaged over the second half). ``field_solve``: where
+    the field is solved (None: the host's SuperLU on the CPU, the device on a GPU; ``PICSolver``)."""
     params = dict(locals())
     for name in ("voltage", "gap", "injected_fraction", "injection_speed", "width", "dt"):
         require_positive(name, params[name])
@@ -61,7 +63,7 @@ def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5
     n_steps = int(math.ceil(t_end / dt))
     solver = PICSolver(field, [], dt, modes=(), particle_walls="absorb",
                        injections=[Injection(beam, "lower", particles_per_step)],
-                       average_from=0.5 * n_steps * dt)
+                       average_from=0.5 * n_steps * dt, field_solve=field_solve)
 
     def diode_analysis(run, out_dir):
         s = run.solver

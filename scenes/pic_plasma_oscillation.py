@@ -32,10 +32,12 @@ SMALLEST = {"node_spacing": 0.5, "periods": 1.0, "output_every": 8}
 
 def build(wavenumber: float = 0.5, length_y: float = 4.0, node_spacing: float = 0.25, d_max: float = 2.0,
           particles_per_node: int = 2, amplitude: float = 0.01, dt: float = 0.1, periods: float = 4.0,
-          gather: str = "momentum", output_every: int = 16, frames: bool = True, vtk: bool = True) -> TimeLoop:
+          gather: str = "momentum", output_every: int = 16,
+          field_solve: str | None = None, frames: bool = True, vtk: bool = True) -> TimeLoop:
     """``wavenumber`` k (1/λ_D units; the box is 2π/k long); ``amplitude`` δ of the displacement; ``dt`` in 1/ω_pe;
     ``periods`` of ω_p to run; ``gather`` "momentum" or "energy" (``warpfree.solvers.pic.field``); outputs every
-    ``output_every`` steps."""
+    ``output_every`` steps. ``field_solve``: where the field is solved (None: the host's SuperLU on the CPU, the
+    device on a GPU; ``PICSolver``)."""
     params = dict(locals())
     k = require_positive("wavenumber", wavenumber)
     require_positive("amplitude", amplitude)
@@ -54,7 +56,7 @@ def build(wavenumber: float = 0.5, length_y: float = 4.0, node_spacing: float = 
         position = lattice_positions(space, counts)
     position[:, 0] = np.mod(position[:, 0] + amplitude * np.sin(k * position[:, 0]), length)
     electrons = load_species(Species("electron", -1.0, 1.0, 1.0), space, position)
-    solver = PICSolver(field, [electrons], dt, modes=[(1, 0)], gather=gather)
+    solver = PICSolver(field, [electrons], dt, modes=[(1, 0)], gather=gather, field_solve=field_solve)
     n_steps = int(math.ceil(periods * 2.0 * math.pi / dt))
 
     def oscillation_analysis(run, out_dir):

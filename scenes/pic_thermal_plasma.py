@@ -31,10 +31,13 @@ SMALLEST = {"box": (8.0, 16.0), "periods": 1.0, "output_every": 10}
 
 def build(box: tuple = (64.0, 128.0), node_spacing: float = 1.0, d_max: float = 2.0, particles_per_node: int = 16,
           mass_ratio: float = 1836.15, ion_temperature: float = 0.1, dt: float = 0.2, periods: float = 50.0,
-          gather: str = "momentum", seed: int = 0, output_every: int = 50, frames: bool = True,
+          gather: str = "momentum", seed: int = 0, output_every: int = 50,
+          field_solve: str | None = None, frames: bool = True,
           vtk: bool = True) -> TimeLoop:
-    """``box`` (Lx, Ly) in λ_D; ``node_spacing`` in λ_D; ``particles_per_node``: macro-particles of each species
-    per node cell; ``mass_ratio`` m_p/m_e; ``ion_temperature`` T_p/T_e; ``dt`` in 1/ω_pe; ``periods`` 2π/ω_pe."""
+    """``box`` (Lx, Ly) in λ_D; ``node_spacing`` in λ_D; ``particles_per_node``: macro-particles of each species per
+    node cell; ``mass_ratio`` m_p/m_e; ``ion_temperature`` T_p/T_e; ``dt`` in 1/ω_pe; ``periods`` 2π/ω_pe.
+    ``field_solve``: where the field is solved (None: the host's SuperLU on the CPU, the device on a GPU;
+    ``PICSolver``)."""
     params = dict(locals())
     try:
         lx, ly = (float(v) for v in box)
@@ -56,7 +59,7 @@ def build(box: tuple = (64.0, 128.0), node_spacing: float = 1.0, d_max: float = 
                               rng),
                  load_species(Species("proton", 1.0, mass_ratio, 1.0, ion_temperature), space,
                               random_positions(space, count, rng), rng)]
-    solver = PICSolver(field, loads, dt, modes=[(1, 0), (0, 1)], gather=gather)
+    solver = PICSolver(field, loads, dt, modes=[(1, 0), (0, 1)], gather=gather, field_solve=field_solve)
     n_steps = int(math.ceil(periods * 2.0 * math.pi / dt))
 
     def energy_analysis(run, out_dir):

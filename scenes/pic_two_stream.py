@@ -33,11 +33,13 @@ SMALLEST = {"node_spacing": 1.0, "length_y": 4.0, "particles_per_node": 2, "d_ma
 
 def build(beam_speed: float = 1.0, length_y: float = 4.0, node_spacing: float = 0.5, d_max: float = 2.0,
           particles_per_node: int = 4, amplitude: float = 1e-4, dt: float = 0.1, t_end: float = 40.0,
-          fit_window: tuple = (1e-6, 1e-3), gather: str = "momentum", output_every: int = 20, frames: bool = True,
+          fit_window: tuple = (1e-6, 1e-3), gather: str = "momentum", output_every: int = 20,
+          field_solve: str | None = None, frames: bool = True,
           vtk: bool = True) -> TimeLoop:
     """``beam_speed`` v0; ``amplitude``: the velocity perturbation / v0; ``dt``, ``t_end`` in 1/ω_pe; ``fit_window``:
     the mode's field energy, as fractions of the beams' kinetic energy, between which γ is fitted; ``gather``
-    "momentum" or "energy" (``warpfree.solvers.pic.field``)."""
+    "momentum" or "energy" (``warpfree.solvers.pic.field``). ``field_solve``: where the field is solved (None: the
+    host's SuperLU on the CPU, the device on a GPU; ``PICSolver``)."""
     params = dict(locals())
     v0 = require_positive("beam_speed", beam_speed)
     require_positive("amplitude", amplitude)
@@ -63,7 +65,7 @@ def build(beam_speed: float = 1.0, length_y: float = 4.0, node_spacing: float = 
         velocity[:, 0] = sign * v0 * (1.0 + sign * amplitude * np.sin(k * position[:, 0]))
         loads.append(load_species(Species(name, -1.0, 1.0, 0.5, drift=(sign * v0, 0.0)), space, position,
                                   velocity=velocity))
-    solver = PICSolver(field, loads, dt, modes=[(1, 0)], gather=gather)
+    solver = PICSolver(field, loads, dt, modes=[(1, 0)], gather=gather, field_solve=field_solve)
     n_steps = int(math.ceil(t_end / dt))
 
     def growth_analysis(run, out_dir):

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from warpfree.errors import ParameterError
 from warpfree.galerkin.mls import RCOND_LIMIT, MLSModel
 from warpfree.kernels import mls as mk
 from warpfree.kernels import pic as pk
@@ -21,24 +22,29 @@ from warpfree.neighbours import NeighbourGrid
 from warpfree.reduce import Reduction
 from warpfree.solver import PhaseTimes
 
+from .device_solve import DeviceFieldSolve
 from .field import PlasmaPoisson
 from .particles import Particles
 
-__all__ = ["NodeCoupling", "GATHERS"]
+__all__ = ["NodeCoupling", "GATHERS", "FIELD_SOLVES"]
 
 #: the field gathers (``warpfree.solvers.pic.field``)
 GATHERS = ("momentum", "energy")
+#: where the field is solved: the host's SuperLU, or the device (:mod:`.device_solve`; "device" picks the method)
+FIELD_SOLVES = ("host", "device", "cg", "dense")
 
 
 class NodeCoupling:
     """Deposit, field solve and gather between the particles and the nodes of ``field``'s MLS model.
 
-    ``charge`` (nodes, device), ``potential`` (nodes, host) and ``nodal_field`` hold the last solve's; the particles'
-    field goes to ``particles.e_field``. ``background_density``: the uniform immobile charge density.
+    ``charge`` (nodes, device), ``potential`` (nodes, read to the host when asked for) and ``nodal_field`` hold the
+    last solve's; the particles' field goes to ``particles.e_field``. ``background_density``: the uniform immobile
+    charge density. ``field_solve``: "host" (``PlasmaPoisson``'s SuperLU: the charge to the host and the potential
+    back), or the solve on the device (:mod:`.device_solve`: "device" picks its method, or "cg", "dense").
     """
 
     def __init__(self, field: PlasmaPoisson, particles: Particles, macro_charge: wp.array, background_density: float,
-                 gather: str, phases: PhaseTimes):
+                 gather: str, phases: PhaseTimes, field_solve: str = "host"):
         model: MLSModel = field.model
         dev = particles.launcher.device
         self.field = field
@@ -55,9 +61,18 @@ class NodeCoupling:
         self.inv_scale = wp.float64(1.0 / float(np.mean(model.support_np[:, 0])))
         self._flag_max = Reduction(self.launcher, wp.int32, "max")
         self.charge = wp.zeros(model.node_count, dtype=wp.float64, device=dev)
-        self.potential = np.zeros(model.node_count)
-        self.potential_wp = wp.zeros(model.node_count, dtype=wp.float64, device=dev)
-        self.nodal_field = wp.zeros(model.node_count, dtype=wp.vec2d, device=dev)
+        if field_solve not in FIELD_SOLVES:
+            raise ParameterError("field_solve", f"must be one of {list(FIELD_SOLVES)}, got {field_solve!r}")
+        self.field_solve = field_solve
+        self.device_solve = None
+        if field_solve != "host":
+            self.device_solve = DeviceFieldSolve(field, background_density, gather == "momentum", self.launcher,
+                                                 "auto" if field_solve == "device" else field_solve)
+            self.potential_wp, self.nodal_field = self.device_solve.potential, self.device_solve.nodal_field
+        else:
+            self.potential_wp = wp.zeros(model.node_count, dtype=wp.float64, device=dev)
+            self.nodal_field = wp.zeros(model.node_count, dtype=wp.vec2d, device=dev)
+        self._potential: np.ndarray | None = np.zeros(model.node_count)
         self.allocate(particles.state.capacity)
 
     def allocate(self, capacity: int) -> None:
@@ -88,15 +103,34 @@ class NodeCoupling:
             else:
                 self.charge.zero_()
         with self.phases("solve"):
-            charge = self.charge.numpy()
-            self.potential = self.field.solve(charge, self.background_density)
-            self.potential_wp.assign(self.potential)
-            if self.gather == "momentum":
-                self.nodal_field.assign(self.field.nodal_field(self.potential, charge))
+            if self.device_solve is not None:
+                self.device_solve.solve(self.charge)
+                self._potential = None  # on the device: read when asked for
+            else:
+                charge = self.charge.numpy()
+                self._potential = self.field.solve(charge, self.background_density)
+                self.potential_wp.assign(self._potential)
+                if self.gather == "momentum":
+                    self.nodal_field.assign(self.field.nodal_field(self._potential, charge))
         with self.phases("gather"):
             L.launch(self.kernels.particle_field, n, [self.node_set, pa.position32, state.position, self.inv_scale,
                                                        self.fit, self.potential_wp, self.nodal_field,
                                                        int(self.gather == "momentum"), pa.e_field])
+
+    @property
+    def potential(self) -> np.ndarray:
+        """The nodal potential u_I of the last solve (host; read from the device, once per solve, when it solved
+        there)."""
+        if self._potential is None:
+            self._potential = self.potential_wp.numpy().copy()
+        return self._potential
+
+    @property
+    def net_charge_density(self) -> float:
+        """The last solve's net charge density (a periodic box; 0 between walls)."""
+        if self.device_solve is not None:
+            return 0.0 if self.field.walled else float(self.device_solve.net.numpy()[0])
+        return self.field.net_charge_density
 
     def bad_particle(self) -> str | None:
         """A message naming the first particle whose MLS fit is ill-posed (too few nodes in reach, or a singular

@@ -52,7 +52,7 @@ class Diagnostics:
         u = self.coupling.potential
         out = {"field_energy": self.field.field_energy(u),
                "deposited_charge": float(self.coupling.charge.numpy().sum()),
-               "net_charge_density": self.field.net_charge_density}
+               "net_charge_density": self.coupling.net_charge_density}
         pa = self.particles
         if pa.open_boundaries:
             wall = pa.state.wall_charge

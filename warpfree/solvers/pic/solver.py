@@ -71,6 +71,9 @@ class PICSolver(TimeDependentSolver):
     injections: wall sources (:class:`~.injection.Injection`); loads may then be empty (a vacuum diode).
     average_from: time from which the nodal potential is averaged over the steps (:meth:`mean_potential`: the
     steady profile of a noisy run); None: not averaged.
+    field_solve: where the field is solved each step (:mod:`.coupling`): "host" (SuperLU, the CPU's fastest: the
+    default on the CPU), "device" (on the device, no host copy: the default on a GPU; :mod:`.device_solve`), or the
+    device's "cg" or "dense".
     """
 
     name = "pic"
@@ -80,7 +83,7 @@ class PICSolver(TimeDependentSolver):
     def __init__(self, field: PlasmaPoisson, loads: list[ParticleLoad], dt: float,
                  background_density: float | None = None, modes=((1, 0),), gather: str = "momentum",
                  magnetic_field: float = 0.0, particle_walls="reflect", injections: list[Injection] = (),
-                 average_from: float | None = None, launcher: Launcher | None = None):
+                 average_from: float | None = None, field_solve: str | None = None, launcher: Launcher | None = None):
         model: MLSModel = field.model
         super().__init__(model, launcher or model.launcher)
         self.field = field
@@ -135,9 +138,11 @@ class PICSolver(TimeDependentSolver):
         self.particles = Particles(self.launcher, self.state, space, model.box, model.reach, self.macro_charge_np,
                                    self.injections, sources, index.size, self.dt, open_boundaries)
         self.particles.sync_position32()
+        if field_solve is None:
+            field_solve = "host" if self.launcher.is_cpu else "device"
         self.coupling = NodeCoupling(field, self.particles,
                                      wp.array(self.macro_charge_np, dtype=wp.float64, device=dev),
-                                     self.background_density, gather, self.phases)
+                                     self.background_density, gather, self.phases, field_solve)
         self.particles.on_resize = self.coupling.allocate
         self.diagnostics_record = Diagnostics(field, self.coupling, self.particles, modes, self.phases)
         self.particles.sort(self.count)
@@ -324,7 +329,7 @@ class PICSolver(TimeDependentSolver):
                             "mass": sp_.mass, "density": sp_.density, "temperature": sp_.temperature,
                             "drift": list(sp_.drift), "flux": j.flux})
         return {"particles": self.count, "species": species, "particle_walls": list(self.particle_walls),
-                "dt": self.dt, "gather": self.gather,
+                "dt": self.dt, "gather": self.gather, "field_solve": self.coupling.field_solve,
                 "magnetic_field": float(self.magnetic_field), "plasma_frequency": self.plasma_frequency,
                 "omega_dt": self.plasma_frequency * self.dt,
                 "debye_length": self.debye_length(), "background_density": self.background_density,
