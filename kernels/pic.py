@@ -10,8 +10,8 @@ Per step (seed 002 §1.2 of the reference note):
 1. :func:`particle_fits`: each particle p queries the node grid and stores the γ-form of its MLS fit (γ, ∂γ,
    the basis scale) — seed 002 §5.3.2 stores φ and ∇φ per particle; γ is their compact form: φ_I(x_p) =
    w_I(x_p) γ_p·p((x_I - x_p)/s_p).
-2. :func:`deposit`: each node I gathers the particles in its support through a HashGrid over the particles and
-   sums Q_I = Σ_p q_p φ_I(x_p) (eq 4.4) — a gather, race-free and bitwise the same for any thread count. Node and
+2. :func:`deposit`: each node I gathers the particles in its support through a HashGrid over the particles (in a
+   periodic box, querying at its own periodic copies) and sums Q_I = Σ_p q_p φ_I(x_p) (eq 4.4) — a gather, race-free and bitwise the same for any thread count. Node and
    particle decide membership by the same float64 test on the same offset (``offset2d``), so Σ_I Q_I = Σ_p q_p
    Σ_I φ_I(x_p) = Σ_p q_p to round-off (partition of unity, eq 4.3).
 3. :func:`particle_field`: E(x_p) = -Σ_I u_I ∇φ_I(x_p) (eq 4.5), the same nodes and fit; or the momentum-conserving
@@ -23,13 +23,13 @@ Per step (seed 002 §1.2 of the reference note):
    velocity step is Boris's (:func:`boris_velocity`); :func:`kick` gives the half-step start
    v^{-1/2} = v^0 - (q/m) E^0 Δt/2.
 
-Periodic boxes: the node grid holds the nodes' periodic images and the particle grid the particles' images
-(``warpfree.neighbours``); offsets are minimum images (``kernels/space.py``), never HashGrid wrap-around.
+Periodic boxes: the node grid holds the nodes' periodic images (``warpfree.neighbours``: static, placed once) and
+the deposit queries the particle grid at the nodes' copies (no particle images, so nothing to count per step); offsets are minimum images (``kernels/space.py``), never HashGrid wrap-around.
 """
 
 import warp as wp
 
-from .mls import ALGEBRA, MLSFit, NodeSet, inside_support, nearest_copy, serving_node, weight_function
+from .mls import ALGEBRA, MLSFit, NodeSet, inside_support, serving_node, weight_function
 from .space import Box2d, offset2d, wrap2d
 
 
@@ -95,8 +95,9 @@ def mls_kernels(basis_terms: int, weight_kind: int = 0, rectangular: bool = Fals
         first: int,
         ns: NodeSet,
         grid: wp.uint64,
-        grid_points: wp.array(dtype=wp.vec3),
-        source_id: wp.array(dtype=wp.int32),
+        position32: wp.array(dtype=wp.vec3),
+        query_start: wp.array(dtype=wp.int32),
+        query_shift: wp.array(dtype=wp.vec3),
         position: wp.array(dtype=wp.vec2d),
         species: wp.array(dtype=wp.int32),
         macro_charge: wp.array(dtype=wp.float64),
@@ -105,21 +106,28 @@ def mls_kernels(basis_terms: int, weight_kind: int = 0, rectangular: bool = Fals
         charge: wp.array(dtype=wp.float64),
     ):
         """Q_I = Σ_p q_p φ_I(x_p) (seed 002 eq 4.4): node I gathers the particles in its support (``grid``: a HashGrid
-        over the particles and their periodic images, cell = ``ns.reach``); q_p = ``macro_charge[species[p]]``."""
+        over the particles, cell = ``ns.reach``); q_p = ``macro_charge[species[p]]``. In a periodic box the node
+        queries at each of its copies whose reach crosses into the box (``query_shift[query_start[I]:...]``, the
+        first the node itself) and takes a particle from the copy within reach of it: a side >= 2 reach leaves one
+        such copy, so no particle is counted twice, and the particles need no images."""
         i = first + wp.tid()
         xi = ns.nodes[i]
+        periodic = ns.box.periodic[0] + ns.box.periodic[1] > wp.float64(0.0)
         q = wp.float64(0.0)
-        query = wp.hash_grid_query(grid, ns.nodes32[i], ns.reach)
-        k = int(0)
-        while wp.hash_grid_query_next(query, k):
-            p = nearest_copy(ns.box, ns.nodes32[i], grid_points, source_id, k, ns.reach)
-            if p < 0:
-                continue
-            d = offset2d(ns.box, position[p], xi)
-            if not inside_support(ns.params, d, ns.support[i]):
-                continue
-            phi = alg.shape(fit[p], node_weight(d, ns.support[i]), alg.local_basis(-d, inv_scale))
-            q = q + macro_charge[species[p]] * phi
+        for s in range(query_start[i], query_start[i + 1]):
+            at = ns.nodes32[i] + query_shift[s]
+            query = wp.hash_grid_query(grid, at, ns.reach)
+            p = int(0)
+            while wp.hash_grid_query_next(query, p):
+                if periodic:
+                    r = at - position32[p]
+                    if wp.dot(r, r) >= ns.reach * ns.reach:
+                        continue
+                d = offset2d(ns.box, position[p], xi)
+                if not inside_support(ns.params, d, ns.support[i]):
+                    continue
+                phi = alg.shape(fit[p], node_weight(d, ns.support[i]), alg.local_basis(-d, inv_scale))
+                q = q + macro_charge[species[p]] * phi
         charge[i] = q
 
     @wp.kernel

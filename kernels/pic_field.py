@@ -1,6 +1,7 @@
 """PIC field solve on the device (``warpfree.solvers.pic.device_solve``): the dense map's product, the gauge and load
-of the periodic Krylov solve, and the nodal field of the momentum gather. float64 (the field solve's precision);
-every kernel a gather (thread i writes row i)."""
+of the periodic Krylov solve, and the nodal field of the momentum gather; and the step report's terms
+(``warpfree.solvers.pic.history``). float64 (the field solve's precision);
+every kernel a gather (thread i writes row i), and the step report's small puts (one thread)."""
 
 import warp as wp
 
@@ -81,3 +82,46 @@ def density(first: int, charge: wp.array(dtype=wp.float64), inv_mass: wp.array(d
     """Q_I / m_I."""
     i = first + wp.tid()
     out[i] = charge[i] * inv_mass[i]
+
+
+@wp.kernel
+def product(first: int, a: wp.array(dtype=wp.float64), b: wp.array(dtype=wp.float64),
+            out: wp.array(dtype=wp.float64)):
+    """a_I b_I (summed for uᵀ K u and the modes' coefficients)."""
+    i = first + wp.tid()
+    out[i] = a[i] * b[i]
+
+
+@wp.kernel
+def put(first: int, value: wp.array(dtype=wp.float64), scale: wp.float64, slot: int,
+        report: wp.array(dtype=wp.float64)):
+    """report[slot] = scale × value[0] (a reduction's result into the step report)."""
+    report[slot] = scale * value[0]
+
+
+@wp.kernel
+def put_vector(first: int, value: wp.array(dtype=wp.vec2d), slot: int, report: wp.array(dtype=wp.float64)):
+    """report[slot], report[slot + 1] = value[0] (a vector sum into the step report)."""
+    report[slot] = value[0][0]
+    report[slot + 1] = value[0][1]
+
+
+@wp.kernel
+def put_flag(first: int, value: wp.array(dtype=wp.int32), slot: int, report: wp.array(dtype=wp.float64)):
+    """report[slot] = value[0] (a flag's maximum into the step report)."""
+    report[slot] = wp.float64(value[0])
+
+
+@wp.kernel
+def copy_values(first: int, source: wp.array(dtype=wp.float64), count: int, slot: int,
+                report: wp.array(dtype=wp.float64)):
+    """report[slot + k] = source[k] for k < count (the field terms of x^n into the row of time n)."""
+    for k in range(count):
+        report[slot + k] = source[k]
+
+
+@wp.kernel
+def take(first: int, source: wp.array(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
+    """out_i = source_i (the potential's rows of the dense map's stacked product; a launch, so a graph records it)."""
+    i = first + wp.tid()
+    out[i] = source[i]

@@ -103,6 +103,18 @@ class NeighbourGrid:
         L.launch(nk.place_images, n, [positions, box, self.radius, offsets, n, extended, source_id], once=True)
         return extended, source_id
 
+    def copies(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each source's copies in the grid as CSR rows (host, read once): ``start`` (n + 1, int32) and ``shift`` (the
+        float32 vec3 offset of each copy from its source, the source itself first with a zero shift). A gather that
+        must find points within reach of a source's periodic copies queries another grid at these."""
+        points = self.points.numpy()
+        source = self.source_id.numpy()
+        order = np.argsort(source, kind="stable")  # the source itself (slot i < n) before its images
+        start = np.zeros(self.n_sources + 1, dtype=np.int32)
+        start[1:] = np.cumsum(np.bincount(source, minlength=self.n_sources))
+        shift = (points[order] - points[source[order]]).astype(np.float32)
+        return start, shift
+
     @property
     def n_images(self) -> int:
         return 0 if self.points is None else self.points.shape[0] - self.n_sources

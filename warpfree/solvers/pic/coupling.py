@@ -18,7 +18,6 @@ from warpfree.errors import ParameterError
 from warpfree.galerkin.mls import RCOND_LIMIT, MLSModel
 from warpfree.kernels import mls as mk
 from warpfree.kernels import pic as pk
-from warpfree.neighbours import NeighbourGrid
 from warpfree.reduce import Reduction
 from warpfree.solver import PhaseTimes
 
@@ -57,7 +56,15 @@ class NodeCoupling:
         self.phases = phases
         self.kernels = pk.mls_kernels(*model.settings.kernel_key())
         self.node_set = model.node_set()
-        self.particle_grid = NeighbourGrid(self.launcher, model.reach, model.space)
+        # the particles' grid holds no images: in a periodic box each node queries it at its own copies (those of
+        # the model's node grid), which are static, so a step counts and places nothing
+        # a hash cell per reach-sized cell of the box and of the copies' reach beyond it (up to 256 a side): no two
+        # cells a query visits share one
+        cells = [min(256, int(np.ceil(length / model.reach)) + 4) for length in model.space.length[:2]]
+        self.particle_grid = wp.HashGrid(*cells, 1, device=dev)
+        start, shift = model.grid.copies()
+        self.query_start = wp.array(start, dtype=wp.int32, device=dev)
+        self.query_shift = wp.array(shift, dtype=wp.vec3, device=dev)
         self.inv_scale = wp.float64(1.0 / float(np.mean(model.support_np[:, 0])))
         self._flag_max = Reduction(self.launcher, wp.int32, "max")
         self.charge = wp.zeros(model.node_count, dtype=wp.float64, device=dev)
@@ -73,6 +80,7 @@ class NodeCoupling:
             self.potential_wp = wp.zeros(model.node_count, dtype=wp.float64, device=dev)
             self.nodal_field = wp.zeros(model.node_count, dtype=wp.vec2d, device=dev)
         self._potential: np.ndarray | None = np.zeros(model.node_count)
+        self.charge_host = np.zeros(model.node_count)  # the last deposit, when the host solved (read for it)
         self.allocate(particles.state.capacity)
 
     def allocate(self, capacity: int) -> None:
@@ -84,22 +92,29 @@ class NodeCoupling:
 
     def fields_at_particles(self) -> None:
         """Neighbours, fits, deposit, solve and gather at x^n (E into ``particles.e_field``) for the live particles."""
-        m, L, pa = self.model, self.launcher, self.particles
-        n, state = pa.count, pa.state
+        self.build_grid()
+        self.fields_from_grid()
+
+    def build_grid(self) -> None:
+        """The particles' HashGrid at x^n (Warp's build: a sort, not a plain launch)."""
+        n = self.particles.count
         with self.phases("neighbours"):
             if n:
-                self.particle_grid.build(pa.position32[:n])
+                self.particle_grid.build(self.particles.position32[:n], self.model.reach)
+
+    def fields_from_grid(self) -> None:
+        """Fits, deposit, solve and gather over the built grid: launches only, with the device solve (a graph can
+        record them)."""
+        m, L, pa = self.model, self.launcher, self.particles
+        n, state = pa.count, pa.state
         with self.phases("fits"):
             L.launch(self.kernels.particle_fits, n, [self.node_set, pa.position32, state.position, self.inv_scale,
                                                       self.fit, self.node_count_of])
         with self.phases("deposit"):
-            g = self.particle_grid
             if n:
-                # the particle grid's image arrays are new at every build, so no launch timing could serve the
-                # next step: split over every thread (``once``)
                 L.launch(self.kernels.deposit, m.node_count,
-                         [self.node_set, g.id, g.points, g.source_id, state.position, state.species,
-                          self.macro_charge, self.inv_scale, self.fit, self.charge], once=True)
+                         [self.node_set, self.particle_grid.id, pa.position32, self.query_start, self.query_shift,
+                          state.position, state.species, self.macro_charge, self.inv_scale, self.fit, self.charge])
             else:
                 self.charge.zero_()
         with self.phases("solve"):
@@ -107,7 +122,7 @@ class NodeCoupling:
                 self.device_solve.solve(self.charge)
                 self._potential = None  # on the device: read when asked for
             else:
-                charge = self.charge.numpy()
+                self.charge_host = charge = self.charge.numpy()
                 self._potential = self.field.solve(charge, self.background_density)
                 self.potential_wp.assign(self._potential)
                 if self.gather == "momentum":
@@ -132,19 +147,32 @@ class NodeCoupling:
             return 0.0 if self.field.walled else float(self.device_solve.net.numpy()[0])
         return self.field.net_charge_density
 
-    def bad_particle(self) -> str | None:
-        """A message naming the first particle whose MLS fit is ill-posed (too few nodes in reach, or a singular
-        moment matrix) or whose velocity is not finite, else None. Flags and their maximum on the device: one read
-        per step; the arrays come to the host only when something is wrong."""
+    def launch_flags(self) -> wp.array:
+        """Flag, on the device, each live particle whose MLS fit is ill-posed (too few nodes in reach, or a singular
+        moment matrix) or whose velocity is not finite; returns the flags (their maximum goes into the step report)."""
         terms = self.model.settings.terms
         n, state = self.particles.count, self.particles.state
+        if n:
+            self.launcher.launch(pk.flag_bad_particles, n, [terms, wp.float64(RCOND_LIMIT), self.node_count_of,
+                                                            self.fit, state.velocity, self._flags])
+        return self._flags
+
+    def bad_particle(self) -> str | None:
+        """A message naming the first particle :meth:`launch_flags` flags, else None (the flags' maximum read once;
+        the arrays come to the host only when something is wrong)."""
+        n = self.particles.count
         if not n:
             return None
-        self.launcher.launch(pk.flag_bad_particles, n, [terms, wp.float64(RCOND_LIMIT), self.node_count_of,
-                                                        self.fit, state.velocity, self._flags])
+        self.launch_flags()
         self._flag_max.launch(self._flags, n)
         if not self._flag_max.value():
             return None
+        return self.describe_bad()
+
+    def describe_bad(self) -> str:
+        """The message for the first flagged particle (reads the flags and that particle's values)."""
+        terms = self.model.settings.terms
+        n, state = self.particles.count, self.particles.state
         bad = np.flatnonzero(self._flags[:n].numpy())
         i = int(bad[0])
         x = state.position.numpy()[i]

@@ -36,7 +36,7 @@ from warpfree.reduce import Reduction
 
 from .field import PlasmaPoisson
 
-__all__ = ["DeviceFieldSolve", "DENSE_MAX", "CG_TOLERANCE"]
+__all__ = ["DeviceFieldSolve", "DENSE_MAX", "CG_TOLERANCE", "bsr_matrix"]
 
 #: most nodes the dense map is made for (3 N² float64: 400 MB at 4 096)
 DENSE_MAX = 4096
@@ -46,7 +46,8 @@ CG_TOLERANCE = 1e-13
 CHECK_EVERY = 10
 
 
-def _bsr(matrix: sp.spmatrix, device: str) -> wsp.BsrMatrix:
+def bsr_matrix(matrix: sp.spmatrix, device: str) -> wsp.BsrMatrix:
+    """A SciPy sparse matrix as a Warp BSR matrix (1x1 blocks, float64) on ``device``."""
     m = matrix.tocoo()
     rows = wp.array(m.row.astype(np.int32), dtype=wp.int32, device=device)
     columns = wp.array(m.col.astype(np.int32), dtype=wp.int32, device=device)
@@ -118,7 +119,7 @@ class DeviceFieldSolve:
     def _solve_dense(self, charge: wp.array) -> None:
         L, n = self.launcher, self.n
         L.launch(K.dense_apply, self.stacked.shape[0], [self.map, charge, self.offset, self.stacked])
-        wp.copy(self.potential, self.stacked, count=n)
+        L.launch(K.take, n, [self.stacked, self.potential])
         if self.momentum:
             L.launch(K.pack_field, n, [self.stacked, n, self.nodal_field])
         if not self.field.walled:
@@ -136,8 +137,8 @@ class DeviceFieldSolve:
         pinned[0, :] = 0.0
         pinned[:, 0] = 0.0
         pinned[0, 0] = 1.0
-        self.stiffness = _bsr(pinned.tocsr(), dev)
-        self.gradient = [_bsr(g, dev) for g in f.gradient]
+        self.stiffness = bsr_matrix(pinned.tocsr(), dev)
+        self.gradient = [bsr_matrix(g, dev) for g in f.gradient]
         self._precondition = preconditioner(self.stiffness, "diag")
         self._load = wp.zeros(n, dtype=wp.float64, device=dev)
         self._scratch = wp.zeros(n, dtype=wp.float64, device=dev)

@@ -33,6 +33,7 @@ import warp as wp
 from warpfree.device import Launcher
 from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.galerkin.mls import MLSModel
+from warpfree.graph import StepGraph
 from warpfree.kernels import pic as pk
 from warpfree.solver import OutputSet, StepRule, TimeDependentSolver
 
@@ -234,18 +235,58 @@ class PICSolver(TimeDependentSolver):
         if abs(dt - self.dt) > 1e-9 * self.dt:
             raise ParameterError("dt", f"the leapfrog keeps v at half steps of its own Δt = {self.dt:.6g}; a step of "
                                        f"{dt:.6g} would break the staggering (make output times multiples of Δt)")
+        self._launch_push()
+        self._between()
+        self._launch_fields()
+        self._after()
+
+    # the step's parts: launches only (a graph can record them) and the host's work between them
+    def _launch_push(self) -> None:
+        """The push to x^{n+1}, v^{n+1/2} and time n's row of diagnostics on the device."""
         pa = self.particles
         with self.phases("push"):
             self.launcher.launch(pk.leapfrog_push, self.count, [self.push, self.species_table, pa.arrays, pa.e_field,
                                                                 pa.kinetic, pa.momentum])
-        self.diagnostics_record.record(self.t)
+        self.diagnostics_record.launch_record()
+
+    def _between(self) -> None:
+        """Time n's row on the host, the step count, injection, the sort and the particles' grid."""
+        pa = self.particles
+        self.diagnostics_record.begin_row(self.t)
         self.state.steps += 1
         with self.phases("sort"):
             total = pa.inject() if self.injections else self.count
             pa.sort(total)
-        self.coupling.fields_at_particles()
-        self.diagnostics_record.after_solve()
+        self.coupling.build_grid()
+
+    def _launch_fields(self) -> None:
+        """Fits, deposit, solve, gather, the fits' flags and the field terms at x^{n+1}."""
+        record = self.diagnostics_record
+        self.coupling.fields_from_grid()
+        record.flag(self.coupling.launch_flags(), self.count)
+        record.launch_field_terms()
+
+    def _after(self) -> None:
+        """The step's one read (its report: time n's row and the fits' flag) and the host's tallies."""
+        record = self.diagnostics_record
+        record.keep_tallies()
+        with self.phases("diagnostics"):
+            record.read()
         self._accumulate_potential()
+
+    def record_step(self) -> StepGraph | None:
+        """:meth:`step` as two Warp graphs (the push; the fields) around the host's sort and grid build, and the
+        report's read after them. None when a step cannot be recorded: with open boundaries (the live count changes
+        the launches) or a field solve with host work (SuperLU, or Warp's CG on a CPU, which checks its residual
+        there)."""
+        solve = self.coupling.device_solve
+        if self.particles.open_boundaries or solve is None or (solve.method == "cg" and self.launcher.is_cpu):
+            return None
+        with self.launcher.capturing() as push:
+            self._launch_push()
+        with self.launcher.capturing() as fields:
+            self._launch_fields()
+        return StepGraph([push.graph, self._between, fields.graph, self._after])
 
     def _accumulate_potential(self) -> None:
         if self.average_from is not None and self.t >= self.average_from - 1e-9 * self.dt:
@@ -282,7 +323,8 @@ class PICSolver(TimeDependentSolver):
         return self.count
 
     def problem(self) -> str | None:
-        return self.coupling.bad_particle()
+        """The first bad particle of the last step's fits (from the step's report: no read unless one is flagged)."""
+        return self.coupling.describe_bad() if self.diagnostics_record.bad_flag else None
 
     @property
     def t(self) -> float:
