@@ -1,10 +1,11 @@
 """The device clock: the time, the step and the landing time that a time-dependent solver's kernels read.
 
 A solver whose step never waits on the host keeps its time on the device (``warpfree.clock.DeviceClock``): one float64
-array of :data:`SLOTS` slots (plus the solver's own report slots after them). Each step :func:`choose_step` picks the
+array of :data:`SLOTS` slots (plus the solver's own report slots after them). :func:`choose` picks the
 step from the solver's limit (``LIMIT``: its stable step, computed on the device, or the rule's constant step), the
 run's fixed step (``FIXED``, 0: none) and the next landing time (``NEXT_OUTPUT``, ``END``), the solver's kernels read
-it, and :func:`advance_time` moves the time on. Both follow ``warpfree.time_loop.TimeLoop`` line for line (float64,
+it, and :func:`advance` moves the time on; a step ends by advancing and choosing the next step in one launch (for
+WCSPH inside its ``finish_step``), and the host's :meth:`~warpfree.clock.DeviceClock.set` chooses again. Both follow ``warpfree.time_loop.TimeLoop`` line for line (float64,
 the same operations in the same order), so a run with the clock takes bitwise the steps the host loop took.
 Single-thread kernels; float64.
 """
@@ -26,8 +27,8 @@ STATUS_BROKEN = 1.0
 STATUS_ABOVE = 2.0
 
 
-@wp.kernel
-def choose_step(first: int, clock: wp.array(dtype=wp.float64)):
+@wp.func
+def choose(clock: wp.array(dtype=wp.float64)):
     """clock[STEP] = the step to take now (``TimeLoop.next_dt``): the fixed step or the limit, shortened to land on
     the next output time or the end, halved into two below twice the step (no sliver before an output). A limit that
     is not positive, or a fixed step above it, sets ``STATUS`` and a zero step (the state is left as it is)."""
@@ -53,8 +54,8 @@ def choose_step(first: int, clock: wp.array(dtype=wp.float64)):
     clock[STEP] = dt
 
 
-@wp.kernel
-def advance_time(first: int, clock: wp.array(dtype=wp.float64)):
+@wp.func
+def advance(clock: wp.array(dtype=wp.float64)):
     """t += Δt, or t = the next output time where t + Δt lands on it to 1e-12 (``TimeLoop``'s rule)."""
     t = clock[TIME]
     target = clock[NEXT_OUTPUT]
@@ -62,3 +63,22 @@ def advance_time(first: int, clock: wp.array(dtype=wp.float64)):
     if wp.abs(moved - target) <= wp.float64(1.0e-12) * wp.max(wp.float64(1.0), t):
         moved = target
     clock[TIME] = moved
+
+
+@wp.kernel
+def choose_step(first: int, clock: wp.array(dtype=wp.float64)):
+    """:func:`choose` (after the host set the clock)."""
+    choose(clock)
+
+
+@wp.kernel
+def advance_time(first: int, clock: wp.array(dtype=wp.float64)):
+    """:func:`advance` (a step of a given Δt)."""
+    advance(clock)
+
+
+@wp.kernel
+def advance_and_choose(first: int, clock: wp.array(dtype=wp.float64)):
+    """The end of a step: :func:`advance`, then :func:`choose` the next step (one launch)."""
+    advance(clock)
+    choose(clock)

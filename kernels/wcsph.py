@@ -54,7 +54,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from .clock import LIMIT, SLOTS, STEP
+from .clock import LIMIT, SLOTS, STEP, advance, choose
 from .neighbours import NeighbourRows
 from .smoothing import kernel_grad_coef, kernel_shape, kernel_w
 from .space import Box, displacement, displacement_function, image_displacement, wrap
@@ -211,8 +211,10 @@ REPORT_SLOTS = wp.constant(4)
 
 
 @wp.kernel
-def finish_step(first: int, limits: StepLimits, report: wp.array(dtype=wp.vec4), clock: wp.array(dtype=wp.float64)):
-    """The reduced report into the clock's report slots (float64), and the next step's stable Δt into its LIMIT:
+def finish_step(first: int, limits: StepLimits, report: wp.array(dtype=wp.vec4), clock: wp.array(dtype=wp.float64),
+                end_of_step: int):
+    """The reduced report into the clock's report slots (float64), the next step's stable Δt into its LIMIT and, at
+    the ``end_of_step`` (not for the report at the start), the time moved on and the next step chosen:
     Δt = min(C h/(max|v| + c0), 0.25 sqrt(h/max|a|), viscous, shifting) (seed 5-12; ``WCSPHSolver.stable_dt``, the
     same float64 operations; a min keeps the first operand unless the second is smaller, as Python's ``min``)."""
     r = report[0]
@@ -230,6 +232,9 @@ def finish_step(first: int, limits: StepLimits, report: wp.array(dtype=wp.vec4),
     if limits.shifting < dt:
         dt = limits.shifting
     clock[LIMIT] = dt
+    if end_of_step != 0:  # t += Δt, then the next step's Δt (``kernels/clock.py``), in this one launch
+        advance(clock)
+        choose(clock)
 
 
 @wp.kernel

@@ -4,7 +4,8 @@
 (``warpfree.kernels.clock``), followed by slots a solver fills with its own step report (WCSPH: the largest
 displacement, speed, acceleration and its status). The solver's kernels read t and Δt there; each step
 :meth:`DeviceClock.launch_choose` picks the step on the device and :meth:`DeviceClock.launch_advance` moves the time
-on; :meth:`DeviceClock.report` reads the whole array back, once per step (on a GPU the step's only synchronisation),
+on (a step ends with both in one launch: :meth:`DeviceClock.launch_advance_and_choose`, or the solver's own final
+kernel); :meth:`DeviceClock.set` chooses again after the host changed the landing times; :meth:`DeviceClock.report` reads the whole array back, once per step (on a GPU the step's only synchronisation),
 and caches it until the next launch. The host writes only when the run sets the clock up, at each output (the next
 landing time) and for a step taken with a given Δt (:meth:`set_step`, tests and set-up).
 
@@ -76,6 +77,8 @@ class DeviceClock:
             host[_NAMES[name]] = float(value)
         self.values[: K.SLOTS].assign(host[: K.SLOTS])
         self._host = host
+        if "step" not in slots:  # a step ends by choosing the next; a change of the landing times chooses again
+            self.launch_choose()
 
     def report(self) -> np.ndarray:
         """The whole clock array on the host, read once after each launch (cached until the next)."""
@@ -101,8 +104,8 @@ class DeviceClock:
         return refusal(r[K.STATUS], r[K.FIXED], r[K.LIMIT], unit)
 
     def next_step(self) -> float:
-        """The Δt the device will pick at the next :meth:`launch_choose`, from the last report (no read if it is
-        cached): :func:`choose_step` on the clock's slots."""
+        """The Δt the device picked for the next step, from the last report (no read if it is cached): the host twin
+        :func:`choose_step` on the clock's slots."""
         r = self.report()
         return choose_step(r[K.TIME], r[K.NEXT_OUTPUT], r[K.END], r[K.FIXED], r[K.LIMIT])[0]
 
@@ -119,4 +122,9 @@ class DeviceClock:
     def launch_advance(self) -> None:
         """Move the time on by the step's Δt (``kernels/clock.py: advance_time``)."""
         self.launcher.launch(K.advance_time, 1, [self.values])
+        self._host = None
+
+    def launch_advance_and_choose(self) -> None:
+        """The end of a step: the time moved on and the next step's Δt picked, in one launch."""
+        self.launcher.launch(K.advance_and_choose, 1, [self.values])
         self._host = None

@@ -4,8 +4,8 @@ What it does, in order, each part within its share of ``--budget`` seconds (a pa
 report says what was left out):
 
 1. **Tests** (``--tests``, 20 %): ``pytest -m cuda --device cuda``: every shipped scene at its smallest size through the
-   command line, and the device clock's checks (one read and no write per step, replayed graphs bitwise equal to
-   stepping) for WCSPH and SPEM, on the GPU.
+   command line, and the device steps' checks (one read and no write per step, replayed graphs bitwise equal to
+   stepping) for WCSPH, SPEM and PIC, on the GPU.
 2. **Scenes** (45 %): every shipped scene at its default on the GPU (frames and VTU off), cheapest first; each
    analysis figure (the numbers under ``summary["analysis"]``) against the CPU's from ``--reference`` (written on a
    CPU machine by ``--device cpu --write-reference``): the relative difference per figure. A scene's checks against
@@ -17,6 +17,7 @@ report says what was left out):
 Usage (on a machine with a GPU and warpfree installed: ``pip install -e '.[test]'``)
     python bench/core/gpu_check.py                      # everything, --budget 480
     python bench/core/gpu_check.py --device cpu --write-reference    # the CPU figures (bench/results), no GPU
+    python bench/core/gpu_check.py --device cpu --write-reference --leave-out pic_thermal_plasma,dam_break_3d
 Writes bench/results/gpu_check.{json,md} (``--write-reference``: bench/results/default_figures.json).
 """
 
@@ -109,9 +110,9 @@ def compare(figures: dict[str, float], reference: dict[str, float]) -> dict:
     return {"compared": len(diffs), "largest": worst[1], "largest_figure": worst[0], "differences": diffs}
 
 
-def run_scenes(device: str, budget: float, reference: dict | None) -> list[dict]:
+def run_scenes(device: str, budget: float, reference: dict | None, scenes: list[str] = SCENE_ORDER) -> list[dict]:
     rows, start = [], time.perf_counter()
-    for name in SCENE_ORDER:
+    for name in scenes:
         left = budget - (time.perf_counter() - start)
         if left <= 5:
             rows.append({"scene": name, "status": "not run (budget)"})
@@ -195,11 +196,14 @@ def main(argv=None) -> int:
                    help="run the scenes' defaults on --device and write their figures to " + str(REFERENCE))
     p.add_argument("--reference", default=str(REFERENCE))
     p.add_argument("--skip", default="", help="parts to leave out: tests,scenes,throughput")
+    p.add_argument("--leave-out", default="", help="scenes to leave out of the scenes' part (comma-separated)")
     args = p.parse_args(argv)
     skip = set(filter(None, args.skip.split(",")))
+    left_out = set(filter(None, args.leave_out.split(",")))
+    scenes = [name for name in SCENE_ORDER if name not in left_out]
     start = time.perf_counter()
     if args.write_reference:
-        rows = run_scenes(args.device, math.inf, None)
+        rows = run_scenes(args.device, math.inf, None, scenes)
         ref = {r["scene"]: {"figures": r["figures"], "wall_s": r["wall_s"]} for r in rows if "figures" in r}
         REFERENCE.write_text(json.dumps({"machine": common.machine_info(), "device": args.device, **ref}, indent=1))
         print(f"wrote {REFERENCE.relative_to(common.ROOT)}")
@@ -216,7 +220,7 @@ def main(argv=None) -> int:
     if "tests" not in skip:
         result["tests"] = run_tests(args.device, SHARES["tests"] * args.budget)
     if "scenes" not in skip:
-        result["scenes"] = run_scenes(args.device, SHARES["scenes"] * args.budget, reference)
+        result["scenes"] = run_scenes(args.device, SHARES["scenes"] * args.budget, reference, scenes)
     if "throughput" not in skip:
         result["throughput"] = run_throughput(args.device, SHARES["throughput"] * args.budget)
     result["wall_s"] = time.perf_counter() - start

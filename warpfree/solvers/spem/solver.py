@@ -207,10 +207,10 @@ class SPEMSolver(TimeDependentSolver):
         self.clock.launch_advance()
 
     def advance(self) -> None:
-        """One step of the Δt the device clock picks (the run's constant step, shortened to land on an output)."""
-        self.clock.launch_choose()
+        """One step of the Δt the device clock picked (the run's constant step, shortened to land on an output), then
+        the time moved on and the next step picked."""
         self._launch_step()
-        self.clock.launch_advance()
+        self.clock.launch_advance_and_choose()
 
     def record_step(self) -> StepGraph:
         """:meth:`advance` recorded as one Warp graph."""

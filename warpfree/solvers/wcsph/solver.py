@@ -238,15 +238,17 @@ class WCSPHSolver(TimeDependentSolver):
         limits.shifting = wp.float64(0.125 * P.h / (P.shifting * P.shift_speed) if P.shifting > 0 else math.inf)
         return limits
 
-    def _finish(self) -> None:
-        """The step's report reduced on the device, then copied into the clock with the next stable step."""
+    def _finish(self, end_of_step: bool = True) -> None:
+        """The step's report reduced on the device, then copied into the clock with the next stable step; at the end
+        of a step, the time moved on and the next step picked in the same launch."""
         self._report.launch(self.arrays.report)
-        self.launcher.launch(K.finish_step, 1, [self._limits, self._report.result, self.clock.values])
+        self.launcher.launch(K.finish_step, 1, [self._limits, self._report.result, self.clock.values,
+                                                int(end_of_step)])
         self.clock.invalidate()
 
     def _launch_report(self) -> None:
         self.launcher.launch(K.step_report, self.model.nf, [self.model.constants, self.arrays])
-        self._finish()
+        self._finish(end_of_step=False)
 
     def report(self) -> np.ndarray:
         """The last step's reduced report (one read per step, the clock's): max |Δx since build|², |v|², |a|², status."""
@@ -266,16 +268,13 @@ class WCSPHSolver(TimeDependentSolver):
 
     def advance(self) -> None:
         """One step of the Δt the device clock picks (the stable step, or the run's, landing on outputs)."""
-        moved_bound = self._moved_bound(self.clock.next_step())
-        self.clock.launch_choose()
-        self._launch_step(moved_bound)
+        self._launch_step(self._moved_bound(self.clock.next_step()))
 
     def record_step(self) -> StepGraph:
-        """:meth:`advance` as two Warp graphs around the host's rebuild decision: (choose Δt, drift), then a neighbour
+        """:meth:`advance` as two Warp graphs around the host's rebuild decision: (drift), then a neighbour
         rebuild if the last report says a particle may have moved past the skin, then (rates, kick, report)."""
         L, a, c = self.launcher, self.arrays, self.model.constants
         with L.capturing() as first:
-            self.clock.launch_choose()
             with self.phases("integrate"):
                 L.launch(self.kernels.drift, self.model.nf, [c, a, self.clock.values])
         with L.capturing() as second:
@@ -312,8 +311,7 @@ class WCSPHSolver(TimeDependentSolver):
         with self.phases("integrate"):
             self.launcher.launch(self.kernels.kick, self.model.nf, [self.model.constants, self.arrays,
                                                                      self.clock.values])
-            self._finish()
-            self.clock.launch_advance()
+            self._finish()  # finish_step also moves the time on and picks the next step
 
     def problem(self) -> str | None:
         """Non-finite values or particles outside the container after the last step (from its report)."""
