@@ -90,7 +90,8 @@ def run_scene(name: str, device: str, timeout: float) -> dict:
                "--set", "vtk=false", "--device", device]
         start = time.perf_counter()
         try:
-            proc = subprocess.run(cmd, cwd=common.ROOT, capture_output=True, text=True, timeout=timeout)
+            proc = subprocess.run(cmd, cwd=common.ROOT, capture_output=True, text=True,
+                                  timeout=timeout if math.isfinite(timeout) else None)
         except subprocess.TimeoutExpired:
             return {"scene": name, "status": f"cut at {timeout:.0f} s"}
         wall = time.perf_counter() - start

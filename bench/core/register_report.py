@@ -124,7 +124,9 @@ def markdown(result: dict) -> str:
         "time carried every weight's code: 158 registers for the loop over a point's nodes alone), on vectors and "
         "matrices of the basis size (3 or 6), and ``shape_functions`` takes three passes over its row (A, then "
         "-∂A γ, then the shape functions) instead of holding ∂A: linear basis 112, quadratic 164 with no stack "
-        "(255 with 88 and 688 B before). NEM's ``laplace_rows`` keeps each point's cavity and natural neighbours in "
+        "(255 with 88 and 688 B before); capped at 128 (Warp's ``cuda_max_registers``) the quadratic one spills 128 B "
+        "a thread, and its slopes solved one axis at a time took 172: its factor, γ and a right-hand side (33 "
+        "float64) are live together. NEM's ``laplace_rows`` keeps each point's cavity and natural neighbours in "
         "per-thread lists of up to 64 triangles and 32 nodes (dynamically indexed: local memory by nature).", "",
         "## The other kernels with the most registers", "",
         common.md_table(["kernel", "module", "registers", "stack (B)", "local (B)"],
