@@ -188,7 +188,7 @@ class Launcher:
         if self._capture is not None:  # recorded whole, on this thread, with plain launches (:meth:`capturing`)
             wp.launch(kernel, dim=n, inputs=[0, *inputs], device=self.device)
             return
-        if self._pool is None:
+        if self._pool is None or n == 1:  # one item (a clock's or a report's single thread): nothing to split or time
             self._run(kernel, 0, n, inputs)
             return
         args = inputs

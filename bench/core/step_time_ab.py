@@ -10,7 +10,9 @@ What it measures
 
 Usage
     python bench/core/step_time_ab.py 45de2de . --scenes dam_break_2d,em_cavity_2d,pic_two_stream --runs 3
-Writes bench/results/step_time_ab.{json,md}.
+    python bench/core/step_time_ab.py 45de2de . --scenes em_cavity_2d --set cells_per_radius=60 \
+        --name step_time_ab_spem
+Writes bench/results/step_time_ab.{json,md} (or ``--name``).
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ def main(argv=None) -> int:
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--set", action="append", default=[], help="KEY=VALUE for every scene (as warpfree run)")
+    ap.add_argument("--name", default="step_time_ab", help="results file stem under bench/results")
     args = ap.parse_args(argv)
     params = dict(item.split("=", 1) for item in args.set)
     rows = []
@@ -74,7 +77,7 @@ def main(argv=None) -> int:
     for r in rows:
         lines.append(f"| {r['scene']} | {r['a_median_s']:.3f} | {min(r['a_s']):.3f}-{max(r['a_s']):.3f} | "
                      f"{r['b_median_s']:.3f} | {min(r['b_s']):.3f}-{max(r['b_s']):.3f} | {r['ratio_median']:.3f} |")
-    common.write_results("step_time_ab", result, "\n".join(lines) + "\n")
+    common.write_results(args.name, result, "\n".join(lines) + "\n")
     return 0
 
 
