@@ -46,14 +46,6 @@ def remove_mean(first: int, u: wp.array(dtype=wp.float64), weighted_sum: wp.arra
 
 
 @wp.kernel
-def weighted(first: int, u: wp.array(dtype=wp.float64), node_integral: wp.array(dtype=wp.float64),
-             out: wp.array(dtype=wp.float64)):
-    """m_I u_I (summed for the gauge)."""
-    i = first + wp.tid()
-    out[i] = node_integral[i] * u[i]
-
-
-@wp.kernel
 def nodal_field(first: int, gx: wp.array(dtype=wp.float64), gy: wp.array(dtype=wp.float64),
                 inv_mass: wp.array(dtype=wp.float64), out: wp.array(dtype=wp.vec2d)):
     """E_I = -(G_x u, G_y u)_I / m_I: the lumped projection of -∇u^h (``PlasmaPoisson.nodal_field``)."""
@@ -77,17 +69,10 @@ def add_transposed(first: int, sx: wp.array(dtype=wp.float64), sy: wp.array(dtyp
 
 
 @wp.kernel
-def density(first: int, charge: wp.array(dtype=wp.float64), inv_mass: wp.array(dtype=wp.float64),
-            out: wp.array(dtype=wp.float64)):
-    """Q_I / m_I."""
-    i = first + wp.tid()
-    out[i] = charge[i] * inv_mass[i]
-
-
-@wp.kernel
 def product(first: int, a: wp.array(dtype=wp.float64), b: wp.array(dtype=wp.float64),
             out: wp.array(dtype=wp.float64)):
-    """a_I b_I (summed for uᵀ K u and the modes' coefficients)."""
+    """a_I b_I: m_I u_I (the gauge), Q_I / m_I (with 1/m), u_I (K u)_I and the modes' C_kI u_I (summed for the
+    report)."""
     i = first + wp.tid()
     out[i] = a[i] * b[i]
 

@@ -164,7 +164,7 @@ class DeviceFieldSolve:
             self._solves[key] = cg(self.stiffness, self._load, out, tol=CG_TOLERANCE, atol=0.0, maxiter=4 * n + 100,
                                    M=self._precondition, check_every=self._check_every, run=False)
         self.iterations = self._solves[key]()[0]
-        L.launch(K.weighted, n, [out, self.node_integral, self._scratch])
+        L.launch(K.product, n, [out, self.node_integral, self._scratch])
         self._sum.launch(self._scratch, n)
         L.launch(K.remove_mean, n, [out, self._sum.result, wp.float64(1.0 / self.area)])
 
@@ -180,7 +180,7 @@ class DeviceFieldSolve:
         if self._transposed is None:
             return
         # the antisymmetric part's second term S G M⁻¹ Q: one gauged solve per axis (PlasmaPoisson.nodal_field)
-        L.launch(K.density, n, [charge, self.inv_mass, self._density])
+        L.launch(K.product, n, [charge, self.inv_mass, self._density])
         for g, out in zip(self.gradient, self._transposed):
             wsp.bsr_mv(g, self._density, self._gx)
             self._gauged_solve(self._gx, out)

@@ -75,6 +75,7 @@ class Diagnostics:
         self._products = wp.zeros(node_count, dtype=wp.float64, device=dev)
         self._sum = Reduction(L, wp.float64, "sum")
         self._vector_sum = Reduction(L, wp.vec2d, "sum")
+        self._flag_max = Reduction(L, wp.int32, "max")
         self.field_slots = len(FIELD_TERMS) + len(self.mode_rows)
         self.pending = wp.zeros(self.field_slots, dtype=wp.float64, device=dev)  # the field terms of the last solve
         self.report = wp.zeros(len(REPORT) + self.field_slots, dtype=wp.float64, device=dev)
@@ -152,9 +153,8 @@ class Diagnostics:
 
     def flag(self, flags: wp.array, n: int) -> None:
         """The largest of the step's bad-particle flags into the report (``NodeCoupling.bad_particle``)."""
-        reduction = self.coupling._flag_max
-        reduction.launch(flags, n)
-        self.launcher.launch(K.put_flag, 1, [reduction.result, REPORT.index("bad_particle"), self.report])
+        self._flag_max.launch(flags, n)
+        self.launcher.launch(K.put_flag, 1, [self._flag_max.result, REPORT.index("bad_particle"), self.report])
 
     def read(self) -> None:
         """The step's one read: the report; appends the recorded row (if any) to the history, keeps the flag."""
