@@ -315,23 +315,33 @@ class MLSFit:
 
 
 def _algebra(terms: int) -> SimpleNamespace:
-    """The MLS algebra of one basis size, on vectors and matrices of exactly ``terms`` (constant loop bounds: on a
-    GPU every entry stays in a register; a 6 x 6 matrix for the linear basis held 213-255 registers a thread):
+    """The MLS algebra of one basis size, on vectors of exactly ``terms`` and symmetric matrices packed as their
+    lower triangle, row by row (``packed``: terms (terms + 1) / 2 entries; constant loop bounds and indices: on a
+    GPU every entry stays in a register; a 6 x 6 matrix for the linear basis held 213-255 registers a thread, the
+    full 6 x 6 moment matrix 36 where 21 entries are distinct):
 
-    - ``Moments``: A = Σ_I w_I p_I p_Iᵀ and ∂_x A, ∂_y A (terms x terms);
+    - ``Moments``: A = Σ_I w_I p_I p_Iᵀ and ∂_x A, ∂_y A (packed);
     - ``local_basis(d, inv_scale)``: p(d/s) = [1, ξ, η] or [1, ξ, η, ξ², ξη, η²];
     - ``add_node(m, w, p)``: ``m`` plus one node's share (weight and slopes ``w`` = (w_I, ∂_x w_I, ∂_y w_I), p = p_I);
     - ``mls_fit(m, inv_scale)``: γ and ∂_a γ = A⁻¹ (e_{1+a}/s - ∂_a A γ) by a Cholesky factorisation of the
       Jacobi-scaled A (:class:`MLSFit`);
     - ``shape_value(fit, w, p)``: (φ_I, ∂φ_I/∂x, ∂φ_I/∂y) = (w γ·p, w ∂_xγ·p + ∂_x w γ·p, w ∂_yγ·p + ∂_y w γ·p)."""
     vec = wp.types.vector(length=terms, dtype=wp.float64)
-    mat = wp.types.matrix(shape=(terms, terms), dtype=wp.float64)
+    packed = wp.types.vector(length=terms * (terms + 1) // 2, dtype=wp.float64)
+
+    @wp.func
+    def entry(r: int, c: int) -> int:
+        """Index of (r, c) in a packed symmetric matrix (constant for constant r, c)."""
+        k = r * (r + 1) // 2 + c
+        if c > r:
+            k = c * (c + 1) // 2 + r
+        return k
 
     @wp.struct
     class Moments:
-        a: mat
-        ax: mat
-        ay: mat
+        a: packed
+        ax: packed
+        ay: packed
 
     @wp.func
     def local_basis(d: wp.vec2d, inv_scale: wp.float64) -> vec:
@@ -354,10 +364,12 @@ def _algebra(terms: int) -> SimpleNamespace:
         ay = m.ay
         for r in range(wp.static(terms)):
             for c in range(wp.static(terms)):
-                pp = p[r] * p[c]
-                a[r, c] = a[r, c] + w[0] * pp
-                ax[r, c] = ax[r, c] + w[1] * pp
-                ay[r, c] = ay[r, c] + w[2] * pp
+                if c <= r:
+                    pp = p[r] * p[c]
+                    k = entry(r, c)
+                    a[k] = a[k] + w[0] * pp
+                    ax[k] = ax[k] + w[1] * pp
+                    ay[k] = ay[k] + w[2] * pp
         out = Moments()
         out.a = a
         out.ax = ax
@@ -365,69 +377,70 @@ def _algebra(terms: int) -> SimpleNamespace:
         return out
 
     @wp.func
-    def cholesky(a: mat) -> mat:
-        """Lower factor L (L Lᵀ = a); a non-positive pivot leaves L_kk = 0."""
-        lo = mat()
+    def cholesky(a: packed) -> packed:
+        """Lower factor L (L Lᵀ = a), packed; a non-positive pivot leaves L_kk = 0."""
+        lo = packed()
         for j in range(wp.static(terms)):
-            s = a[j, j]
+            s = a[entry(j, j)]
             for k in range(j):
-                s = s - lo[j, k] * lo[j, k]
+                s = s - lo[entry(j, k)] * lo[entry(j, k)]
             if s > wp.float64(0.0):
-                lo[j, j] = wp.sqrt(s)
+                lo[entry(j, j)] = wp.sqrt(s)
             for i in range(j + 1, wp.static(terms)):
-                t = a[i, j]
+                t = a[entry(i, j)]
                 for k in range(j):
-                    t = t - lo[i, k] * lo[j, k]
-                if lo[j, j] > wp.float64(0.0):
-                    lo[i, j] = t / lo[j, j]
+                    t = t - lo[entry(i, k)] * lo[entry(j, k)]
+                if lo[entry(j, j)] > wp.float64(0.0):
+                    lo[entry(i, j)] = t / lo[entry(j, j)]
         return lo
 
     @wp.func
-    def solve_scaled(lo: mat, sc: vec, b: vec) -> vec:
+    def solve_scaled(lo: packed, sc: vec, b: vec) -> vec:
         """γ = A⁻¹ b from the Cholesky factor of the scaled A_s = S A S: γ = S A_s⁻¹ S b."""
         y = vec()
         for i in range(wp.static(terms)):
             t = sc[i] * b[i]
             for k in range(i):
-                t = t - lo[i, k] * y[k]
-            y[i] = t / lo[i, i]
+                t = t - lo[entry(i, k)] * y[k]
+            y[i] = t / lo[entry(i, i)]
         x = vec()
         for ii in range(wp.static(terms)):
             i = wp.static(terms) - 1 - ii
             t = y[i]
             for k in range(i + 1, wp.static(terms)):
-                t = t - lo[k, i] * x[k]
-            x[i] = t / lo[i, i]
+                t = t - lo[entry(k, i)] * x[k]
+            x[i] = t / lo[entry(i, i)]
         for r in range(wp.static(terms)):
             x[r] = x[r] * sc[r]
         return x
 
     @wp.func
-    def factor(a: mat):
+    def factor(a: packed):
         """(L, S, rcond): the Cholesky factor L of the Jacobi-scaled A_s = S A S, S = diag(1/sqrt(A_rr)), and its
         smallest pivot L_rr² (0: singular)."""
         sc = vec()
-        scaled = mat()
+        scaled = packed()
         for r in range(wp.static(terms)):
-            sc[r] = wp.float64(1.0) / wp.sqrt(a[r, r])
+            sc[r] = wp.float64(1.0) / wp.sqrt(a[entry(r, r)])
         for r in range(wp.static(terms)):
             for c in range(wp.static(terms)):
-                scaled[r, c] = a[r, c] * sc[r] * sc[c]
+                if c <= r:
+                    scaled[entry(r, c)] = a[entry(r, c)] * sc[r] * sc[c]
         lo = cholesky(scaled)
         smallest = wp.float64(1.0)
         for r in range(wp.static(terms)):
-            smallest = wp.min(smallest, lo[r, r] * lo[r, r])
+            smallest = wp.min(smallest, lo[entry(r, r)] * lo[entry(r, r)])
         return lo, sc, smallest
 
     @wp.func
-    def first_solve(lo: mat, sc: vec) -> vec:
+    def first_solve(lo: packed, sc: vec) -> vec:
         """γ = A⁻¹ p(0)."""
         p0 = vec()
         p0[0] = wp.float64(1.0)
         return solve_scaled(lo, sc, p0)
 
     @wp.func
-    def slope_solves(lo: mat, sc: vec, gamma: vec, bx: vec, by: vec, inv_scale: wp.float64,
+    def slope_solves(lo: packed, sc: vec, gamma: vec, bx: vec, by: vec, inv_scale: wp.float64,
                      rcond: wp.float64) -> MLSFit:
         """The fit: γ, and ∂_a γ = A⁻¹ (e_{1+a}/s + b_a) for b_a = -∂_a A γ."""
         bx[1] = bx[1] + inv_scale
@@ -457,19 +470,21 @@ def _algebra(terms: int) -> SimpleNamespace:
             sx = zero
             sy = zero
             for c in range(wp.static(terms)):
-                sx = sx + m.ax[r, c] * gamma[c]
-                sy = sy + m.ay[r, c] * gamma[c]
+                sx = sx + m.ax[entry(r, c)] * gamma[c]
+                sy = sy + m.ay[entry(r, c)] * gamma[c]
             bx[r] = -sx
             by[r] = -sy
         return slope_solves(lo, sc, gamma, bx, by, inv_scale, smallest)
 
     @wp.func
-    def add_moment(a: mat, w: wp.float64, p: vec) -> mat:
+    def add_moment(a: packed, w: wp.float64, p: vec) -> packed:
         """A + w p pᵀ (the moment matrix alone: the slopes come from :func:`add_slope` once γ is known)."""
         out = a
         for r in range(wp.static(terms)):
             for c in range(wp.static(terms)):
-                out[r, c] = out[r, c] + w * (p[r] * p[c])
+                if c <= r:
+                    k = entry(r, c)
+                    out[k] = out[k] + w * (p[r] * p[c])
         return out
 
     @wp.func
@@ -502,15 +517,25 @@ def _algebra(terms: int) -> SimpleNamespace:
             gp = gp + fit.gamma[r] * p[r]
         return w[0] * gp
 
-    return SimpleNamespace(vec=vec, mat=mat, Moments=Moments, local_basis=local_basis, add_node=add_node,
+    return SimpleNamespace(vec=vec, packed=packed, Moments=Moments, local_basis=local_basis, add_node=add_node,
                            mls_fit=mls_fit, factor=factor, first_solve=first_solve, slope_solves=slope_solves,
-                           add_moment=add_moment, add_slope=add_slope, shape_value=shape_value, shape=shape)
+                           add_moment=add_moment, add_slope=add_slope, shape_value=shape_value, shape=shape,
+                           solve_scaled=solve_scaled)
 
 
 #: basis size -> the MLS algebra of that size (:func:`_algebra`): the moment accumulation and fit of every MLS fit
 #: (shape functions here, the PIC particles' fits), made for each basis size at import so that its loops have constant
 #: bounds (the PIC fits ran twice as long with the size read at run time)
 ALGEBRA = {terms: _algebra(terms) for terms in (3, MAX_TERMS)}
+
+
+@wp.func
+def row_inv_scale(rows: NeighbourRows, support: wp.array(dtype=wp.vec2d), start: int, count: int) -> wp.float64:
+    """1 / s, the basis's scale: a row's count over the sum of its nodes' support radii."""
+    scale = wp.float64(0.0)
+    for k in range(count):
+        scale = scale + support[rows.index[start + k]][0]
+    return wp.float64(count) / scale
 
 
 _SHAPE_FUNCTIONS: dict = {}
@@ -547,19 +572,16 @@ def shape_functions_kernel(basis_terms: int, weight_kind: int = 0, rectangular: 
         count = rows.count[i]
         terms = wp.static(basis_terms)
         zero = wp.float64(0.0)
-        scale = zero
-        for k in range(count):
-            scale = scale + support[rows.index[start + k]][0]
         if count == 0 or count < terms:
             rcond[i] = zero
             for k in range(count):
                 phi[start + k] = zero
                 dphi[start + k] = wp.vec2d(zero, zero)
             return
-        inv_scale = wp.float64(count) / scale
+        inv_scale = row_inv_scale(rows, support, start, count)
         # three passes over the row: A (then γ), -∂_a A γ (then ∂_a γ), the shape functions: the matrices ∂_a A are
         # never held (on a GPU 130 registers a thread instead of 255 with the linear basis)
-        a = alg.mat()
+        a = alg.packed()
         for k in range(count):
             j = rows.index[start + k]
             d = offset2d(box, x, nodes[j])
@@ -593,4 +615,155 @@ def shape_functions_kernel(basis_terms: int, weight_kind: int = 0, rectangular: 
             dphi[start + k] = wp.vec2d(v[1], v[2])
 
     _SHAPE_FUNCTIONS[key] = shape_functions
+    if basis_terms == MAX_TERMS:  # what a GPU runs instead (made, not compiled, here)
+        staged_shape_functions(basis_terms, weight_kind, rectangular)
+        REPLACED_ON_GPU.append(shape_functions.module)
     return shape_functions
+
+
+_STAGED_SHAPE_FUNCTIONS: dict = {}
+#: the Warp modules of kernels a GPU runs in place of a CPU kernel that was made (``staged_shape_functions`` for
+#: each quadratic ``shape_functions``): the CUDA compile check compiles them with the modules a session loaded
+DEVICE_VARIANTS: list = []
+#: the Warp modules of the CPU kernels those replace on a GPU (the quadratic ``shape_functions``)
+REPLACED_ON_GPU: list = []
+
+
+def staged_shape_functions(basis_terms: int, weight_kind: int = 0, rectangular: bool = False) -> SimpleNamespace:
+    """``shape_functions`` in four kernels that meet through a per-point buffer ``fits`` of ``size`` float64 entries
+    (L packed, S, γ, ∂_xγ, ∂_yγ), for a GPU: no kernel holds the factor, γ and both slope right-hand sides at once,
+    so the quadratic basis keeps within 128 registers a thread with no stack (the single kernel needs 164; capped at
+    128 it spills). Results are bitwise those of ``shape_functions`` (the same sums in the same order); on the CPU
+    the single kernel is faster (it sweeps the row 3 times, these 4, and keeps the fit in registers).
+
+    - ``moment_factors``: A (first sweep), its factor and γ = A⁻¹ p(0); rcond[i];
+    - ``slope_fits`` (``axis`` 0, 1: one launch each): b_a = e_{1+a}/s - ∂_a A γ (second and third sweeps);
+    - ``slope_solves``: ∂_a γ = A⁻¹ b_a, in place;
+    - ``shape_values``: φ_I and ∇φ_I (fourth sweep; zeros where rcond is 0)."""
+    key = (basis_terms, int(weight_kind), bool(rectangular))
+    if key in _STAGED_SHAPE_FUNCTIONS:
+        return _STAGED_SHAPE_FUNCTIONS[key]
+    alg = ALGEBRA[basis_terms]
+    node_weight = weight_function(weight_kind, rectangular)
+    terms = basis_terms
+    npk = terms * (terms + 1) // 2
+    size = npk + 4 * terms  # L, S, γ, ∂xγ, ∂yγ
+    at_sc = npk
+    at_gamma = npk + terms
+
+    @wp.kernel(module="unique")
+    def moment_factors(first: int, box: Box2d, points: wp.array(dtype=wp.vec2d), rows: NeighbourRows,
+                       nodes: wp.array(dtype=wp.vec2d), support: wp.array(dtype=wp.vec2d),
+                       rcond: wp.array(dtype=wp.float64), fits: wp.array(dtype=wp.float64)):
+        i = first + wp.tid()
+        x = points[i]
+        start = rows.start[i]
+        count = rows.count[i]
+        zero = wp.float64(0.0)
+        if count == 0 or count < wp.static(terms):
+            rcond[i] = zero
+            return
+        inv_scale = row_inv_scale(rows, support, start, count)
+        a = alg.packed()
+        for k in range(count):
+            j = rows.index[start + k]
+            d = offset2d(box, x, nodes[j])
+            a = alg.add_moment(a, node_weight(d, support[j])[0], alg.local_basis(-d, inv_scale))
+        lo, sc, smallest = alg.factor(a)
+        rcond[i] = smallest
+        if smallest > zero:
+            gamma = alg.first_solve(lo, sc)
+            base = i * wp.static(size)
+            for k in range(wp.static(npk)):
+                fits[base + k] = lo[k]
+            for r in range(wp.static(terms)):
+                fits[base + wp.static(at_sc) + r] = sc[r]
+                fits[base + wp.static(at_gamma) + r] = gamma[r]
+
+    @wp.kernel(module="unique")
+    def slope_fits(first: int, box: Box2d, points: wp.array(dtype=wp.vec2d), rows: NeighbourRows,
+                   nodes: wp.array(dtype=wp.vec2d), support: wp.array(dtype=wp.vec2d),
+                   rcond: wp.array(dtype=wp.float64), fits: wp.array(dtype=wp.float64), axis: int):
+        i = first + wp.tid()
+        if not (rcond[i] > wp.float64(0.0)):
+            return
+        x = points[i]
+        start = rows.start[i]
+        count = rows.count[i]
+        base = i * wp.static(size)
+        inv_scale = row_inv_scale(rows, support, start, count)
+        gamma = alg.vec()
+        for r in range(wp.static(terms)):
+            gamma[r] = fits[base + wp.static(at_gamma) + r]
+        b = alg.vec()
+        for k in range(count):
+            j = rows.index[start + k]
+            d = offset2d(box, x, nodes[j])
+            w = node_weight(d, support[j])
+            w_slope = w[1]
+            if axis == 1:
+                w_slope = w[2]
+            b = alg.add_slope(b, w_slope, alg.local_basis(-d, inv_scale), gamma)
+        if axis == 0:
+            b[1] = b[1] + inv_scale
+        else:
+            b[2] = b[2] + inv_scale
+        out = base + wp.static(at_gamma + terms) + axis * wp.static(terms)
+        for r in range(wp.static(terms)):
+            fits[out + r] = b[r]
+
+    @wp.kernel(module="unique")
+    def slope_solves(first: int, rcond: wp.array(dtype=wp.float64), fits: wp.array(dtype=wp.float64)):
+        i = first + wp.tid()
+        if not (rcond[i] > wp.float64(0.0)):
+            return
+        base = i * wp.static(size)
+        lo = alg.packed()
+        sc = alg.vec()
+        for k in range(wp.static(npk)):
+            lo[k] = fits[base + k]
+        for r in range(wp.static(terms)):
+            sc[r] = fits[base + wp.static(at_sc) + r]
+        for axis in range(2):
+            out = base + wp.static(at_gamma + terms) + axis * wp.static(terms)
+            b = alg.vec()
+            for r in range(wp.static(terms)):
+                b[r] = fits[out + r]
+            g = alg.solve_scaled(lo, sc, b)
+            for r in range(wp.static(terms)):
+                fits[out + r] = g[r]
+
+    @wp.kernel(module="unique")
+    def shape_values(first: int, box: Box2d, points: wp.array(dtype=wp.vec2d), rows: NeighbourRows,
+                     nodes: wp.array(dtype=wp.vec2d), support: wp.array(dtype=wp.vec2d),
+                     rcond: wp.array(dtype=wp.float64), fits: wp.array(dtype=wp.float64),
+                     phi: wp.array(dtype=wp.float64), dphi: wp.array(dtype=wp.vec2d)):
+        i = first + wp.tid()
+        x = points[i]
+        start = rows.start[i]
+        count = rows.count[i]
+        zero = wp.float64(0.0)
+        if not (rcond[i] > zero):
+            for k in range(count):
+                phi[start + k] = zero
+                dphi[start + k] = wp.vec2d(zero, zero)
+            return
+        inv_scale = row_inv_scale(rows, support, start, count)
+        base = i * wp.static(size) + wp.static(at_gamma)
+        fit = MLSFit()
+        for r in range(wp.static(terms)):
+            fit.gamma[r] = fits[base + r]
+            fit.gamma_x[r] = fits[base + wp.static(terms) + r]
+            fit.gamma_y[r] = fits[base + wp.static(2 * terms) + r]
+        for k in range(count):
+            j = rows.index[start + k]
+            d = offset2d(box, x, nodes[j])
+            v = alg.shape_value(fit, node_weight(d, support[j]), alg.local_basis(-d, inv_scale))
+            phi[start + k] = v[0]
+            dphi[start + k] = wp.vec2d(v[1], v[2])
+
+    out = SimpleNamespace(moment_factors=moment_factors, slope_fits=slope_fits, slope_solves=slope_solves,
+                          shape_values=shape_values, size=size)
+    _STAGED_SHAPE_FUNCTIONS[key] = out
+    DEVICE_VARIANTS.extend(k.module for k in (moment_factors, slope_fits, slope_solves, shape_values))
+    return out

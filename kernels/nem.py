@@ -11,26 +11,30 @@ Belikov 2001, IJNME 50:1), seed 003 eqs 3.45-3.46:
 
 s_i: the length of the edge that the Voronoi cell of x (in the diagram of the nodes plus x) shares with the cell of
 node i. The natural neighbours of x are the vertices of the Bowyer-Watson cavity: the Delaunay triangles whose
-circumcircle strictly contains x, found by a breadth-first walk over triangle adjacency from the triangle that
-holds x (the cavity is connected). Inserting x joins it to every directed boundary edge (u → v) of the cavity
-(counter-clockwise: the cavity on its left); the circumcentre c_e of the new triangle (x, u, v) is a vertex of x's
-Voronoi cell, shared by the edges of u and v. With t_i = rot90(x_i - x) / |x_i - x| the unit tangent of node i's
-Voronoi edge (both of its ends lie on the bisector of x and x_i):
+circumcircle strictly contains x, connected to the triangle that holds x. The cavity is star-shaped from x, a disk
+whose vertices all lie on its boundary; a neighbour across a kept side of a cavity triangle belongs to it exactly
+when x is inside its circumcircle. So the kernels walk the cavity's boundary (``next_boundary_side``: from a
+boundary side u → v, turn about v through cavity triangles to the next side whose far triangle is outside) and hold
+no list of triangles or neighbours: each natural neighbour is one corner of the walk. Inserting x joins it to every
+directed boundary side (u → v) of the cavity (counter-clockwise: the cavity on its left); the circumcentre c_e of
+the new triangle (x, u, v) is a vertex of x's Voronoi cell, shared by the edges of u and v. With
+t_i = rot90(x_i - x) / |x_i - x| the unit tangent of node i's Voronoi edge (both of its ends lie on the bisector of
+x and x_i), and e_in, e_out the boundary sides ending and starting at node i:
 
-    s_i = Σ_{e starting at i} c_e·t_i - Σ_{e ending at i} c_e·t_i      (= |c_b - c_a| for a star-shaped cavity)
+    s_i = c_out·t_i - c_in·t_i      (= |c_out - c_in|)
 
-This signed sum needs no angular sort of the neighbours and keeps Σ_i α_i (x_i - x) = 2 rot(Σ_i (c_b - c_a)) = 0,
-so linear reproduction holds to round-off by construction; s_i = 0 for a neighbour co-circular with x's cavity
+Summed over the corners this keeps Σ_i α_i (x_i - x) = 2 rot(Σ_i (c_out - c_in)) = 0, so linear reproduction
+holds to round-off by construction; s_i = 0 for a neighbour co-circular with x's cavity
 (regular grids) without a kink in its gradient.
 
 Gradients (seed 003 §1.2 [INFERENCE], checked against central differences in the tests): the circumcentre c of
 (x, p, q) solves (p - x)·∂c/∂x_a = c_a - x_a and (q - x)·∂c/∂x_a = c_a - x_a, so ∂c/∂x_a = w (c - x)_a
-with w = M⁻¹ (1, 1)ᵀ, M = [p - x; q - x]. Since c_b - c_a ∥ t_i, ∇t_i drops out:
+with w = M⁻¹ (1, 1)ᵀ, M = [p - x; q - x]. Since c_out - c_in ∥ t_i, ∇t_i drops out:
 
-    ∇s_i = Σ± (t_i·w_e) (c_e - x),   ∇h_i = (x - x_i) / (4 h_i),   ∇α_i = ∇s_i / h_i - s_i ∇h_i / h_i²
+    ∇s_i = (t_i·w_out) (c_out - x) - (t_i·w_in) (c_in - x),   ∇h_i = (x - x_i) / (4 h_i),   ∇α_i = ∇s_i / h_i - s_i ∇h_i / h_i²
     ∇φ_i = (∇α_i - φ_i Σ_j ∇α_j) / Σ_j α_j
 
-Special points (``laplace_rows``):
+Special points (``laplace_rows``, then ``edge_gradients`` for points on a boundary edge):
 
 - x at a node (within ``NODE_TOL`` × the longest edge of its triangle): φ = Kronecker delta; the row is the three
   vertices of the located triangle and ∇φ the gradient of the linear (P1) interpolant on it. The Laplace functions
@@ -49,7 +53,9 @@ Special points (``laplace_rows``):
   Points just inside, with a barycentric coordinate between EDGE_TOL and ~1e-7, take the interior route: exact φ,
   ∇φ with a rounding error up to ~1e-16 L / d (1e-6 at the EDGE_TOL band's edge).
 
-Every kernel is a gather: thread i writes only point i's row (bitwise the same for any thread count).
+Every kernel is a gather: thread i writes only point i's row (bitwise the same for any thread count). A thread
+holds a few scalars and vectors, no dynamically indexed array (which a GPU keeps in local memory): a vertex of a
+triangle picked by a run-time index goes through ``vertex``.
 Units: lengths in the scene's unit; shape functions dimensionless, gradients per length.
 """
 
@@ -57,11 +63,11 @@ import warp as wp
 
 from .neighbours import NeighbourRows
 
-#: most Delaunay triangles in one natural-neighbour cavity (typically 2-6; a point on the common circle of many
-#: co-circular nodes has more)
+#: most triangles one turn around a natural neighbour crosses (typically 1-4): a guard on the walk of the cavity's
+#: boundary, which cannot close when the in-circle predicate contradicts itself (many nodes on one circle)
 MAX_CAVITY = 64
-#: most natural neighbours of one point (typically 4-7)
-MAX_NEIGHBOURS = 32
+#: most sides of one cavity's boundary, i.e. natural neighbours (typically 4-7)
+MAX_NEIGHBOURS = 64
 
 OK = wp.constant(0)
 CAVITY_OVERFLOW = wp.constant(1)
@@ -75,10 +81,6 @@ EDGE_TOL = wp.constant(wp.float64(1.0e-10))
 #: where the gradient of a point on a boundary edge is taken: this fraction (ε) of the way to the opposite vertex,
 #: and 2ε (Richardson extrapolation to the edge)
 EDGE_OFFSET = wp.constant(wp.float64(3.0e-7))
-
-veccavity = wp.types.vector(length=MAX_CAVITY, dtype=wp.int32)
-vecnbi = wp.types.vector(length=MAX_NEIGHBOURS, dtype=wp.int32)
-vecnbd = wp.types.vector(length=MAX_NEIGHBOURS, dtype=wp.float64)
 
 
 @wp.struct
@@ -114,120 +116,229 @@ def rot90(d: wp.vec2d) -> wp.vec2d:
 
 
 @wp.func
-def laplace_at(mesh: Triangulation, x: wp.vec2d, t0: int):
-    """Natural neighbours of x (whose cavity holds triangle t0) and their φ, ∂φ/∂x, ∂φ/∂y (module docstring).
-    Returns (count, status, node ids, φ, ∂φ/∂x, ∂φ/∂y)."""
-    zero = wp.float64(0.0)
+def outside_cavity(mesh: Triangulation, nb: int, x: wp.vec2d) -> bool:
+    """Is the triangle ``nb`` across a side of a cavity triangle outside x's cavity? -1 (a boundary side) is. A
+    neighbour across a kept side is in the cavity exactly when x is inside its circumcircle."""
+    out = bool(True)
+    if nb >= 0:
+        out = not in_circumcircle(mesh, nb, x)
+    return out
+
+
+@wp.func
+def vertex(tv: wp.vec3i, k: int) -> int:
+    """tv[k % 3] by selection: a vector indexed by a run-time value would be kept in local memory on a GPU."""
+    kk = k % 3
+    out = tv[0]
+    if kk == 1:
+        out = tv[1]
+    if kk == 2:
+        out = tv[2]
+    return out
+
+
+@wp.func
+def vertex_slot(tv: wp.vec3i, node: int) -> int:
+    k = int(0)
+    if tv[1] == node:
+        k = 1
+    if tv[2] == node:
+        k = 2
+    return k
+
+
+@wp.func
+def next_boundary_side(mesh: Triangulation, x: wp.vec2d, t: int, e: int):
+    """The cavity's boundary side that follows side e of cavity triangle t (u -> v, the cavity on its left): turn
+    counter-clockwise about v through cavity triangles to the first side starting at v whose far triangle is
+    outside. Returns (triangle, side, triangles turned through); more than MAX_CAVITY turns: the walk failed."""
+    tv = mesh.triangles[t]
+    v = vertex(tv, e + 2)
+    tri = int(t)
+    side = (e + 1) % 3  # v -> tv[e]
+    turns = int(0)
+    found = bool(False)
+    while not found and turns <= MAX_CAVITY:
+        nb = vertex(mesh.adjacent[tri], side)
+        if outside_cavity(mesh, nb, x):
+            found = True
+        else:
+            tri = nb
+            side = (vertex_slot(mesh.triangles[tri], v) + 2) % 3
+            turns += 1
+    return tri, side, turns
+
+
+@wp.func
+def side_vertex(mesh: Triangulation, x: wp.vec2d, t: int, e: int):
+    """Boundary side e of triangle t, u -> v: its start u, the circumcentre c_e of (x, u, v) relative to x, and
+    w = M⁻¹ (1, 1) (∂c_e/∂x_a = w (c_e - x)_a; module docstring). Returns (u, c, w)."""
+    tv = mesh.triangles[t]
+    u = vertex(tv, e + 1)
+    a = mesh.nodes[u] - x
+    b = mesh.nodes[vertex(tv, e + 2)] - x
+    det = cross2(a, b)
+    aa = wp.dot(a, a)
+    bb = wp.dot(b, b)
+    two = wp.float64(2.0) * det
+    c = wp.vec2d((b[1] * aa - a[1] * bb) / two, (a[0] * bb - b[0] * aa) / two)
+    w = wp.vec2d((b[1] - a[1]) / det, (a[0] - b[0]) / det)
+    return u, c, w
+
+
+@wp.func
+def alpha_at_corner(mesh: Triangulation, x: wp.vec2d, node: int, c_in: wp.vec2d, w_in: wp.vec2d, c_out: wp.vec2d,
+                    w_out: wp.vec2d):
+    """One corner of the cavity's boundary at ``node`` (the side ending there has Voronoi vertex c_in, the side
+    starting there c_out): its part of α_i = s_i / h_i and ∇α_i, s_i = (c_out - c_in)·t_i,
+    ∇s_i = (t_i·w_out) c_out - (t_i·w_in) c_in (module docstring). Returns (α, ∇α)."""
+    r = mesh.nodes[node] - x
+    rr = wp.dot(r, r)
+    tn = rot90(r) / wp.sqrt(rr)
+    s = wp.dot(c_out, tn) - wp.dot(c_in, tn)
+    gs = wp.dot(tn, w_out) * c_out - wp.dot(tn, w_in) * c_in
+    h = wp.float64(0.5) * wp.sqrt(rr)
+    q = s / (wp.float64(4.0) * h * h * h)  # s ∇h / h² = s (x - x_i) / (4 h³)
+    return s / h, gs / h + q * r
+
+
+@wp.func
+def degenerate(total: wp.float64, total_grad: wp.vec2d) -> bool:
+    return not (total > wp.float64(0.0)) or not wp.isfinite(total) or not wp.isfinite(total_grad[0]) or not wp.isfinite(
+        total_grad[1])
+
+
+@wp.func
+def cavity_boundary(mesh: Triangulation, x: wp.vec2d, t0: int):
+    """The boundary of x's natural-neighbour cavity (t0 in it), walked once: a first side (turning about t0's
+    vertex 0, a vertex of the cavity's boundary), the number m of its sides, which is the number of natural
+    neighbours, the status and the normalising sums Σα, Σ∇α over its corners. The cavity is a disk with every
+    vertex on its boundary (Bowyer-Watson: star-shaped from x; the kept triangles of a simple polygon keep it so),
+    hence m - 2 triangles, each met once at each of its corners: a walk that meets another number of corners (a
+    boundary that touches itself or has a hole: the in-circle predicate contradicting itself) is DEGENERATE, and so
+    is Σα <= 0 or not finite. Returns (triangle, side, m, status, Σα, Σ∇α)."""
     status = int(OK)
-    # breadth-first walk of the cavity
-    cav = veccavity()
-    cav[0] = t0
-    ncav = int(1)
-    head = int(0)
-    while head < ncav:
-        t = cav[head]
-        head += 1
-        nb3 = mesh.adjacent[t]
-        for e in range(3):
-            nb = nb3[e]
-            if nb >= 0:
-                listed = bool(False)
-                for j in range(ncav):
-                    if cav[j] == nb:
-                        listed = True
-                if not listed:
-                    if in_circumcircle(mesh, nb, x):
-                        if ncav < MAX_CAVITY:
-                            cav[ncav] = nb
-                            ncav += 1
-                        else:
-                            status = CAVITY_OVERFLOW
-    # boundary edges (u -> v, cavity on the left): Voronoi vertex c_e, accumulate s_i and ∇s_i
-    ids = vecnbi()
-    s = vecnbd()
-    gsx = vecnbd()
-    gsy = vecnbd()
-    count = int(0)
-    for k in range(ncav):
-        t = cav[k]
-        tv = mesh.triangles[t]
-        nb3 = mesh.adjacent[t]
-        for e in range(3):
-            nb = nb3[e]
-            inner = bool(False)
-            if nb >= 0:
-                for j in range(ncav):
-                    if cav[j] == nb:
-                        inner = True
-            if not inner:
-                u = tv[(e + 1) % 3]
-                v = tv[(e + 2) % 3]
-                a = mesh.nodes[u] - x
-                b = mesh.nodes[v] - x
-                det = cross2(a, b)
-                aa = wp.dot(a, a)
-                bb = wp.dot(b, b)
-                two = wp.float64(2.0) * det
-                c = wp.vec2d((b[1] * aa - a[1] * bb) / two, (a[0] * bb - b[0] * aa) / two)  # c_e - x
-                w = wp.vec2d((b[1] - a[1]) / det, (a[0] - b[0]) / det)  # M⁻¹ (1, 1)
-                # the edge starts at u (+ c_e·t_u) and ends at v (- c_e·t_v)
-                for end in range(2):
-                    node = u
-                    r = a
-                    rr = aa
-                    sign = wp.float64(1.0)
-                    if end == 1:
-                        node = v
-                        r = b
-                        rr = bb
-                        sign = wp.float64(-1.0)
-                    slot = int(-1)
-                    for j in range(count):
-                        if ids[j] == node:
-                            slot = j
-                    if slot < 0:
-                        if count < MAX_NEIGHBOURS:
-                            slot = count
-                            ids[count] = node
-                            s[count] = zero
-                            gsx[count] = zero
-                            gsy[count] = zero
-                            count += 1
-                        else:
-                            status = NEIGHBOUR_OVERFLOW
-                    if slot >= 0:
-                        tn = rot90(r) / wp.sqrt(rr)
-                        kn = wp.dot(tn, w)
-                        s[slot] = s[slot] + sign * wp.dot(c, tn)
-                        gsx[slot] = gsx[slot] + sign * kn * c[0]
-                        gsy[slot] = gsy[slot] + sign * kn * c[1]
-    # α_i = s_i / h_i and its gradient (reusing s, gsx, gsy), then φ_i and ∇φ_i
-    total = zero
-    tgx = zero
-    tgy = zero
-    for k in range(count):
-        d = x - mesh.nodes[ids[k]]
-        h = wp.float64(0.5) * wp.sqrt(wp.dot(d, d))
-        al = s[k] / h
-        q = s[k] / (wp.float64(4.0) * h * h * h)  # s ∇h / h² = s (x - x_i) / (4 h³)
-        gx = gsx[k] / h - q * d[0]
-        gy = gsy[k] / h - q * d[1]
-        s[k] = al
-        gsx[k] = gx
-        gsy[k] = gy
-        total = total + al
-        tgx = tgx + gx
-        tgy = tgy + gy
-    if not (total > zero) or not wp.isfinite(total) or not wp.isfinite(tgx) or not wp.isfinite(tgy):
-        if status == OK:
-            status = DEGENERATE
+    t_first, e_first, turns = next_boundary_side(mesh, x, t0, 1)
+    corners = int(0)
+    m = int(0)
+    total = wp.float64(0.0)
+    total_grad = wp.vec2d(total, total)
+    if turns > MAX_CAVITY:
+        status = CAVITY_OVERFLOW
+    else:
+        t = int(t_first)
+        e = int(e_first)
+        _u0, c_in, w_in = side_vertex(mesh, x, t, e)
+        closed = bool(False)
+        while not closed and status == OK:
+            t, e, turns = next_boundary_side(mesh, x, t, e)
+            corners += turns + 1
+            m += 1
+            if turns > MAX_CAVITY:
+                status = CAVITY_OVERFLOW
+            else:
+                u, c, w = side_vertex(mesh, x, t, e)
+                a, g = alpha_at_corner(mesh, x, u, c_in, w_in, c, w)
+                total = total + a
+                total_grad = total_grad + g
+                c_in = c
+                w_in = w
+                if t == t_first and e == e_first:
+                    closed = True
+                elif m >= MAX_NEIGHBOURS:
+                    status = NEIGHBOUR_OVERFLOW
+    if status == OK and (corners != 3 * (m - 2) or degenerate(total, total_grad)):
+        status = DEGENERATE
+    if status != OK:
         total = wp.float64(1.0)
-    for k in range(count):
-        ph = s[k] / total
-        s[k] = ph
-        gsx[k] = (gsx[k] - ph * tgx) / total
-        gsy[k] = (gsy[k] - ph * tgy) / total
-    return count, status, ids, s, gsx, gsy
+    return t_first, e_first, m, status, total, total_grad
+
+
+@wp.func
+def alpha_sums(mesh: Triangulation, x: wp.vec2d, t_first: int, e_first: int, m: int, node: int):
+    """Σ α and Σ ∇α over the corners of the cavity's boundary at ``node`` (all corners when node < 0): a node's
+    α_i and ∇α_i, or the normalising sums. Returns (corners at node, α, ∇α)."""
+    t = int(t_first)
+    e = int(e_first)
+    u, c_in, w_in = side_vertex(mesh, x, t, e)
+    corners = int(0)
+    alpha = wp.float64(0.0)
+    grad = wp.vec2d(alpha, alpha)
+    for k in range(m):
+        t, e, _turns = next_boundary_side(mesh, x, t, e)
+        u, c, w = side_vertex(mesh, x, t, e)
+        if node < 0 or u == node:
+            a, g = alpha_at_corner(mesh, x, u, c_in, w_in, c, w)
+            alpha = alpha + a
+            grad = grad + g
+            corners += 1
+        c_in = c
+        w_in = w
+    return corners, alpha, grad
+
+
+@wp.func
+def normalised(alpha: wp.float64, grad: wp.vec2d, total: wp.float64, total_grad: wp.vec2d):
+    """φ_i = α_i / Σα and ∇φ_i = (∇α_i - φ_i Σ∇α) / Σα. Returns (φ, ∇φ)."""
+    ph = alpha / total
+    return ph, (grad - ph * total_grad) / total
+
+
+@wp.func
+def where_on_triangle(mesh: Triangulation, x: wp.vec2d, t: int):
+    """Where x lies on its triangle t: at vertex ``node`` (within NODE_TOL × the longest side, else -1), or on the
+    boundary side ``edge`` (opposite that vertex, within EDGE_TOL in barycentric coordinates, else -1) at
+    parameter τ from its start. A point on a boundary side is evaluated at x_ε = x_p + ε (x_w - x_p) (x_p its
+    projection on the side, x_w the opposite vertex; ``inward`` = x_ε - x_p). Returns (node, edge, τ, x_ε, inward)."""
+    tv = mesh.triangles[t]
+    nb3 = mesh.adjacent[t]
+    p0 = mesh.nodes[tv[0]]
+    p1 = mesh.nodes[tv[1]]
+    p2 = mesh.nodes[tv[2]]
+    area2 = cross2(p1 - p0, p2 - p0)
+    lam = wp.vec3d(cross2(p1 - x, p2 - x) / area2, cross2(p2 - x, p0 - x) / area2, cross2(p0 - x, p1 - x) / area2)
+    longest = wp.max(wp.max(wp.length_sq(p1 - p0), wp.length_sq(p2 - p1)), wp.length_sq(p0 - p2))
+    node = int(-1)
+    for k in range(3):
+        d = x - mesh.nodes[tv[k]]
+        if wp.dot(d, d) <= NODE_TOL * NODE_TOL * longest:
+            node = k
+    edge = int(-1)
+    smallest = EDGE_TOL
+    for k in range(3):
+        if nb3[k] < 0 and lam[k] <= smallest:
+            edge = k
+            smallest = lam[k]
+    zero = wp.float64(0.0)
+    xe = x
+    inward = wp.vec2d(zero, zero)
+    tau = zero
+    if edge >= 0:
+        u = mesh.nodes[vertex(tv, edge + 1)]
+        d = mesh.nodes[vertex(tv, edge + 2)] - u
+        tau = wp.clamp(wp.dot(x - u, d) / wp.dot(d, d), zero, wp.float64(1.0))
+        xp = u + tau * d
+        inward = EDGE_OFFSET * (mesh.nodes[vertex(tv, edge)] - xp)
+        xe = xp + inward
+    return node, edge, tau, xe, inward
+
+
+@wp.func
+def write_entry(tv: wp.vec3i, edge: int, tau: wp.float64, nd: int,
+                alpha: wp.float64, grad: wp.vec2d, total: wp.float64, total_grad: wp.vec2d, rows: NeighbourRows,
+                at: int, phi: wp.array(dtype=wp.float64), dphi: wp.array(dtype=wp.vec2d)):
+    """Entry ``at`` of a row: node ``nd``, φ = α / Σα (on a boundary side the 1D linear interpolant between its
+    ends instead) and ∇φ (``normalised``)."""
+    value, g = normalised(alpha, grad, total, total_grad)
+    if edge >= 0:
+        value = wp.float64(0.0)
+        if nd == vertex(tv, edge + 1):
+            value = wp.float64(1.0) - tau
+        if nd == vertex(tv, edge + 2):
+            value = tau
+    rows.index[at] = nd
+    phi[at] = value
+    dphi[at] = g
 
 
 @wp.kernel
@@ -244,23 +355,15 @@ def laplace_rows(
 ):
     """Point i (in triangle ``triangle[i]``, found on the host): ``fill`` 0 writes its natural-neighbour count into
     ``rows.count`` and its status (OK, CAVITY_OVERFLOW, NEIGHBOUR_OVERFLOW, DEGENERATE); 1 writes the row's node
-    indices, φ and ∇φ at ``rows.start[i]`` (module docstring: nodes, boundary edges)."""
+    indices, φ and ∇φ at ``rows.start[i]`` (module docstring: nodes, boundary edges; on a boundary side ∇φ at the
+    first offset, which ``edge_gradients`` then extrapolates). The natural neighbours are met by walking the
+    cavity's boundary, with no per-point list: a thread holds a few scalars and vectors (registers on a GPU, no
+    local memory)."""
     i = first + wp.tid()
     x = points[i]
     t = triangle[i]
     tv = mesh.triangles[t]
-    nb3 = mesh.adjacent[t]
-    p0 = mesh.nodes[tv[0]]
-    p1 = mesh.nodes[tv[1]]
-    p2 = mesh.nodes[tv[2]]
-    area2 = cross2(p1 - p0, p2 - p0)
-    lam = wp.vec3d(cross2(p1 - x, p2 - x) / area2, cross2(p2 - x, p0 - x) / area2, cross2(p0 - x, p1 - x) / area2)
-    longest = wp.max(wp.max(wp.length_sq(p1 - p0), wp.length_sq(p2 - p1)), wp.length_sq(p0 - p2))
-    node = int(-1)
-    for k in range(3):
-        d = x - mesh.nodes[tv[k]]
-        if wp.dot(d, d) <= NODE_TOL * NODE_TOL * longest:
-            node = k
+    node, edge, tau, xe, _inward = where_on_triangle(mesh, x, t)
     zero = wp.float64(0.0)
     base = rows.start[i]
     if node >= 0:  # Kronecker delta; ∇φ of the linear interpolant on triangle t
@@ -268,6 +371,8 @@ def laplace_rows(
             rows.count[i] = 3
             status[i] = OK
         else:
+            p0 = mesh.nodes[tv[0]]
+            area2 = cross2(mesh.nodes[tv[1]] - p0, mesh.nodes[tv[2]] - p0)
             for k in range(3):
                 a = mesh.nodes[tv[(k + 1) % 3]]
                 b = mesh.nodes[tv[(k + 2) % 3]]
@@ -278,52 +383,52 @@ def laplace_rows(
                     phi[base + k] = zero
                 dphi[base + k] = wp.vec2d(a[1] - b[1], b[0] - a[0]) / area2
         return
-    edge = int(-1)
-    smallest = EDGE_TOL
-    for k in range(3):
-        if nb3[k] < 0 and lam[k] <= smallest:
-            edge = k
-            smallest = lam[k]
-    xe = x
-    inward = wp.vec2d(zero, zero)
-    tau = zero
-    if edge >= 0:  # on a boundary edge u -> v: evaluate the gradient just inside
-        u = mesh.nodes[tv[(edge + 1) % 3]]
-        v = mesh.nodes[tv[(edge + 2) % 3]]
-        d = v - u
-        tau = wp.clamp(wp.dot(x - u, d) / wp.dot(d, d), zero, wp.float64(1.0))
-        xp = u + tau * d
-        inward = EDGE_OFFSET * (mesh.nodes[tv[edge]] - xp)
-        xe = xp + inward
-    count, st, ids, ph, gx, gy = laplace_at(mesh, xe, t)
+    t1, e1, m, st, total, total_grad = cavity_boundary(mesh, xe, t)
     if fill == 0:
-        rows.count[i] = count
+        rows.count[i] = m
         status[i] = st
         return
-    if edge >= 0:  # Richardson: ∇φ(0) ≈ 2 ∇φ(ε) - ∇φ(2ε) when both offsets have the same natural neighbours
-        # (else the single offset)
-        count2, st2, ids2, _ph2, gx2, gy2 = laplace_at(mesh, xe + inward, t)
-        same = bool(st2 == OK and count2 == count)
-        slot = vecnbi()
-        for k in range(count):
-            slot[k] = -1
-            for j in range(count2):
-                if ids2[j] == ids[k]:
-                    slot[k] = j
-            if slot[k] < 0:
-                same = False
-        if same:
-            for k in range(count):
-                gx[k] = wp.float64(2.0) * gx[k] - gx2[slot[k]]
-                gy[k] = wp.float64(2.0) * gy[k] - gy2[slot[k]]
+    tw = int(t1)
+    ew = int(e1)
+    _u, c_in, w_in = side_vertex(mesh, xe, tw, ew)
+    for k in range(m):
+        tw, ew, _turns = next_boundary_side(mesh, xe, tw, ew)
+        nd, c, w = side_vertex(mesh, xe, tw, ew)
+        alpha, grad = alpha_at_corner(mesh, xe, nd, c_in, w_in, c, w)
+        c_in = c
+        w_in = w
+        write_entry(tv, edge, tau, nd, alpha, grad, total, total_grad, rows, base + k, phi, dphi)
+
+
+@wp.kernel
+def edge_gradients(
+    first: int,
+    mesh: Triangulation,
+    points: wp.array(dtype=wp.vec2d),
+    triangle: wp.array(dtype=wp.int32),
+    rows: NeighbourRows,
+    dphi: wp.array(dtype=wp.vec2d),
+):
+    """Point i on a boundary side (``where_on_triangle``; every other point is left alone): Richardson's
+    ∇φ(0) ≈ 2 ∇φ(ε) - ∇φ(2ε) over the row ``laplace_rows`` wrote (∇φ at ε), when the second offset has the same
+    natural neighbours (else the single offset stays; module docstring)."""
+    i = first + wp.tid()
+    x = points[i]
+    t = triangle[i]
+    node, edge, _tau, xe, inward = where_on_triangle(mesh, x, t)
+    if node >= 0 or edge < 0:
+        return
+    x2 = xe + inward
+    t2, e2, m2, st2, total2, total_grad2 = cavity_boundary(mesh, x2, t)
+    base = rows.start[i]
+    count = rows.count[i]
+    same = bool(st2 == OK and m2 == count)
     for k in range(count):
-        value = ph[k]
-        if edge >= 0:
-            value = zero
-            if ids[k] == tv[(edge + 1) % 3]:
-                value = wp.float64(1.0) - tau
-            if ids[k] == tv[(edge + 2) % 3]:
-                value = tau
-        rows.index[base + k] = ids[k]
-        phi[base + k] = value
-        dphi[base + k] = wp.vec2d(gx[k], gy[k])
+        at, _a, _g = alpha_sums(mesh, x2, t2, e2, m2, rows.index[base + k])
+        if at == 0:
+            same = False
+    if same:
+        for k in range(count):
+            _at, alpha2, grad2 = alpha_sums(mesh, x2, t2, e2, m2, rows.index[base + k])
+            _value2, g2 = normalised(alpha2, grad2, total2, total_grad2)
+            dphi[base + k] = wp.float64(2.0) * dphi[base + k] - g2

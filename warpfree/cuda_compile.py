@@ -58,11 +58,17 @@ def _origin(module) -> str:
 
 def loaded_modules(prefix: str = "warpfree") -> list:
     """Warp modules whose kernels come from a Python module under ``prefix`` and that this process has loaded (on
-    any device), in name order: the kernel modules and every compile-time variant a factory made."""
+    any device), in name order: the kernel modules and every compile-time variant a factory made; with them the
+    kernels a GPU runs in place of a loaded CPU kernel (``warpfree.kernels.mls.DEVICE_VARIANTS``)."""
     from warp._src.context import user_modules
 
-    mods = [m for m in list(user_modules.values()) if m.execs and m.kernels and _origin(m).startswith(prefix)]
-    return sorted(mods, key=lambda m: m.name)
+    from warpfree.kernels import mls
+
+    mods = {m.name: m for m in list(user_modules.values()) if m.execs and m.kernels and _origin(m).startswith(prefix)}
+    for m in mls.DEVICE_VARIANTS:
+        if _origin(m).startswith(prefix):
+            mods.setdefault(m.name, m)
+    return [mods[name] for name in sorted(mods)]
 
 
 def _compile(module, archs: tuple[int, ...], folder: str) -> CompileResult:

@@ -10,9 +10,12 @@ report says what was left out):
    analysis figure (the numbers under ``summary["analysis"]``) against the CPU's from ``--reference`` (written on a
    CPU machine by ``--device cpu --write-reference``): the relative difference per figure. A scene's checks against
    its tolerances (``summary["checks"]``) are reported as they are.
-3. **Throughput** (35 %): work items per second at three sizes per family (WCSPH dam break, SPEM cavity, PIC thermal
+3. **Throughput** (30 %): work items per second at three sizes per family (WCSPH dam break, SPEM cavity, PIC thermal
    plasma, EFG beam, SPH heat conduction), on the CPU with all its threads and on the GPU, measured side by side in
    one run (``bench/common.py``: warm-up first, median of timed blocks).
+4. **Choices** (5 %): the forms a GPU could run, timed side by side on it: the quadratic MLS shape functions as one
+   kernel (166 registers) or four within 128 (``MLSModel.shape_at(staged=)``; a GPU's default is staged), at the
+   beam's Gauss points (192 x 48 cells, d_max 2.5, 3 x 3 points).
 
 Usage (on a machine with a GPU and warpfree installed: ``pip install -e '.[test]'``)
     python bench/core/gpu_check.py                      # everything, --budget 480
@@ -42,7 +45,7 @@ RUN_ALL_SKIPPED = "needs a GPU: run it once on a machine with one (python bench/
 
 REFERENCE = common.RESULTS / "default_figures.json"
 #: the parts' shares of the budget
-SHARES = {"tests": 0.20, "scenes": 0.45, "throughput": 0.35}
+SHARES = {"tests": 0.20, "scenes": 0.45, "throughput": 0.30, "choices": 0.05}
 #: the scenes' defaults, cheapest first (seconds on 2 CPU cores, roughly): a budget cut drops the dearest
 SCENE_ORDER = ["efg_cook", "efg_cylinder", "efg_timoshenko", "efg_l_shape", "heat_conduction_2d", "em_line_1d",
                "pic_two_stream", "pic_plasma_oscillation", "poiseuille_2d", "taylor_green_2d", "em_cavity_2d",
@@ -160,6 +163,27 @@ def run_throughput(device: str, budget: float) -> list[dict]:
     return rows
 
 
+def run_choices(device: str, budget: float) -> list[dict]:
+    """The quadratic shape functions as one kernel and as four on ``device``: median seconds of ``shape_at``."""
+    sys.path.insert(0, str(common.SCENES))
+    from warpfree import device as devices
+
+    import efg_timoshenko
+
+    devices.use(device, None)
+    beam = efg_timoshenko.beam_solver(192, 48, basis="quadratic", d_max=2.5, gauss=3)
+    points = beam.cells.position
+    row = {"choice": "quadratic shape functions", "points": len(points)}
+    start = time.perf_counter()
+    for staged in (False, True, False, True):
+        if time.perf_counter() - start > budget:
+            break
+        timing = common.time_steps(lambda: beam.model.shape_at(points, staged=staged), 1, warmup=1, repeats=3)
+        row.setdefault("staged" if staged else "single", []).append(timing["median_s"])
+    print(f"  {row}", flush=True)
+    return [row]
+
+
 def markdown(result: dict) -> str:
     device = result["device"]
     lines = [f"# GPU check on {result.get('gpu') or device}", "",
@@ -186,6 +210,15 @@ def markdown(result: dict) -> str:
     if rows:
         lines += ["## Throughput, CPU (all threads) against the GPU, same run", "",
                   common.md_table(["family", "size", "work items", "unit", "CPU", "GPU", "GPU / CPU"], rows), ""]
+    rows = []
+    for r in result.get("choices", []):
+        single, staged = r.get("single", []), r.get("staged", [])
+        ratio = (min(staged) / min(single)) if single and staged else None
+        rows.append([r["choice"], r["points"], ", ".join(f"{1e3 * s:.1f}" for s in single),
+                     ", ".join(f"{1e3 * s:.1f}" for s in staged), "–" if ratio is None else f"{ratio:.2f}"])
+    if rows:
+        lines += ["## Choices: the forms a GPU could run, side by side (ms, in turn)", "",
+                  common.md_table(["what", "points", "one kernel", "staged", "staged / one"], rows), ""]
     return "\n".join(lines) + "\n"
 
 
@@ -196,7 +229,7 @@ def main(argv=None) -> int:
     p.add_argument("--write-reference", action="store_true",
                    help="run the scenes' defaults on --device and write their figures to " + str(REFERENCE))
     p.add_argument("--reference", default=str(REFERENCE))
-    p.add_argument("--skip", default="", help="parts to leave out: tests,scenes,throughput")
+    p.add_argument("--skip", default="", help="parts to leave out: tests,scenes,throughput,choices")
     p.add_argument("--leave-out", default="", help="scenes to leave out of the scenes' part (comma-separated)")
     args = p.parse_args(argv)
     skip = set(filter(None, args.skip.split(",")))
@@ -224,6 +257,8 @@ def main(argv=None) -> int:
         result["scenes"] = run_scenes(args.device, SHARES["scenes"] * args.budget, reference, scenes)
     if "throughput" not in skip:
         result["throughput"] = run_throughput(args.device, SHARES["throughput"] * args.budget)
+    if "choices" not in skip:
+        result["choices"] = run_choices(args.device, SHARES["choices"] * args.budget)
     result["wall_s"] = time.perf_counter() - start
     common.write_results("gpu_check", result, markdown(result))
     return 0 if (result.get("tests") or {}).get("returncode", 0) == 0 else 1

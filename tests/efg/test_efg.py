@@ -65,6 +65,35 @@ def test_mls_partition_of_unity_reproduction_and_gradients(launcher, basis, weig
     assert (kronecker < 1e-12) if weight == "singular" else (kronecker > 0.1)
 
 
+@pytest.mark.cuda
+@pytest.mark.parametrize("basis,weight,support,periodic", [
+    ("linear", "cubic_spline", "circular", False), ("quadratic", "cubic_spline", "circular", False),
+    ("quadratic", "gaussian", "rectangular", False), ("quadratic", "singular", "circular", True)])
+def test_staged_shape_functions_equal_the_single_kernel_bitwise(make_launcher, device_name, basis, weight, support,
+                                                               periodic):
+    """The four-kernel form (a GPU's, within its register budget) sums the same terms in the same order as the
+    single kernel (the CPU's): φ, ∇φ and rcond bitwise equal on the CPU, in a free and a periodic box (on a GPU the
+    compiler may contract the two forms' sums into fused multiply-adds differently: equal to round-off there)."""
+    from warpfree.space import Space
+    launcher = make_launcher(2, device_name)
+    width = 2.0 if periodic else 1.0
+    nodes = random_grid_nodes((0.0, 0.0), (width, 1.0), (10 * int(width), 10), seed=3).position
+    space = Space(2, (0.0, 0.0, 0.0), (width, 1.0, 1.0), periodic=(True, False, False)) if periodic else None
+    if periodic:
+        nodes = nodes[nodes[:, 0] < width]
+    model = MLSModel(nodes, MLSSettings(basis=basis, weight=weight, support=support,
+                                        d_max=3.0 if basis == "quadratic" else 2.0), space=space, launcher=launcher)
+    pts = sample_points(400) * [width, 1.0]
+    single, staged = model.shape_at(pts, staged=False), model.shape_at(pts, staged=True)
+    assert single.n_entries == staged.n_entries > 0
+    for a, b in ((single.phi, staged.phi), (single.dphi, staged.dphi), (single.rcond, staged.rcond)):
+        a, b = a.numpy(), b.numpy()
+        if launcher.is_cpu:
+            assert np.array_equal(a, b)
+        else:
+            assert np.abs(a - b).max() <= 1e-12 * np.abs(a).max()
+
+
 def test_support_size_is_the_rank_th_nearest_distance_and_rows_match_brute_force(launcher):
     nodes = random_grid_nodes((0.0, 0.0), (2.0, 1.0), (20, 10), seed=5).position
     model = MLSModel(nodes, MLSSettings(d_max=2.2, rank=5), launcher=launcher)

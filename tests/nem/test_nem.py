@@ -323,11 +323,11 @@ def test_bad_input_is_refused_with_the_parameter_named(launcher):
         model.shape_at([[0.5, 0.5]], material=[0, 1])
     with pytest.raises(ParameterError, match="nodal: needs 4 values"):
         model.evaluate(np.zeros(3), model.shape_at([[0.5, 0.5]]))
-    # 80 co-circular nodes: the centre lies inside every circumcircle, more than the kernel's fixed sizes
+    # 80 co-circular nodes: the centre lies inside every circumcircle, more than the kernel's walk guards
     angle = np.linspace(0.0, 2 * np.pi, 80, endpoint=False)
     circle = NEMModel(np.c_[np.cos(angle), np.sin(angle)], launcher=launcher)
-    with pytest.raises(ParameterError, match=r"point: point 0 at \(0, 0\) has a natural-neighbour cavity of more "
-                                             r"than 64|point: point 0 at \(0, 0\) has more than 32 natural"):
+    with pytest.raises(ParameterError, match=r"point: point 0 at \(0, 0\) has a natural neighbour with more than "
+                                             r"64 cavity triangles|point: point 0 at \(0, 0\) has more than 64 natural"):
         circle.shape_at([[0.0, 0.0]])
 
 

@@ -215,17 +215,32 @@ class MLSModel(ShapeModel):
         L.launch(kernel, n, args + [1, rows], once=True)
         return p, points64, rows, counts, total
 
-    def shape_at(self, points, material=None, name: str = "point") -> ShapeData:
+    def shape_at(self, points, material=None, name: str = "point", staged: bool | None = None) -> ShapeData:
         """Shape functions and gradients at ``points`` (n, 2); ``material`` (n,) ints (default -1: sees every
-        node). Raises ParameterError('support') naming the first point whose fit is ill-posed."""
+        node). ``staged``: the shape functions in four kernels (``kernels/mls.py: staged_shape_functions``, the
+        quadratic basis's form on a GPU, within its register budget) instead of one; bitwise the same results;
+        default: staged for the quadratic basis off the CPU. Raises ParameterError('support') naming the first
+        point whose fit is ill-posed."""
         p, points64, rows, counts, total = self.support_rows(points, material, name)
-        n, dev = p.shape[0], self.launcher.device
+        n, dev, L = p.shape[0], self.launcher.device, self.launcher
         phi = wp.zeros(max(total, 1), dtype=wp.float64, device=dev)
         dphi = wp.zeros(max(total, 1), dtype=wp.vec2d, device=dev)
         rcond = wp.zeros(n, dtype=wp.float64, device=dev)
-        self.launcher.launch(mk.shape_functions_kernel(*self.settings.kernel_key()), n,
-                             [self.box, points64, rows, self.nodes, self.support, self._params, phi, dphi, rcond],
-                             once=True)
+        key = self.settings.kernel_key()
+        if staged is None:
+            staged = not L.is_cpu and self.settings.terms == mk.MAX_TERMS
+        if staged:
+            kernels = mk.staged_shape_functions(*key)
+            fits = wp.zeros(n * kernels.size, dtype=wp.float64, device=dev)
+            args = [self.box, points64, rows, self.nodes, self.support, rcond, fits]
+            L.launch(kernels.moment_factors, n, args, once=True)
+            for axis in (0, 1):
+                L.launch(kernels.slope_fits, n, args + [axis], once=True)
+            L.launch(kernels.slope_solves, n, [rcond, fits], once=True)
+            L.launch(kernels.shape_values, n, args + [phi, dphi], once=True)
+        else:
+            L.launch(mk.shape_functions_kernel(*key), n,
+                     [self.box, points64, rows, self.nodes, self.support, self._params, phi, dphi, rcond], once=True)
         self._check(p, counts, rcond.numpy(), name)
         return ShapeData(p, rows, counts, total, phi, dphi, rcond, self.node_count)
 

@@ -63,12 +63,14 @@ LOCATE_TOL = 1e-10
 #: nodes whose coordinates span less than this fraction of the set's extent across its main direction are collinear
 COLLINEAR_TOL = 1e-12
 
-_STATUS = {nk.CAVITY_OVERFLOW: f"has a natural-neighbour cavity of more than {nk.MAX_CAVITY} Delaunay triangles "
+_STATUS = {nk.CAVITY_OVERFLOW: f"has a natural neighbour with more than {nk.MAX_CAVITY} cavity triangles "
+                               "about it "
                                "(many nodes on one circle through it)",
            nk.NEIGHBOUR_OVERFLOW: f"has more than {nk.MAX_NEIGHBOURS} natural neighbours "
                                   "(many nodes on one circle through it)",
-           nk.DEGENERATE: "gives a degenerate Voronoi cell (Σ α_i <= 0 or not finite: a non-star-shaped cavity at a "
-                          "re-entrant corner of the domain, or a point a rounding error off a boundary edge)"}
+           nk.DEGENERATE: "gives a degenerate Voronoi cell (Σ α_i <= 0 or not finite, or a natural-neighbour cavity "
+                          "that is not a disk: a non-star-shaped cavity at a re-entrant corner of the domain, or a "
+                          "point a rounding error off a boundary edge)"}
 
 
 @dataclass(frozen=True)
@@ -255,6 +257,7 @@ class NEMModel(ShapeModel):
         phi = wp.zeros(max(total, 1), dtype=wp.float64, device=dev)
         dphi = wp.zeros(max(total, 1), dtype=wp.vec2d, device=dev)
         L.launch(nk.laplace_rows, n, [self.mesh, points64, triangle, 1, rows, phi, dphi, status], once=True)
+        L.launch(nk.edge_gradients, n, [self.mesh, points64, triangle, rows, dphi], once=True)
         rcond = wp.array(np.ones(n), dtype=wp.float64, device=dev)
         return ShapeData(p, rows, counts, total, phi, dphi, rcond, self.node_count)
 
