@@ -32,6 +32,9 @@ import warp as wp
 from .mls import ALGEBRA, MLSFit, NodeSet, inside_support, serving_node, weight_function
 from .space import Box2d, offset2d, wrap2d
 
+#: a sort key is cell × CELL_KEY + particle id (ids are int32)
+CELL_KEY = wp.constant(wp.int64(2 ** 31))
+
 
 class MLSKernels:
     """The three kernels that evaluate MLS shape functions, compiled for one basis size (``basis_terms``: 3 linear,
@@ -368,22 +371,26 @@ def cell_keys(
     dead_key: int,
     exit_wall: wp.array(dtype=wp.int32),
     position: wp.array(dtype=wp.vec2d),
-    keys: wp.array(dtype=wp.int32),
+    particle_id: wp.array(dtype=wp.int32),
+    keys: wp.array(dtype=wp.int64),
     values: wp.array(dtype=wp.int32),
 ):
-    """Sort key of particle i: its cell (side 1/``inv_cell``) in row-major order, so that particles sharing nodes sit
-    together in memory (the deposit's node gather reads them); an absorbed
-    particle (``exit_wall`` w + 1 > 0) gets ``dead_key`` + w, past every cell: the sort moves it to the end, grouped
-    by wall."""
+    """Sort key of particle i: its cell (side 1/``inv_cell``) in row-major order, then its id (``CELL_KEY`` ×
+    cell + id), so that particles sharing nodes sit together in memory (the deposit's node gather reads them) in an
+    order that depends on their positions and ids alone, not on the order before (a part of the particles, as a rank
+    of a distributed run holds them, sorts into the order they have among all); an absorbed particle (``exit_wall``
+    w + 1 > 0) gets cell ``dead_key`` + w, past every cell: the sort moves it to the end, grouped by wall."""
     i = first + wp.tid()
     values[i] = i
+    cell = int(0)
     if exit_wall[i] > 0:
-        keys[i] = dead_key + exit_wall[i] - 1
-        return
-    d = position[i] - box.lower
-    cx = int(wp.floor(d[0] * inv_cell))
-    cy = int(wp.floor(d[1] * inv_cell))
-    keys[i] = cy * cells_x + cx
+        cell = dead_key + exit_wall[i] - 1
+    else:
+        d = position[i] - box.lower
+        cx = int(wp.floor(d[0] * inv_cell))
+        cy = int(wp.floor(d[1] * inv_cell))
+        cell = cy * cells_x + cx
+    keys[i] = wp.int64(cell) * CELL_KEY + wp.int64(particle_id[i])
 
 
 @wp.kernel
@@ -391,16 +398,17 @@ def count_live(
     first: int,
     total: int,
     dead_key: int,
-    keys: wp.array(dtype=wp.int32),
+    keys: wp.array(dtype=wp.int64),
     live: wp.array(dtype=wp.int32),
 ):
-    """After the sort: live[0] = the number of keys below ``dead_key`` (the one slot where live ends writes it;
-    ``live`` must hold 0 beforehand for the case of none)."""
+    """After the sort: live[0] = the number of keys whose cell is below ``dead_key`` (the one slot where live ends
+    writes it; ``live`` must hold 0 beforehand for the case of none)."""
     i = first + wp.tid()
-    if keys[i] < dead_key:
+    dead = wp.int64(dead_key) * CELL_KEY
+    if keys[i] < dead:
         if i + 1 == total:
             live[0] = total
-        elif keys[i + 1] >= dead_key:
+        elif keys[i + 1] >= dead:
             live[0] = i + 1
 
 

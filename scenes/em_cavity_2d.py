@@ -60,7 +60,7 @@ def build(radius: float = 0.1, eps_r: float = 10.0, cells_per_radius: int = 20, 
     on_line = (np.abs(layout.e_position[:, 0] - centre[0]) < 0.5 * spacing) & (layout.e_position[:, 1] >= centre[1])
 
     def errors(s, t):
-        ez = field(s.model.electric.numpy("ez"))
+        ez = field(s.electric.numpy("ez"))
         exact = cavity_field(r_e, t - 0.5 * dt, radius, eps_r)
         return np.abs(ez - exact)
 
@@ -73,7 +73,7 @@ def build(radius: float = 0.1, eps_r: float = 10.0, cells_per_radius: int = 20, 
     def cavity_analysis(run, out_dir):
         s = run.solver
         t_e = s.t - 0.5 * dt
-        ez = field(s.model.electric.numpy("ez"))
+        ez = field(s.electric.numpy("ez"))
         order = np.argsort(r_e[on_line])
         rr = r_e[on_line][order]
         _plot(os.path.join(out_dir, "cavity.png"), rr, ez[on_line][order], cavity_field(rr, t_e, radius, eps_r), t_e)

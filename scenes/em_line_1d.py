@@ -50,7 +50,7 @@ def build(frequency: float = 1.8e9, length: float = math.pi, particles_per_wavel
     def line_analysis(run, out_dir):
         s = run.solver
         t_e = s.t - 0.5 * dt  # Ez is half a step behind H
-        ez = s.model.electric.numpy("ez")
+        ez = s.electric.numpy("ez")
         err = mean_error(x, ez, t_e, x[source], frequency, window)
         result = {"mean_error": err, "window": list(window), "particles_per_wavelength": wavelength / layout.spacing,
                   "dt": dt, "courant": dt / s.stable_dt(), "time_of_ez": t_e}

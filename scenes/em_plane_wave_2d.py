@@ -83,7 +83,7 @@ def build(size: float = 0.5, frequency: float = 3.6e9, amplitude: float = 1.0, p
     centre_line = in_box & (lines == np.median(lines[in_box]).astype(int))
 
     def field_errors(s, t_e):
-        ez = s.model.electric.numpy("ez")
+        ez = s.electric.numpy("ez")
         exact = wave.incident(2, e, t_e)[0]
         return ez, exact
 
@@ -110,7 +110,7 @@ def build(size: float = 0.5, frequency: float = 3.6e9, amplitude: float = 1.0, p
         return float(np.mean(np.abs(ez - exact)[in_box])) / amplitude
 
     def leakage(s, t):
-        return float(np.max(np.abs(s.model.electric.numpy("ez")[scattered]))) / amplitude
+        return float(np.max(np.abs(s.electric.numpy("ez")[scattered]))) / amplitude
 
     def plane_wave_analysis(run, out_dir):
         s = run.solver

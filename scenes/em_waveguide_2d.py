@@ -72,7 +72,7 @@ def build(width: float = 0.5, length: float = 0.4, pml_thickness: float = 0.1, f
     def waveguide_analysis(run, out_dir):
         s = run.solver
         t_e = s.t - 0.5 * dt
-        ez = s.model.electric.numpy("ez")[column]
+        ez = s.electric.numpy("ez")[column]
         y = e[column, 1]
         exact = amplitude * math.sin(math.pi * column_x / width) * tm1_field(y, t_e, width, waveform, frequency)
         err = np.abs(ez - exact) / amplitude

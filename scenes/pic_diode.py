@@ -101,7 +101,8 @@ def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5
         plot_history(out_dir, h, None, s)
         plot_series(os.path.join(out_dir, "profile.png"), None, curves, reference=reference, xlabel="y",
                     ylabel="potential", title=f"diode at Γ = {injected_fraction:g} Γ_CL")
-        p, v = s.state.position.numpy()[:s.count], s.state.velocity.numpy()[:s.count]
+        values = s.particle_values()
+        p, v = values["position"], values["velocity"]
         plot_series(os.path.join(out_dir, "phase_space.png"), None, {}, reference={"electrons": (p[:, 1], v[:, 1])},
                     xlabel="y", ylabel="v_y", title=f"phase space at t = {s.t:.3g}")
         return {"diode": result}

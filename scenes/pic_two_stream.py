@@ -103,8 +103,7 @@ def build(beam_speed: float = 1.0, length_y: float = 4.0, node_spacing: float = 
 def _phase_space(path, solver):
     from warpfree.io.frames import plot_series
 
-    x = solver.state.position.numpy()[:, 0]
-    vx = solver.state.velocity.numpy()[:, 0]
-    s = solver.state.species.numpy()
+    values = solver.particle_values()
+    x, vx, s = values["position"][:, 0], values["velocity"][:, 0], values["species"]
     plot_series(path, None, {}, reference={f"beam {'+-'[b]}": (x[s == b], vx[s == b]) for b in (0, 1)},
                 xlabel="x (λ_D)", ylabel="v_x", title=f"phase space at t = {solver.t:.3g} / ω_pe")

@@ -62,7 +62,7 @@ def build(length: float = 1.0, depth: float = 0.5, amplitude: float = 0.01, dx: 
             wall_layers=wall_layers, settle_periods=settle_periods)
     x = solver.fluid.numpy("position").astype(np.float64)
     v = linear.initial_velocity(x[:, 0], x[:, 1], amplitude, g, length, depth)
-    solver.fluid["velocity"].assign(np.column_stack([v, np.zeros(len(v))]).astype(np.float32))
+    solver.fluid.load({"velocity": np.column_stack([v, np.zeros(len(v))]).astype(np.float32)})
     solver.initialise()
     mass = solver.fluid.numpy("mass").astype(np.float64)
     expected = linear.centre_of_mass_amplitude(amplitude, length, depth)

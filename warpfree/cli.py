@@ -13,6 +13,8 @@ import sys
 
 from . import __version__
 from .errors import ParameterError, RunError
+from .parallel import world
+from .parallel.world import abort_on_error, world_started
 from .scene_loader import load_scene, parse_overrides, scene_parameters, scene_path, shipped_scenes, summary_line
 
 DESCRIPTION = """warpfree: meshfree particle methods (WCSPH fluids, SPEM, EFG, PIDC) as NVIDIA Warp kernels.
@@ -30,7 +32,9 @@ RUN_HELP = """Run a scene. Every parameter of the scene's build() has a default;
 (repeat it for several; --list shows them with their types). The run directory gets summary.json, VTU files with a
 PVD index (vtk/, *.pvd, open in ParaView), PNG frames (frames/) and the scene's own plots. A run directory that
 already holds files is refused unless --overwrite replaces the earlier run in it. With --checkpoint-every K it also
-keeps checkpoints, and --resume DIR continues such a run (bitwise the same as an uninterrupted one)."""
+keeps checkpoints, and --resume DIR continues such a run (bitwise the same as an uninterrupted one). Under
+mpiexec -n N the scene runs over N ranks (one process each: pip install 'warpfree[mpi]'), with the same
+results as one process; each rank writes its piece of every snapshot (a .pvtu joins them), rank 0 the rest."""
 
 #: parameters a resumed run may change: they move the end, not the model
 RESUMABLE = ("t_end",)
@@ -51,8 +55,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--out", default=None, help="run directory (default: runs/<scene>)")
     run.add_argument("--overwrite", action="store_true",
                      help="replace the earlier run in --out (everything in that run directory is removed first)")
-    run.add_argument("--threads", type=int, default=None, help="CPU threads (default: all cores)")
-    run.add_argument("--device", default="cpu", help="cpu (default), cuda or cuda:N")
+    run.add_argument("--threads", type=int, default=None,
+                     help="CPU threads (default: all cores; under mpiexec, the cores shared among the ranks)")
+    run.add_argument("--device", default="cpu", help="cpu (default), cuda or cuda:N (under mpiexec, cuda: one GPU "
+                                                     "per rank, in turn)")
     run.add_argument("--frames", dest="frames", action="store_true", default=None, help="write PNG frames")
     run.add_argument("--no-frames", dest="frames", action="store_false", help="do not write PNG frames")
     run.add_argument("--checkpoint-every", type=int, default=None, metavar="K",
@@ -108,8 +114,11 @@ def run_command(args) -> int:
             overrides["frames"] = args.frames
         out_dir = args.out or os.path.join("runs", os.path.splitext(os.path.basename(scene_file))[0])
         require_fresh(out_dir, args.overwrite)
-    require_writable(out_dir)
-    device.use(args.device, args.threads)
+    ranks = world()
+    ranks.barrier()  # every rank has looked at the run directory before rank 0 writes in it
+    if ranks.is_root:
+        require_writable(out_dir)
+    device.use(*rank_device(args.device, args.threads, ranks))
     run = build_scene(module, overrides)
     checkpoint_every = meta.get("checkpoint_every") if args.resume else args.checkpoint_every
     if checkpoint_every is not None:
@@ -118,21 +127,41 @@ def run_command(args) -> int:
         if checkpoint_every < 0:
             raise ParameterError("--checkpoint-every", f"must be >= 0, got {checkpoint_every}")
         run.checkpoint_every = checkpoint_every
-    if not args.resume and args.overwrite:
-        clear_run_directory(out_dir)  # only now: a refused build above leaves the earlier run as it was
     meta = {"scene": os.path.abspath(scene_file), "overrides": overrides, "checkpoint_every": checkpoint_every}
-    if not args.resume:
-        _write_meta(out_dir, meta)
+    if ranks.is_root:
+        if not args.resume and args.overwrite:
+            clear_run_directory(out_dir)  # only now: a refused build above leaves the earlier run as it was
+        if not args.resume:
+            _write_meta(out_dir, meta)
+    ranks.barrier()
     try:
         summary = run.run(out_dir, resume=bool(args.resume), progress=not args.no_progress)
     except RunError:
-        if args.resume:
+        if args.resume and ranks.is_root:
             _write_meta(out_dir, meta)  # the checkpoint was loaded: the run now belongs to its new end time
         raise
-    if args.resume:
+    if args.resume and ranks.is_root:
         _write_meta(out_dir, meta)
-    print_summary(summary, out_dir)
+    ranks.barrier()  # every rank's pieces are written
+    if ranks.is_root:
+        print_summary(summary, out_dir)
     return 0
+
+
+def rank_device(device_name: str, threads: int | None, ranks) -> tuple[str, int | None]:
+    """The device and CPU threads of this rank: in a distributed run each rank takes its share of the cores (at
+    least one), and ``cuda`` the rank's GPU in turn (rank mod the GPUs)."""
+    if not ranks.distributed:
+        return device_name, threads
+    from .device import default_threads, gpu_count
+
+    if threads is None:
+        threads = max(1, default_threads() // ranks.size)
+    if device_name == "cuda":
+        count = gpu_count()
+        if count:
+            device_name = f"cuda:{ranks.rank % count}"
+    return device_name, threads
 
 
 def print_summary(summary: dict, out_dir: str) -> None:
@@ -180,7 +209,7 @@ def resume_overrides(pairs: list[str], previous: dict, module) -> dict:
     for k, v in changes.items():
         before = previous.get(k, parameters[k].default)
         if k in RESUMABLE and v != before:
-            print(f"warpfree: resuming with {k} = {v} (was {before})", file=sys.stderr)
+            _say(f"warpfree: resuming with {k} = {v} (was {before})")
     return changes
 
 
@@ -236,13 +265,23 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "run":
             return run_command(args)
     except ParameterError as err:
-        print(f"warpfree: error: {err}", file=sys.stderr)
+        _say(f"warpfree: error: {err}")
         return 2
     except RunError as err:
-        print(f"warpfree: run stopped: {err}", file=sys.stderr)
+        _say(f"warpfree: run stopped: {err}")
         return 3
     parser.print_help()
     return 0
+
+
+def _say(message: str) -> None:
+    """An error line on stderr (in a distributed run from rank 0 only: every rank meets the same error)."""
+    try:
+        root = world().is_root
+    except ParameterError:  # MPI missing: this is the error being said, by every rank alike
+        root = True
+    if root:
+        print(message, file=sys.stderr)
 
 
 def entry() -> None:
@@ -254,7 +293,20 @@ def entry() -> None:
         sys.stdout.flush()
     except BrokenPipeError:  # the reader of our output has gone (warpfree list | head): nothing left to say
         code = 0
+    except BaseException:
+        if world_started() and world().distributed:  # one rank's fault must not leave the others waiting
+            import traceback
+
+            traceback.print_exc()
+            sys.stderr.flush()
+            abort_on_error(1)
+        raise
     sys.stderr.flush()
+    if "mpi4py.MPI" in sys.modules:  # a distributed run ends its MPI before leaving (os._exit skips atexit)
+        from mpi4py import MPI
+
+        if MPI.Is_initialized() and not MPI.Is_finalized():
+            MPI.Finalize()
     os._exit(code)
 
 

@@ -50,6 +50,12 @@ def resolve_device(name: str | None = None) -> str:
         raise ParameterError("device", f"{name!r} is not a CUDA device here ({exc})") from None
 
 
+def gpu_count() -> int:
+    """CUDA devices this process sees (0 without a driver)."""
+    init_warp()
+    return wp.get_cuda_device_count() if wp.is_cuda_available() else 0
+
+
 def default_threads() -> int:
     """All cores this process may use."""
     try:

@@ -52,10 +52,15 @@ class NeighbourGrid:
     radius: query radius (m): rows list the sources strictly closer than this; also the cell width.
     space: :class:`~warpfree.space.Space` (its periodic axes need sides >= 2 radius).
     positions: ``wp.array(dtype=wp.vec3)`` of the source set; :meth:`build` may pass new ones.
+    sized_for: the number of grid points (sources and images) the hash table is sized for (default: those of the
+        first build). A rank of a distributed run holds part of a set and sizes its table for the whole set's, as the
+        one process does, so that queries return neighbours in the same order (:mod:`warpfree.parallel.halo`).
     """
 
-    def __init__(self, launcher: Launcher, radius: float, space: Space, positions: wp.array | None = None):
+    def __init__(self, launcher: Launcher, radius: float, space: Space, positions: wp.array | None = None,
+                 sized_for: int | None = None):
         self.launcher = launcher
+        self.sized_for = sized_for
         self.radius = require_positive("radius", radius)
         self.space = space
         space.require_room(self.radius, "radius")
@@ -85,9 +90,19 @@ class NeighbourGrid:
             if self.source_id is None or self.source_id.shape[0] != n:
                 self.source_id = wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32, device=dev)
         if self.grid is None:
-            self.grid = wp.HashGrid(*_grid_dims(self.space.dim, self.points.shape[0]), device=dev)
+            size = self.points.shape[0] if self.sized_for is None else self.sized_for
+            self.grid = wp.HashGrid(*_grid_dims(self.space.dim, size), device=dev)
         self.grid.build(self.points, self.radius)
         self.builds += 1
+
+    def grid_points(self, positions: wp.array) -> int:
+        """The grid points a build over ``positions`` makes: the sources and their periodic images (one read)."""
+        n = positions.shape[0]
+        if not self.space.is_periodic or n == 0:
+            return n
+        counts = wp.zeros(n, dtype=wp.int32, device=self.launcher.device)
+        self.launcher.launch(nk.count_images, n, [positions, self.space.box, self.radius, counts], once=True)
+        return n + int(counts.numpy().sum())
 
     def _with_images(self, positions: wp.array) -> tuple[wp.array, wp.array]:
         L, n, dev = self.launcher, positions.shape[0], self.launcher.device
@@ -240,12 +255,15 @@ class MovingNeighbours:
     radius: interaction radius (m). skin: extra margin (m), >= 0 (0: rebuild every step).
     static_sets: name -> positions of static sets (walls, nodes) that query or are queried.
     position_at_build: the array to keep the build positions in (a solver passes its state's), or None.
+    sized_for: set name ("moving" or a static set's) -> the grid points its hash table is sized for
+        (:class:`NeighbourGrid`; a distributed run's ranks pass the whole sets').
     """
 
     MOVING = "moving"
 
     def __init__(self, launcher: Launcher, space: Space, positions: wp.array, radius: float, skin: float,
-                 static_sets: dict[str, wp.array] | None = None, position_at_build: wp.array | None = None):
+                 static_sets: dict[str, wp.array] | None = None, position_at_build: wp.array | None = None,
+                 sized_for: dict[str, int] | None = None):
         self.launcher = launcher
         self.space = space
         self.radius = require_positive("radius", radius)
@@ -259,9 +277,10 @@ class MovingNeighbours:
         self.position_at_build = position_at_build
         self.static_sets = dict(static_sets or {})
         reach = self.radius + self.skin
-        self.grids = {self.MOVING: NeighbourGrid(launcher, reach, space)}
+        sized_for = dict(sized_for or {})
+        self.grids = {self.MOVING: NeighbourGrid(launcher, reach, space, sized_for=sized_for.get(self.MOVING))}
         for name, pos in self.static_sets.items():
-            self.grids[name] = NeighbourGrid(launcher, reach, space, pos)
+            self.grids[name] = NeighbourGrid(launcher, reach, space, pos, sized_for=sized_for.get(name))
         self.tables: dict[str, tuple[NeighbourTable, str, str, bool]] = {}
         self.builds = 0
 

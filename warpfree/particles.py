@@ -57,9 +57,15 @@ class ParticleSet:
         self.n = p.shape[0]
         self.fields: dict[str, wp.array] = {POSITION: wp.array(p.astype(np.float32), dtype=wp.vec3, device=device)}
 
+    #: the set's :class:`~warpfree.parallel.Partition` in a distributed run (its arrays hold this rank's items and
+    #: ghosts), None otherwise
+    partition = None
+
     @classmethod
-    def view(cls, name: str, dim: int, fields: dict[str, wp.array]) -> "ParticleSet":
-        """A set over existing arrays (e.g. slices of a solver's combined arrays); ``fields["position"]`` required."""
+    def view(cls, name: str, dim: int, fields: dict[str, wp.array], partition=None) -> "ParticleSet":
+        """A set over existing arrays (e.g. slices of a solver's combined arrays); ``fields["position"]`` required.
+        ``partition``: in a distributed run, the items the arrays hold (:meth:`numpy` then gathers every rank's own
+        rows, :meth:`load` takes this rank's from a whole set's values)."""
         if POSITION not in fields:
             raise ParameterError(f"{name}.{POSITION}", "a particle set needs positions")
         n = fields[POSITION].shape[0]
@@ -69,7 +75,13 @@ class ParticleSet:
         obj = cls.__new__(cls)
         obj.name, obj.dim, obj.device, obj.n = name, dim, str(fields[POSITION].device), n
         obj.fields = dict(fields)
+        obj.partition = partition
         return obj
+
+    @property
+    def count(self) -> int:
+        """Particles in the whole set (every rank's own ones in a distributed run)."""
+        return self.n if self.partition is None else self.partition.count
 
     @property
     def position(self) -> wp.array:
@@ -100,19 +112,27 @@ class ParticleSet:
         return name in self.fields
 
     def numpy(self, name: str | None = None):
-        """A copy of one field as a NumPy array, or of every field (a dict) when ``name`` is None."""
-        if name is not None:
-            return self.fields[name].numpy().copy()
-        return {k: v.numpy().copy() for k, v in self.fields.items()}
+        """A copy of one field as a NumPy array, or of every field (a dict) when ``name`` is None: of the whole set,
+        in its order (in a distributed run gathered from every rank, on every rank)."""
+        if name is None:
+            return {k: self.numpy(k) for k in self.fields}
+        if self.partition is not None:
+            return self.partition.gather(self.fields[name])
+        return self.fields[name].numpy().copy()
+
+    def numpy_held(self, name: str) -> np.ndarray:
+        """A copy of one field's rows as this process holds them (in a distributed run: its own and its ghosts)."""
+        return self.fields[name].numpy().copy()
 
     def load(self, data: dict[str, np.ndarray]) -> None:
-        """Overwrite fields from NumPy arrays; shapes must match."""
+        """Overwrite fields from NumPy arrays of the whole set; shapes must match."""
         for k, v in data.items():
             if k not in self.fields:
                 raise ParameterError(f"{self.name}.{k}", "is not a field of this set")
-            if tuple(np.shape(v)) != tuple(self.fields[k].numpy().shape):
-                raise ParameterError(f"{self.name}.{k}", f"needs shape {self.fields[k].numpy().shape}, got {np.shape(v)}")
-            self.fields[k].assign(v)
+            shape = (self.count,) + tuple(self.fields[k].numpy().shape[1:])
+            if tuple(np.shape(v)) != shape:
+                raise ParameterError(f"{self.name}.{k}", f"needs shape {shape}, got {np.shape(v)}")
+            self.fields[k].assign(v if self.partition is None else self.partition.take(v))
 
     def __repr__(self) -> str:
         return f"ParticleSet({self.name!r}, n={self.n}, dim={self.dim}, fields={list(self.fields)})"

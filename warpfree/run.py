@@ -29,6 +29,7 @@ import numpy as np
 
 from .errors import ParameterError, RunError, reported_as
 from .io.writer import OutputError, OutputWriter
+from .parallel import world
 from .solver import OutputSet, PhaseTimes, Solver, StaticSolver
 
 __all__ = ["OutputOptions", "RunDirectory", "Run", "StaticRun", "build_scene"]
@@ -125,6 +126,9 @@ class Run(ABC):
         self._series: dict = {}
         self._bounds = None
         self._resumed_time: float | None = None
+        #: the ranks of the run (one process, or ``mpiexec``'s): rank 0 writes the summary, the indices, the frames
+        #: and the plots; every rank its own piece of each snapshot and its checkpoints
+        self.world = world()
 
     # -- outputs --------------------------------------------------------------------------------
     def _frame_choice(self) -> tuple[str | None, str | None]:
@@ -158,26 +162,60 @@ class Run(ABC):
             if self.output.vtk:
                 batch += self._vtu_jobs(directory, sets, step, time_s)
             if self.output.frames:
-                batch.append(self._frame_job(directory, sets, index, title))
-                for set_name, field in self.output.extra_frames:
-                    batch.append(self._frame_job(directory, sets, index, title, set_name, field))
+                whole = gather_sets(self.world, sets)  # frames show every rank's particles, drawn on rank 0
+                if whole is not None:
+                    batch.append(self._frame_job(directory, whole, index, title))
+                    for set_name, field in self.output.extra_frames:
+                        batch.append(self._frame_job(directory, whole, index, title, set_name, field))
             if self.output.meshes:
                 for mesh_name, (vertices, faces) in self.solver.output_meshes().items():
-                    batch.append(("mesh", {"path": directory.mesh(mesh_name, index), "vertices": vertices,
-                                           "faces": faces}))
+                    if self.world.is_root:
+                        batch.append(("mesh", {"path": directory.mesh(mesh_name, index), "vertices": vertices,
+                                               "faces": faces}))
             self._writer.submit(batch)
 
     def _vtu_jobs(self, directory: RunDirectory, sets: list[OutputSet], step: int, time_s: float) -> list:
         from .io.vtk import VtuSeries
 
+        if self.world.distributed:
+            return self._piece_jobs(directory, sets, step, time_s)
         jobs = []
         for s in sets:
+            if not len(s.points):  # nothing to write: a VTU without points is not readable
+                continue
             if s.name not in self._series:
                 self._series[s.name] = VtuSeries(directory.root, s.name, resume_after_time=self._resumed_time)
             series = self._series[s.name]
             path, entries = series.record(step, time_s)
             jobs.append(("vtu", {"path": str(path), "points": s.points, "fields": s.fields}))
             jobs.append(("pvd", {"path": str(series.pvd_path), "entries": entries}))
+        return jobs
+
+    def _piece_jobs(self, directory: RunDirectory, sets: list[OutputSet], step: int, time_s: float) -> list:
+        """A distributed run's snapshot: each rank writes its own part of every set as a VTU piece (with the
+        particles' ``global_id``); rank 0 writes the ``.pvtu`` that joins the pieces and the PVD that lists those,
+        so that ParaView opens the run as one dataset. Empty pieces are not written (a VTU without points is not
+        readable)."""
+        from .io.vtk import VtuSeries
+
+        jobs = []
+        rank = self.world.rank
+        for s in sets:
+            if s.name not in self._series:
+                self._series[s.name] = VtuSeries(directory.root, s.name, resume_after_time=self._resumed_time,
+                                                 extension="pvtu")
+            series = self._series[s.name]
+            fields = dict(s.fields)
+            fields["global_id"] = np.asarray(s.ids, dtype=np.int64)
+            counts = np.concatenate(self.world.allgather(np.array([len(s.points)], dtype=np.int64)))
+            if counts[rank]:
+                jobs.append(("vtu", {"path": str(series.piece_for(step, rank)), "points": s.points, "fields": fields}))
+            if self.world.is_root and counts.sum():
+                path, entries = series.record(step, time_s)
+                pieces = [series.piece_for(step, r).name for r in range(self.world.size) if counts[r]]
+                jobs.append(("pvtu", {"path": str(path), "pieces": pieces, "points": s.points[:0],
+                                      "fields": {k: np.asarray(v)[:0] for k, v in fields.items()}}))
+                jobs.append(("pvd", {"path": str(series.pvd_path), "entries": entries}))
         return jobs
 
     def _frame_job(self, directory: RunDirectory, sets: list[OutputSet], index: int, title: str,
@@ -248,8 +286,10 @@ class Run(ABC):
     def plot(self, function: str, **kwargs) -> None:
         """Have the output writer call ``function`` ("warpfree.<module>:<name>", e.g. a validation plot) with
         ``kwargs`` (NumPy arrays, numbers, strings), beside the run: its process has loaded Matplotlib while the
-        run stepped (``OutputOptions.plots``). For a scene's analysis; the run waits for it before it ends."""
-        self._writer.submit([("call", {"function": function, "kwargs": kwargs})])
+        run stepped (``OutputOptions.plots``). For a scene's analysis; the run waits for it before it ends. In a
+        distributed run rank 0 draws it."""
+        if self.world.is_root:
+            self._writer.submit([("call", {"function": function, "kwargs": kwargs})])
 
     @abstractmethod
     def _execute(self, directory: RunDirectory | None, resume: bool, progress: bool) -> None:
@@ -289,10 +329,21 @@ class Run(ABC):
             "status": "error" if error else "ok",
         }
         out.update(self._summary_fields(error))
+        if self.world.distributed:
+            out["ranks"] = self._ranks_summary(out["phases_s"])
         if error:
             out["error"] = error
         self.last_summary = out
         return out
+
+    def _ranks_summary(self, phases: dict[str, float]) -> dict:
+        """A distributed run: the ranks' count and each rank's phase times (rank order), and their imbalance in the
+        step (max / mean)."""
+        every = self.world.comm.allgather(phases)
+        step = [p.get("step", 0.0) for p in every]
+        mean = sum(step) / len(step)
+        return {"size": self.world.size, "phases_s": every,
+                "step_imbalance": (max(step) / mean) if mean > 0 else None}
 
     def _summary_fields(self, error: str | None) -> dict:
         return {}
@@ -302,7 +353,7 @@ class Run(ABC):
         """``{"unit": "<work unit>/s", "value": ..., "work_items": ...}``."""
 
     def _write_summary(self, directory: RunDirectory | None, summary: dict) -> None:
-        if directory is not None:
+        if directory is not None and self.world.is_root:
             write_json(directory.summary, summary)
 
 
@@ -343,6 +394,24 @@ def build_scene(module, params: dict) -> Run:
                                       f"got {type(run).__name__}")
     run.phases.add("setup", time.perf_counter() - t0)
     return run
+
+
+def gather_sets(world_, sets: list[OutputSet]) -> list[OutputSet] | None:
+    """The whole output sets from every rank's own parts (rows in global order), on rank 0 (None on the others);
+    the sets themselves in one process."""
+    if not world_.distributed:
+        return sets
+    parts = world_.comm.gather([(s.ids, s.points, s.fields) for s in sets], root=0)
+    if not world_.is_root:
+        return None
+    whole = []
+    for j, s in enumerate(sets):
+        ids = np.concatenate([p[j][0] for p in parts])
+        order = np.argsort(ids, kind="stable")
+        points = np.concatenate([p[j][1] for p in parts])[order]
+        fields = {k: np.concatenate([p[j][2][k] for p in parts])[order] for k in s.fields}
+        whole.append(OutputSet(s.name, points, fields, s.frame_field, s.solid))
+    return whole
 
 
 def _bounding_box(sets: list[OutputSet], dim: int) -> tuple:

@@ -132,7 +132,9 @@ class OutputSet:
 
     ``frame_field`` names the field frames colour this set by; ``None`` draws it as context: faint grey
     (container walls), or, with ``solid``, opaque in a colour of its own and hiding what is behind it
-    (an obstacle). The first set with a ``frame_field`` is the one frames show by default.
+    (an obstacle). The first set with a ``frame_field`` is the one frames show by default. ``ids``: in a distributed
+    run, the rows are this rank's own part of the set and ``ids`` their indices in the whole set (None: the whole
+    set, in order).
     """
 
     name: str
@@ -140,6 +142,7 @@ class OutputSet:
     fields: dict[str, np.ndarray] = field(default_factory=dict)
     frame_field: str | None = None
     solid: bool = False
+    ids: np.ndarray | None = None
 
 
 class PhaseTimes:
@@ -312,6 +315,19 @@ class TimeDependentSolver(Solver):
 
     def after_load(self) -> None:
         """Rebuild derived structures (neighbour tables, reductions) after the state was loaded."""
+
+    @property
+    def restores_pieces(self) -> bool:
+        """Whether this solver takes a checkpoint written by any number of processes (:meth:`restore_pieces`); a
+        distributed run of such a solver resumes through it on its own rank count too, as its particles move between
+        ranks and each rank's checkpoint holds the layout of the step it was written at."""
+        return type(self).restore_pieces is not TimeDependentSolver.restore_pieces
+
+    def restore_pieces(self, pieces: list[dict]) -> None:
+        """Take the state from a checkpoint written by another number of processes: ``pieces``, each process's
+        state (rank order; one piece from one process), into this process's part (then as :meth:`after_load`)."""
+        raise ParameterError("resume", f"a {self.name} run resumes only on the number of processes that wrote its "
+                                       "checkpoint")
 
 
 class StaticSolver(Solver):

@@ -176,9 +176,16 @@ class TimeLoop(Run):
         """Write the current state, loop scalars and series as a checkpoint."""
         with self.phases("checkpoint"):
             self.last_checkpoint = checkpoint.save(directory.checkpoints, self.step_count, self._loop_scalars(),
-                                                   self._series_arrays(), self.solver.state.numpy())
+                                                   self._series_arrays(), self.solver.state.numpy(),
+                                                   piece=self._piece)
             self._checkpoint_step = self.step_count
         return self.last_checkpoint
+
+    @property
+    def _piece(self) -> str | None:
+        """This rank's checkpoint suffix in a distributed run (None in one process)."""
+        w = self.world
+        return checkpoint.piece_name(w.rank, w.size) if w.distributed else None
 
     def _keep_last_good(self, directory: RunDirectory | None, err: RunError) -> RunError:
         """Write the state of the last output as a checkpoint when none newer exists; name it in the error."""
@@ -186,7 +193,7 @@ class TimeLoop(Run):
             loop, state, lengths = self._good
             with self.phases("checkpoint"):
                 self.last_checkpoint = checkpoint.save(directory.checkpoints, loop["step"], loop,
-                                                       self._series_arrays(lengths), state)
+                                                       self._series_arrays(lengths), state, piece=self._piece)
         if self.last_checkpoint and not err.last_good:
             err = RunError(err.message, err.step, self.last_checkpoint)
         return err
@@ -197,6 +204,10 @@ class TimeLoop(Run):
         if self.solver.clock is not None:  # its array was loaded with the state: read it anew
             self.solver.clock.invalidate()
         self.solver.after_load()
+        self._take_loop(loop, series, path)
+
+    def _take_loop(self, loop: dict, series: dict, path: str) -> None:
+        """The loop's scalars and series from a checkpoint."""
         self.time = float(loop["time"])
         self.step_count = int(loop["step"])
         self.n_outputs = int(loop["n_outputs"])
@@ -210,15 +221,28 @@ class TimeLoop(Run):
 
     def _resume(self, directory: RunDirectory) -> None:
         """Load the newest checkpoint that reads back and fits this scene; a damaged newer one (a write cut
-        short by a crash, a foreign file) is skipped, with a line on stderr and in the summary."""
+        short by a crash, a foreign file) is skipped, with a line on stderr and in the summary. In a distributed run
+        every rank loads its own piece of the newest step all ranks can load; a checkpoint of another number of
+        processes is spread anew (:meth:`_resume_spread`)."""
         skipped = []
-        for path in checkpoint.newest_first(directory.checkpoints):
+        paths = checkpoint.newest_first(directory.checkpoints, self._piece)
+        if (not paths or (self.world.distributed and self.solver.restores_pieces)) and self._resume_spread(directory):
+            return  # written by another number of processes, or by moving particles whose layout the pieces carry
+        if self.world.distributed:
+            every = self.world.comm.allgather([checkpoint.step_of(q) for q in paths])
+            common = set(every[0]).intersection(*map(set, every[1:]))
+            paths = [q for q in paths if checkpoint.step_of(q) in common]
+        for path in paths:
             try:
                 self.load_checkpoint(path)
+                problem = None
             except ParameterError as exc:
-                skipped.append(f"{os.path.basename(path)} ({str(exc).removeprefix('resume: ')})")
+                problem = f"{os.path.basename(path)} ({str(exc).removeprefix('resume: ')})"
+            problem = self.world.first_message(problem)
+            if problem:
+                skipped.append(problem)
                 continue
-            if skipped:
+            if skipped and self.world.is_root:
                 print(f"warpfree: resuming from {os.path.basename(path)}; skipped the newer {'; '.join(skipped)}",
                       file=sys.stderr)
             self.skipped_checkpoints = skipped
@@ -226,6 +250,30 @@ class TimeLoop(Run):
         if not skipped:
             raise ParameterError("resume", f"no checkpoint in {directory.checkpoints}")
         raise ParameterError("resume", f"no usable checkpoint in {directory.checkpoints}: {'; '.join(skipped)}")
+
+    def _resume_spread(self, directory: RunDirectory) -> bool:
+        """Resume from the newest complete checkpoint of another rank count (or of one process): every rank reads
+        every piece and the solver takes the whole state from them (``restore_pieces``). False when there is none."""
+        sets = checkpoint.piece_sets(directory.checkpoints)
+        relaid = self.world.distributed and self.solver.restores_pieces
+        sets = {size: steps for size, steps in sets.items()
+                if size != self.world.size or not self.world.distributed or relaid}
+        candidates = [(step, paths) for steps in sets.values() for step, paths in steps.items()]
+        serial = checkpoint.newest_first(directory.checkpoints) if self.world.distributed else []
+        candidates += [(checkpoint.step_of(q), [q]) for q in serial]
+        if not candidates:
+            return False
+        step, paths = max(candidates, key=lambda c: c[0])
+        pieces = [checkpoint.load(q) for q in paths]
+        loop, series, _ = pieces[0]
+        self.solver.restore_pieces([state for _, _, state in pieces])
+        if self.solver.clock is not None:
+            self.solver.clock.invalidate()
+        self._take_loop(loop, series, paths[0])
+        if self.world.is_root:
+            print(f"warpfree: resuming from step {step} written by {len(paths)} process(es), on {self.world.size}",
+                  file=sys.stderr)
+        return True
 
     # -- the loop ----------------------------------------------------------------------------------
     def _execute(self, directory: RunDirectory | None, resume: bool, progress: bool) -> None:
@@ -243,7 +291,7 @@ class TimeLoop(Run):
         clock = self.solver.clock
         if clock is not None:
             self._start_clock(clock)
-        bar = _progress(self.t_end, self.time, progress, self.name, self.solver.time_unit)
+        bar = _progress(self.t_end, self.time, progress and self.world.is_root, self.name, self.solver.time_unit)
         steps0 = self.step_count
         try:
             while self.time < self.t_end * (1 - 1e-12):

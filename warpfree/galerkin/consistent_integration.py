@@ -19,26 +19,35 @@ from .shapes import ShapeData, ShapeModel
 __all__ = ["consistent_test_gradients", "quadratic_consistent_test_gradients"]
 
 
+def _one_process(values: np.ndarray) -> np.ndarray:
+    return values
+
+
 def consistent_test_gradients(model: ShapeModel, shape: ShapeData, weight, boundary: list,
-                              point_material=None) -> tuple[wp.array, np.ndarray]:
+                              point_material=None, regions: int | None = None,
+                              total=_one_process) -> tuple[wp.array, np.ndarray]:
     """(∇ψ per entry of ``shape``, ξ (N, materials, 2)) (module docstring), one correction per node and material
     region: ``point_material`` (n,) the Gauss points' regions 0..M-1 (None: one region); ``boundary``: (ShapeData,
     weights (m,), outward normals (m, 2), region) for every piece that closes a region (outer boundary and both
     sides of every interface), the same points the boundary integrals use. Per region m the discrete divergence
     theorem Σ_{g ∈ m} w_g ∇ψ_I = Σ_{b ∈ ∂m} w_b φ_I n_b then holds, so piecewise-linear fields with flux
-    continuity are reproduced too."""
+    continuity are reproduced too. A distributed run's rank passes its own Gauss points, the number of ``regions``
+    and ``total``, the sum over the ranks of the Gauss points' per-node sums (the boundary's are every rank's
+    alike: added once, after)."""
     w = np.asarray(weight, dtype=np.float64)
     n_nodes = model.node_count
     region = np.zeros(shape.n, dtype=np.int64) if point_material is None else np.asarray(point_material, np.int64)
-    regions = int(region.max()) + 1 if region.size else 1
+    if regions is None:
+        regions = int(region.max()) + 1 if region.size else 1
     index = shape.rows.index.numpy()[: shape.n_entries].astype(np.int64)
     entry_region = np.repeat(region, shape.counts)
     key = index * regions + entry_region
     size = n_nodes * regions
     entry_weight = np.repeat(w, shape.counts)
     d = shape.dphi.numpy()[: shape.n_entries]
-    volume = np.bincount(key, weights=entry_weight, minlength=size)
-    integral = np.stack([np.bincount(key, weights=entry_weight * d[:, k], minlength=size) for k in range(2)], axis=1)
+    volume = total(np.bincount(key, weights=entry_weight, minlength=size))
+    integral = total(np.stack([np.bincount(key, weights=entry_weight * d[:, k], minlength=size) for k in range(2)],
+                              axis=1))
     target = np.zeros((size, 2))
     for bshape, bw, normal, piece_region in boundary:
         phi = bshape.phi.numpy()[: bshape.n_entries]
@@ -66,7 +75,8 @@ FULL_RANK = 1e-10
 
 
 def quadratic_consistent_test_gradients(model: ShapeModel, shape: ShapeData, weight, boundary: list,
-                                        point_material=None) -> tuple[wp.array, np.ndarray]:
+                                        point_material=None, regions: int | None = None,
+                                        total=_one_process) -> tuple[wp.array, np.ndarray]:
     """The quadratic variationally consistent correction (Chen, Hillman & Rüter 2013, §4): ∇ψ_I(x) = ∇φ_I(x) +
     Σ_p c_{I,p} q_p(x) with q = (1, (x - x_I)/h_I, (y - y_I)/h_I), c_I solved per node and region from the three
     integration constraints
@@ -77,11 +87,13 @@ def quadratic_consistent_test_gradients(model: ShapeModel, shape: ShapeData, wei
     linear correction (:func:`consistent_test_gradients`) is its p = 1 part. h_I: the node's spacing. Returns (∇ψ per
     entry, c_{I,1} (N, regions, 2), the constant part). A node whose support meets a region only at Gauss points on a
     line (rank-deficient moments, :data:`FULL_RANK`) gets the constant part alone there, which keeps p = 1. Set-up,
-    once, float64 in NumPy (3 x 3 solves per node)."""
+    once, float64 in NumPy (3 x 3 solves per node). ``regions`` and ``total``: as for
+    :func:`consistent_test_gradients`."""
     w = np.asarray(weight, dtype=np.float64)
     n_nodes = model.node_count
     region = np.zeros(shape.n, dtype=np.int64) if point_material is None else np.asarray(point_material, np.int64)
-    regions = int(region.max()) + 1 if region.size else 1
+    if regions is None:
+        regions = int(region.max()) + 1 if region.size else 1
     size = n_nodes * regions
     nodes = np.asarray(model.nodes_np, dtype=np.float64)
     h = np.broadcast_to(np.asarray(model.spacing, dtype=np.float64), (n_nodes,))
@@ -108,6 +120,7 @@ def quadratic_consistent_test_gradients(model: ShapeModel, shape: ShapeData, wei
             rhs[:, k, p] -= np.bincount(key, weights=entry_weight * d[:, k] * q[:, p], minlength=size)
         # - Σ_g w_g φ_I ∂_k q_p: only q_{1+k} = (x_k - x_I,k)/h has a derivative, 1/h
         rhs[:, k, 1 + k] -= np.bincount(key, weights=entry_weight * phi * inv_h, minlength=size)
+    moment, rhs = total(moment), total(rhs)
     for bshape, bw, normal, piece_region in boundary:
         b_index = bshape.rows.index.numpy()[: bshape.n_entries].astype(np.int64)
         b_key = b_index * regions + max(int(piece_region), 0)

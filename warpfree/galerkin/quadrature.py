@@ -40,6 +40,11 @@ class QuadraturePoints(NamedTuple):
     weight: np.ndarray  # (n,) float64: Gauss weight × |det J| (m²); the weights sum to the area
     cell: np.ndarray  # (n,) int64: the integration cell the point belongs to
 
+    def subset(self, index) -> "QuadraturePoints":
+        """The points ``index`` (e.g. a distributed run's rank's own)."""
+        index = np.asarray(index)
+        return QuadraturePoints(self.position[index], self.weight[index], self.cell[index])
+
 
 class BoundaryPoints(NamedTuple):
     """Gauss points of a boundary curve."""

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["VtuSeries", "read_pvd", "write_pvd", "write_vtu"]
+__all__ = ["VtuSeries", "read_pvd", "read_snapshot", "write_pvd", "write_pvtu", "write_vtu", "vtk_type"]
 
 
 def _atomic_target(path: Path) -> Path:
@@ -110,6 +110,56 @@ def write_vtu(path: str | os.PathLike, points: np.ndarray, fields: dict[str, np.
     return path
 
 
+#: NumPy dtype -> VTK XML type name
+_VTK_TYPES = {"float32": "Float32", "float64": "Float64", "int8": "Int8", "int16": "Int16", "int32": "Int32",
+              "int64": "Int64", "uint8": "UInt8", "uint16": "UInt16", "uint32": "UInt32", "uint64": "UInt64"}
+
+
+def vtk_type(values) -> tuple[str, int]:
+    """(VTK type name, components) of a point field as :func:`write_vtu` writes it."""
+    v = _as_field("field", values, np.shape(values)[0])
+    return _VTK_TYPES[v.dtype.name], 1 if v.ndim == 1 else v.shape[1]
+
+
+def write_pvtu(path: str | os.PathLike, pieces: list[str], points, fields: dict[str, np.ndarray]) -> None:
+    """A parallel VTU index (atomically): the VTU ``pieces`` (paths relative to ``path``'s folder) of one snapshot,
+    each written by :func:`write_vtu` with point fields like ``fields`` (any rows of them: their types and widths are
+    declared) and points like ``points``. ParaView opens it, or the PVD that lists it, as one dataset."""
+    path = Path(path)
+    point_type = _VTK_TYPES[_as_points(points).dtype.name]
+    lines = ['<?xml version="1.0"?>',
+             '<VTKFile type="PUnstructuredGrid" version="0.1" byte_order="LittleEndian">',
+             '  <PUnstructuredGrid GhostLevel="0">', "    <PPointData>"]
+    for name, values in fields.items():
+        kind, components = vtk_type(values)
+        lines.append(f'      <PDataArray type="{kind}" Name="{name}" NumberOfComponents="{components}"/>')
+    lines += ["    </PPointData>", "    <PPoints>",
+              f'      <PDataArray type="{point_type}" NumberOfComponents="3"/>', "    </PPoints>"]
+    lines += [f'    <Piece Source="{piece}"/>' for piece in pieces]
+    lines += ["  </PUnstructuredGrid>", "</VTKFile>", ""]
+    tmp = _atomic_target(path)
+    tmp.write_text("\n".join(lines), encoding="utf-8")
+    os.replace(tmp, path)
+
+
+def read_snapshot(path: str | os.PathLike) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """(points, point fields) of one snapshot: a ``.vtu``, or a ``.pvtu`` whose pieces are joined in the order of
+    their ``global_id`` (which is then left out): a distributed run's snapshot reads as the one process's."""
+    import meshio
+
+    path = Path(path)
+    if path.suffix != ".pvtu":
+        mesh = meshio.read(str(path))
+        return mesh.points, dict(mesh.point_data)
+    root = ET.parse(path).getroot()
+    pieces = [meshio.read(str(path.parent / p.get("Source"))) for p in root.iter("Piece")]
+    ids = np.concatenate([m.point_data["global_id"] for m in pieces])
+    order = np.argsort(ids, kind="stable")
+    points = np.concatenate([m.points for m in pieces])[order]
+    names = [k for k in pieces[0].point_data if k != "global_id"]
+    return points, {k: np.concatenate([m.point_data[k] for m in pieces])[order] for k in names}
+
+
 class VtuSeries:
     """A time series of particle snapshots: one VTU per step plus a PVD index.
 
@@ -119,13 +169,16 @@ class VtuSeries:
     name: series name (file stem).
     resume_after_time: if given, keep the existing index entries with time <= this value and append
         after them; otherwise any existing index is replaced by the new series.
+    extension: "vtu", or "pvtu" for a distributed run's snapshots (a parallel index of the ranks' pieces).
     """
 
-    def __init__(self, out_dir: str | os.PathLike, name: str, resume_after_time: float | None = None):
+    def __init__(self, out_dir: str | os.PathLike, name: str, resume_after_time: float | None = None,
+                 extension: str = "vtu"):
         if not name or any(c in name for c in "/\\\0"):
             raise ParameterError("name", f"must be a plain file stem, got {name!r}")
         self.out_dir = Path(out_dir)
         self.name = name
+        self.extension = extension
         self.vtk_dir = self.out_dir / "vtk"
         self.vtk_dir.mkdir(parents=True, exist_ok=True)
         self.pvd_path = self.out_dir / f"{name}.pvd"
@@ -144,7 +197,11 @@ class VtuSeries:
         return list(self._entries)
 
     def path_for(self, step: int) -> Path:
-        return self.vtk_dir / f"{self.name}_{int(step):07d}.vtu"
+        return self.vtk_dir / f"{self.name}_{int(step):07d}.{self.extension}"
+
+    def piece_for(self, step: int, rank: int) -> Path:
+        """Rank ``rank``'s piece of snapshot ``step`` (a distributed run)."""
+        return self.vtk_dir / f"{self.name}_{int(step):07d}_{int(rank):04d}.vtu"
 
     def record(self, step: int, time: float) -> tuple[Path, list[tuple[float, str]]]:
         """Enter snapshot ``step`` at simulation time ``time`` (s) in the index, without writing anything.

@@ -39,6 +39,12 @@ def _job_vtu(path, points, fields):
     write_vtu(path, points, fields)
 
 
+def _job_pvtu(path, pieces, points, fields):
+    from .vtk import write_pvtu
+
+    write_pvtu(path, pieces, points, fields)
+
+
 def _job_pvd(path, entries):
     from .vtk import write_pvd
 
@@ -67,7 +73,7 @@ def _job_call(function, kwargs):
     getattr(importlib.import_module(module), name)(**kwargs)
 
 
-JOBS = {"vtu": _job_vtu, "pvd": _job_pvd, "frame": _job_frame, "mesh": _job_mesh, "call": _job_call}
+JOBS = {"vtu": _job_vtu, "pvtu": _job_pvtu, "pvd": _job_pvd, "frame": _job_frame, "mesh": _job_mesh, "call": _job_call}
 
 #: what the worker imports while it waits, when told that plots or frames will come (Matplotlib: 0.4-0.6 s)
 PLOT_MODULES = ("matplotlib.figure", "matplotlib.backends.backend_agg")

@@ -28,6 +28,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from warpfree.errors import ParameterError, require_finite, require_positive
+from warpfree.parallel import world as ranks_of_run
 from warpfree.solver import OutputSet, StaticSolver
 from warpfree.sparse import FactorisedSystem, PrescribedValues
 
@@ -135,6 +136,17 @@ class EFGSolver(StaticSolver):
         self.load: np.ndarray | None = None
         self.multipliers = np.zeros(0)
         self.correction: np.ndarray | None = None  # ξ_I of consistent integration (N, 2)
+        self.world = ranks_of_run()
+        if self.world.distributed and integration == "scni":
+            raise ParameterError("integration", "a distributed run cannot integrate on smoothing cells ('scni') yet: "
+                                                "use 'consistent' or 'gauss', or run in one process")
+        #: the Gauss points this process integrates (a distributed run's rank: those its box owns) and their
+        #: materials; every point in one process
+        self._mine = np.arange(cells.position.shape[0])
+        if self.world.distributed:
+            self._mine = self._own_points()
+        self._points = cells if not self.world.distributed else cells.subset(self._mine)
+        self._material = None if self.point_material is None else self.point_material[self._mine]
         self._multiplier_scale = 1.0
         self._interface_cache: dict = {}
 
@@ -160,12 +172,17 @@ class EFGSolver(StaticSolver):
         return int(self.cells.position.shape[0])
 
     def solve(self) -> None:
+        """Shape functions, assembly, boundary conditions, factorisation and solve. In a distributed run each rank
+        evaluates and integrates its own Gauss points; their per-node sums (the stiffness, the loads, the consistent
+        correction's) are added over the ranks, in rank order, and every rank then imposes the conditions (their
+        points are every rank's alike), factorises and solves the same system: the one process's, to round-off."""
         model, c = self.model, self.components
+        total = self._total
         with self.phases("shape functions"):
             if self.integration == "scni":
                 self.shape = smoothed_shape(model, self.cells)
             else:
-                self.shape = model.shape_at(self.cells.position, self.point_material, name="Gauss point")
+                self.shape = model.shape_at(self._points.position, self._material, name="Gauss point")
             essential = [] if self.method == "direct" else [self._essential_set(b) for b in self.essential]
             natural = [(nat, self._shape(nat.points.position, nat.material, f"{nat.name} point"))
                        for nat in self.natural]
@@ -176,14 +193,15 @@ class EFGSolver(StaticSolver):
                 self._check_nodes_inside([p for _, p, _ in pieces])
                 quadratic = getattr(getattr(model, "settings", None), "basis", "linear") == "quadratic"
                 correct = quadratic_consistent_test_gradients if quadratic else consistent_test_gradients
+                regions = 1 if self.point_material is None else int(self.point_material.max()) + 1
                 test, self.correction = correct(
-                    model, self.shape, self.cells.weight, [(sh, p.weight, p.normal, r) for sh, p, r in pieces],
-                    self.point_material)
+                    model, self.shape, self._points.weight, [(sh, p.weight, p.normal, r) for sh, p, r in pieces],
+                    self._material, regions=regions, total=total)
         with self.phases("assembly"):
-            K = self.stiffness(self.shape, test)
+            K = self._total_matrix(self.stiffness(self.shape, test))
             if self.interfaces and self.interface_condition == "nitsche":
                 K = K + self.interface_stiffness()
-            f = self.body_load(self.shape)
+            f = total(self.body_load(self.shape))
             for nat, sh in natural:
                 f = f + self._natural_load(nat, sh)
         with self.phases("boundary"):
@@ -197,6 +215,45 @@ class EFGSolver(StaticSolver):
         n = c * model.node_count
         self.nodal, self.multipliers = x[:n], x[n:] * self._multiplier_scale
         self.matrix, self.load = K, f
+
+    # -- a distributed run -------------------------------------------------------------------------------------
+    def _own_points(self) -> np.ndarray:
+        """The Gauss points this rank integrates: those its box holds (``warpfree.parallel``: cut over the nodes'
+        reach, balancing the points)."""
+        from warpfree.parallel import Decomposition
+
+        p = np.zeros((self.cells.position.shape[0], 3))
+        p[:, :2] = self.cells.position
+        reach = float(getattr(self.model, "reach", 0.0) or 2.0 * float(np.max(self.model.spacing)))
+        dec = Decomposition.build(self.world.size, p, None, reach, 2, "rcb")
+        return np.flatnonzero(dec.owner(p) == self.world.rank)
+
+    def _pieces(self, sets: list[OutputSet]) -> list[OutputSet]:
+        """The whole output sets in one process; a distributed rank's parts: its own Gauss points, and (rank 0) the
+        nodes, which every rank holds (``OutputSet.ids``: their indices)."""
+        if not self.world.distributed:
+            return sets
+        out = []
+        for s in sets:
+            rows = self._mine if s.name == "gauss_points" else (np.arange(len(s.points)) if self.world.is_root
+                                                                 else np.zeros(0, np.int64))
+            out.append(OutputSet(s.name, s.points[rows], {k: v[rows] for k, v in s.fields.items()}, s.frame_field,
+                                 s.solid, ids=rows))
+        return out
+
+    def _total(self, values: np.ndarray) -> np.ndarray:
+        """A per-node sum over this process's Gauss points -> over every rank's (added in rank order)."""
+        return self.world.allreduce(values, "sum") if self.world.distributed else values
+
+    def _total_matrix(self, K: sp.csr_matrix) -> sp.csr_matrix:
+        """Every rank's part of the stiffness, added (in rank order), on every rank."""
+        if not self.world.distributed:
+            return K
+        coo = K.tocoo()
+        rows = np.concatenate(self.world.allgather(coo.row.astype(np.int64)))
+        cols = np.concatenate(self.world.allgather(coo.col.astype(np.int64)))
+        data = np.concatenate(self.world.allgather(coo.data.astype(np.float64)))
+        return sp.csr_matrix((data, (rows, cols)), shape=K.shape)
 
     def _shape(self, points: np.ndarray, material: int, name: str) -> ShapeData:
         """Shape functions at boundary points that belong to ``material`` (-1: every node serves them)."""
@@ -356,8 +413,17 @@ class EFGSolver(StaticSolver):
         return self.model.evaluate(self.nodal, shape, self.components)
 
     def gauss_field(self) -> tuple[np.ndarray, np.ndarray]:
-        """u^h and ∇u^h at the Gauss points (reusing their shape functions)."""
-        return self.model.evaluate(self.nodal, self.shape, self.components)
+        """u^h and ∇u^h at the Gauss points (reusing their shape functions; in a distributed run every rank's own,
+        gathered in the points' order)."""
+        u, g = self.model.evaluate(self.nodal, self.shape, self.components)
+        if not self.world.distributed:
+            return u, g
+        ids = np.concatenate(self.world.allgather(self._mine.astype(np.int64)))
+        whole_u = np.empty((self.work_items,) + u.shape[1:])
+        whole_g = np.empty((self.work_items,) + g.shape[1:])
+        whole_u[ids] = np.concatenate(self.world.allgather(np.ascontiguousarray(u)))
+        whole_g[ids] = np.concatenate(self.world.allgather(np.ascontiguousarray(g)))
+        return whole_u, whole_g
 
     def nodal_values(self) -> np.ndarray:
         """u^h at the nodes (n_nodes, components): the nodal parameters are not nodal values unless the shape
@@ -414,28 +480,32 @@ class PoissonSolver(EFGSolver):
                                                     self.nitsche_penalty * max(ka, kb) / h)
         return K
 
-    def point_conductivity(self) -> np.ndarray:
-        return self.conductivity[0] * np.ones(self.work_items) if self.point_material is None \
-            else self.conductivity[self.point_material]
+    def point_conductivity(self, material=None, count: int | None = None) -> np.ndarray:
+        """k at the Gauss points (``material``, ``count``: of a subset; default every point)."""
+        material = self.point_material if count is None else material
+        count = self.work_items if count is None else count
+        return self.conductivity[0] * np.ones(count) if material is None else self.conductivity[material]
 
     def stiffness(self, shape: ShapeData, test_dphi) -> sp.csr_matrix:
-        return assembly.conduction_matrix(self.model, shape, self.cells.weight * self.point_conductivity(), test_dphi)
+        """K over this process's Gauss points."""
+        k = self.point_conductivity(self._material, self._points.weight.shape[0])
+        return assembly.conduction_matrix(self.model, shape, self._points.weight * k, test_dphi)
 
     def body_load(self, shape: ShapeData) -> np.ndarray:
         if self.source is None:
             return np.zeros(self.model.node_count)
-        s = np.asarray(self.source(self.cells.position), dtype=np.float64).reshape(-1)
-        return assembly.load_vector(self.model, shape, (s * self.cells.weight)[:, None])
+        s = np.asarray(self.source(self._points.position), dtype=np.float64).reshape(-1)
+        return assembly.load_vector(self.model, shape, (s * self._points.weight)[:, None])
 
     def output_sets(self) -> list[OutputSet]:
         """Gauss points (potential, field -∇u, flux -k∇u; zeros before the solve) and nodes (parameters)."""
         n = self.work_items
         u, g = self.gauss_field() if self.shape is not None else (np.zeros((n, 1)), np.zeros((n, 1, 2)))
         flux = -self.point_conductivity()[:, None] * g[:, 0, :]
-        return [OutputSet("gauss_points", _points3(self.cells.position),
-                          {"potential": u[:, 0], "field_x": -g[:, 0, 0], "field_y": -g[:, 0, 1],
-                           "flux_x": flux[:, 0], "flux_y": flux[:, 1]}, frame_field="potential"),
-                OutputSet("nodes", _points3(self.model.nodes_np), {"parameter": self.nodal.copy()})]
+        return self._pieces([OutputSet("gauss_points", _points3(self.cells.position),
+                                       {"potential": u[:, 0], "field_x": -g[:, 0, 0], "field_y": -g[:, 0, 1],
+                                        "flux_x": flux[:, 0], "flux_y": flux[:, 1]}, frame_field="potential"),
+                             OutputSet("nodes", _points3(self.model.nodes_np), {"parameter": self.nodal.copy()})])
 
 
 def _points3(p: np.ndarray) -> np.ndarray:
@@ -459,14 +529,15 @@ class ElasticitySolver(EFGSolver):
         self.body = body
 
     def stiffness(self, shape: ShapeData, test_dphi) -> sp.csr_matrix:
+        """K over this process's Gauss points."""
         d = np.broadcast_to(self.D, (shape.n, 3, 3))
-        return assembly.elastic_matrix(self.model, shape, self.cells.weight, d, test_dphi)
+        return assembly.elastic_matrix(self.model, shape, self._points.weight, d, test_dphi)
 
     def body_load(self, shape: ShapeData) -> np.ndarray:
         if self.body is None:
             return np.zeros(2 * self.model.node_count)
-        b = np.asarray(self.body(self.cells.position), dtype=np.float64).reshape(-1, 2)
-        return assembly.load_vector(self.model, shape, b * self.cells.weight[:, None])
+        b = np.asarray(self.body(self._points.position), dtype=np.float64).reshape(-1, 2)
+        return assembly.load_vector(self.model, shape, b * self._points.weight[:, None])
 
     @staticmethod
     def strain_from(gradient: np.ndarray) -> np.ndarray:
@@ -500,10 +571,11 @@ class ElasticitySolver(EFGSolver):
         u, g = self.gauss_field() if self.shape is not None else (np.zeros((n, 2)), np.zeros((n, 2, 2)))
         sig = self.strain_from(g) @ self.D.T
         vm = von_mises(sig)
-        return [OutputSet("gauss_points", _points3(self.cells.position),
-                          {"displacement": _points3(u), "stress_xx": sig[:, 0], "stress_yy": sig[:, 1],
-                           "stress_xy": sig[:, 2], "von_mises": vm}, frame_field="von_mises"),
-                OutputSet("nodes", _points3(self.model.nodes_np), {"parameter": _points3(self.nodal.reshape(-1, 2))})]
+        return self._pieces([OutputSet("gauss_points", _points3(self.cells.position),
+                                       {"displacement": _points3(u), "stress_xx": sig[:, 0], "stress_yy": sig[:, 1],
+                                        "stress_xy": sig[:, 2], "von_mises": vm}, frame_field="von_mises"),
+                             OutputSet("nodes", _points3(self.model.nodes_np),
+                                       {"parameter": _points3(self.nodal.reshape(-1, 2))})])
 
     def describe(self) -> dict:
         return {**super().describe(), "young": self.young, "poisson": self.poisson, "plane": self.plane}

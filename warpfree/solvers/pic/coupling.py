@@ -80,6 +80,9 @@ class NodeCoupling:
             self.potential_wp = wp.zeros(model.node_count, dtype=wp.float64, device=dev)
             self.nodal_field = wp.zeros(model.node_count, dtype=wp.vec2d, device=dev)
         self._potential: np.ndarray | None = np.zeros(model.node_count)
+        #: a distributed run's combination of the ranks' nodal charges (each rank deposits on its own nodes): the
+        #: deposit's charges -> the whole vector (None in one process)
+        self.whole_charge = None
         self.charge_host = np.zeros(model.node_count)  # the last deposit, when the host solved (read for it)
         self.allocate(particles.state.capacity)
 
@@ -117,6 +120,8 @@ class NodeCoupling:
                           state.position, state.species, self.macro_charge, self.inv_scale, self.fit, self.charge])
             else:
                 self.charge.zero_()
+            if self.whole_charge is not None:
+                self.charge.assign(self.whole_charge(self.charge.numpy()))
         with self.phases("solve"):
             if self.device_solve is not None:
                 self.device_solve.solve(self.charge)

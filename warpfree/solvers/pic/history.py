@@ -82,6 +82,8 @@ class Diagnostics:
         self.pending_tallies: dict[str, float] = {}
         self.row: dict[str, float] | None = None   # the row of the last record, until read
         self.bad_flag = 0
+        #: a distributed run's combination of the ranks' reports (their particle sums), None in one process
+        self.combine = None
 
     def _sum_into(self, values: wp.array, n: int, slot: int, out: wp.array, scale: float = 1.0) -> None:
         self._sum.launch(values, n)
@@ -159,6 +161,8 @@ class Diagnostics:
     def read(self) -> None:
         """The step's one read: the report; appends the recorded row (if any) to the history, keeps the flag."""
         values = self.report.numpy()
+        if self.combine is not None:
+            values = self.combine(values)
         self.bad_flag = int(values[REPORT.index("bad_particle")])
         if self.row is None:
             return

@@ -130,7 +130,7 @@ class Particles:
         for new, old in ((self.position32, old32), (self.exit_wall, old_exit)):
             if old is not None:
                 wp.copy(new, old, count=min(capacity, old.shape[0]))
-        self.sort_keys = wp.zeros(2 * capacity, dtype=wp.int32, device=dev)
+        self.sort_keys = wp.zeros(2 * capacity, dtype=wp.int64, device=dev)
         self.sort_order = wp.zeros(2 * capacity, dtype=wp.int32, device=dev)
         self._scratch = {name: wp.zeros(capacity, dtype=getattr(self.state, name).dtype, device=dev)
                          for name in PARTICLE_ARRAYS}
@@ -166,15 +166,15 @@ class Particles:
         self.position32.assign(p32)
 
     def sort(self, total: int) -> None:
-        """Reorder slots [0, ``total``) by cell (row-major, cells of the support reach): the deposit gathers each
-        node's particles from contiguous memory. Every step, so the order depends on the positions only (a resumed
-        run sorts as the uninterrupted one did). Absorbed particles sort past every cell, grouped by wall: their
+        """Reorder slots [0, ``total``) by cell (row-major, cells of the support reach), then particle id: the deposit
+        gathers each node's particles from contiguous memory. Every step, so the order depends on the positions and ids
+        only (a resumed run sorts as the uninterrupted one did, a distributed run's rank as the one process does). Absorbed particles sort past every cell, grouped by wall: their
         charge goes to the wall's tally and the live count drops to the particles before them."""
         L, st = self.launcher, self.state
         if self.sort_particles or self.open_boundaries:
             L.launch(pk.cell_keys, total, [self.box, wp.float64(1.0 / self.sort_cell), self.sort_cells_x,
-                                           self.dead_key, self.exit_wall, st.position, self.sort_keys,
-                                           self.sort_order])
+                                           self.dead_key, self.exit_wall, st.position, st.particle_id,
+                                           self.sort_keys, self.sort_order])
             if total > 1:
                 wp.utils.radix_sort_pairs(self.sort_keys, self.sort_order, total)
             L.launch(pk.permute_particles, total, [self.sort_order, self.arrays, self.scratch])
@@ -186,7 +186,7 @@ class Particles:
             L.launch(pk.count_live, total, [total, self.dead_key, self.sort_keys, self._live])
             live = int(self._live.numpy()[0])
             if live < total:  # the absorbed: their charge to their walls' tallies
-                walls = self.sort_keys[live:total].numpy() - self.dead_key
+                walls = self.sort_keys[live:total].numpy() // 2 ** 31 - self.dead_key
                 species = st.species[live:total].numpy()
                 np.add.at(st.wall_charge, walls, self.macro_charge_np[species])
         st.particle_count = live

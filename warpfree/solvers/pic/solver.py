@@ -35,11 +35,14 @@ from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.galerkin.mls import MLSModel
 from warpfree.graph import StepGraph
 from warpfree.kernels import pic as pk
+from warpfree.parallel import world as ranks_of_run
+from warpfree.parallel.halo import host_view
 from warpfree.solver import OutputSet, StepRule, TimeDependentSolver
 
 from .coupling import GATHERS, NodeCoupling
 from .field import PlasmaPoisson
-from .history import Diagnostics, history_columns
+from .history import REPORT, Diagnostics, history_columns
+from .spread import PlasmaSpread
 from .injection import Injection
 from .particles import Particles, PICState
 from .species import ParticleLoad, Species
@@ -129,8 +132,20 @@ class PICSolver(TimeDependentSolver):
         self.initial_particle_charge = float(sum(ld.count * q for ld, q in zip(self.loads, self.macro_charge_np)))
         headroom = int(math.ceil(4 * sum(j.particles_per_step for j in self.injections)))
         modes = [tuple(int(v) for v in m) for m in modes]
+        self.world = ranks_of_run()
+        #: how the particles are spread over the ranks of a distributed run (None in one process)
+        self.spread = None
+        ids = np.arange(index.size, dtype=np.int32)
+        if self.world.distributed:
+            PlasmaSpread.refuse_open_boundaries(self.injections, self.particle_walls)
+            self.spread = PlasmaSpread(self.world, model, position)
+            held = self.spread.particles.ids
+            position, velocity, index, ids = position[held], velocity[held], index[held], ids[held]
+            headroom = max(16, index.size // 4)  # particles arrive: room before the arrays must grow
         self.state = PICState(position, velocity, index, max(1, index.size + headroom), len(self.injections), dev,
                               history_columns(modes, open_boundaries))
+        if self.spread is not None:
+            self.state.particle_id[:index.size].assign(ids)
         self.average_from = None if average_from is None else require_finite("average_from", average_from)
         if self.average_from is not None:
             self.state.potential_sum = np.zeros(model.node_count)
@@ -146,7 +161,11 @@ class PICSolver(TimeDependentSolver):
                                      self.background_density, gather, self.phases, field_solve)
         self.particles.on_resize = self.coupling.allocate
         self.diagnostics_record = Diagnostics(field, self.coupling, self.particles, modes, self.phases)
+        if self.spread is not None:  # a rank deposits on its own nodes; the charges of all, and the step's sums
+            self.coupling.whole_charge = self.spread.whole_charge
+            self.diagnostics_record.combine = self._combine_report
         self.particles.sort(self.count)
+        self._find_owned()
         self.coupling.fields_at_particles()
         bad = self.coupling.bad_particle()
         if bad:
@@ -165,8 +184,10 @@ class PICSolver(TimeDependentSolver):
 
     @property
     def n(self) -> int:
-        """The live particles (the per-step launches run over them)."""
-        return self.count
+        """The live particles (of every rank: its own, added, in a distributed run)."""
+        if self.spread is None:
+            return self.count
+        return int(self.world.allreduce(np.array([int(self._owned.sum())]), "sum")[0])
 
     @property
     def history(self) -> dict[str, list[float]]:
@@ -247,6 +268,12 @@ class PICSolver(TimeDependentSolver):
         with self.phases("push"):
             self.launcher.launch(pk.leapfrog_push, self.count, [self.push, self.species_table, pa.arrays, pa.e_field,
                                                                 pa.kinetic, pa.momentum])
+        if self.spread is not None:  # the step's sums count each particle once: on its owner
+            for values in (pa.kinetic, pa.momentum):
+                held, write_back = host_view(values)
+                held[:self.count][~self._owned] = 0.0
+                if write_back is not None:
+                    write_back()
         self.diagnostics_record.launch_record()
 
     def _between(self) -> None:
@@ -254,9 +281,13 @@ class PICSolver(TimeDependentSolver):
         pa = self.particles
         self.diagnostics_record.begin_row(self.t)
         self.state.steps += 1
+        if self.spread is not None:
+            with self.phases("exchange"):
+                self._redistribute()
         with self.phases("sort"):
             total = pa.inject() if self.injections else self.count
             pa.sort(total)
+        self._find_owned()
         self.coupling.build_grid()
 
     def _launch_fields(self) -> None:
@@ -274,13 +305,58 @@ class PICSolver(TimeDependentSolver):
             record.read()
         self._accumulate_potential()
 
+    # -- a distributed run -----------------------------------------------------------------------------------
+    def _find_owned(self) -> None:
+        """Which held slots this rank owns (its box holds them): after every sort."""
+        if self.spread is not None:
+            self._owned = self.spread.owned(self.state.position.numpy()[:self.count])
+
+    def _redistribute(self) -> None:
+        """After the push: the particles to the ranks that now hold them; the state's slots refilled (in id order,
+        sorted next)."""
+        st, n = self.state, self.count
+        held = {"position": st.position.numpy()[:n], "velocity": st.velocity.numpy()[:n],
+                "species": st.species.numpy()[:n], "particle_id": st.particle_id.numpy()[:n]}
+        new = self.spread.redistribute(held, self._owned)
+        count = new["position"].shape[0]
+        self.particles.ensure_capacity(count)
+        for name in ("position", "velocity", "species", "particle_id"):
+            if count:
+                getattr(st, name)[:count].assign(new[name])
+        st.particle_count = count
+        self.particles.sync_position32()
+
+    def _combine_report(self, values: np.ndarray) -> np.ndarray:
+        """The step report over every rank: its own particles' sums added (rank order), the bad-particle flag's
+        largest; the field terms are every rank's alike (the field is replicated)."""
+        out = values.copy()
+        sums = [REPORT.index(k) for k in ("kinetic_energy", "momentum_x", "momentum_y")]
+        out[sums] = self.world.allreduce(values[sums], "sum")
+        bad = REPORT.index("bad_particle")
+        out[bad] = self.world.allreduce(values[bad:bad + 1], "max")[0]
+        return out
+
+    def particle_values(self) -> dict[str, np.ndarray]:
+        """Position, velocity, species and id of every live particle (host copies): in slot order in one process, in
+        id order over every rank's own in a distributed run."""
+        st, n = self.state, self.count
+        values = {"position": st.position.numpy()[:n], "velocity": st.velocity.numpy()[:n],
+                  "species": st.species.numpy()[:n], "particle_id": st.particle_id.numpy()[:n]}
+        if self.spread is None:
+            return {k: v.copy() for k, v in values.items()}
+        ids = self.world.allgather(values["particle_id"][self._owned].astype(np.int64))
+        order = np.argsort(np.concatenate(ids), kind="stable")
+        return {k: np.concatenate(self.world.allgather(np.ascontiguousarray(v[self._owned])))[order]
+                for k, v in values.items()}
+
     def record_step(self) -> StepGraph | None:
         """:meth:`step` as two Warp graphs (the push; the fields) around the host's sort and grid build, and the
         report's read after them. None when a step cannot be recorded: with open boundaries (the live count changes
-        the launches) or a field solve with host work (SuperLU, or Warp's CG on a CPU, which checks its residual
-        there)."""
+        the launches), a field solve with host work (SuperLU, or Warp's CG on a CPU, which checks its residual
+        there) or in a distributed run (its particles move between ranks through the host)."""
         solve = self.coupling.device_solve
-        if self.particles.open_boundaries or solve is None or (solve.method == "cg" and self.launcher.is_cpu):
+        if (self.particles.open_boundaries or solve is None or (solve.method == "cg" and self.launcher.is_cpu)
+                or self.spread is not None):
             return None
         with self.launcher.capturing() as push:
             self._launch_push()
@@ -320,11 +396,16 @@ class PICSolver(TimeDependentSolver):
 
     @property
     def work_items(self) -> int:
-        return self.count
+        return self.n
 
     def problem(self) -> str | None:
         """The first bad particle of the last step's fits (from the step's report: no read unless one is flagged)."""
-        return self.coupling.describe_bad() if self.diagnostics_record.bad_flag else None
+        if not self.diagnostics_record.bad_flag:
+            return None
+        if self.spread is None:
+            return self.coupling.describe_bad()
+        flagged = bool(np.any(self.coupling._flags[:self.count].numpy()[self._owned]))
+        return self.world.first_message(self.coupling.describe_bad() if flagged else None)
 
     @property
     def t(self) -> float:
@@ -337,6 +418,7 @@ class PICSolver(TimeDependentSolver):
         self.coupling.allocate(self.state.capacity)
         pa.sync_position32()
         pa.sort(self.count)
+        self._find_owned()
         self.coupling.fields_at_particles()
         self.diagnostics_record.after_solve()
 
@@ -346,19 +428,28 @@ class PICSolver(TimeDependentSolver):
         return {k: v[-1] for k, v in self.history.items() if k != "time"}
 
     def output_sets(self) -> list[OutputSet]:
+        """The particles (slot order) and the nodes; in a distributed run a rank's own particles (``ids``: their
+        particle ids) and, from rank 0, the nodes (every rank holds them all)."""
         n = self.count
-        p = self.state.position.numpy()[:n]
-        v = self.state.velocity.numpy()[:n]
-        e = self.particles.e_field.numpy()[:n]
-        pts = np.zeros((n, 3))
+        rows = np.arange(n) if self.spread is None else np.flatnonzero(self._owned)
+        p = self.state.position.numpy()[:n][rows]
+        v = self.state.velocity.numpy()[:n][rows]
+        e = self.particles.e_field.numpy()[:n][rows]
+        pts = np.zeros((rows.size, 3))
         pts[:, :2] = p
-        s = self.state.species.numpy()[:n]
-        nodes = np.zeros((self.model.node_count, 3))
-        nodes[:, :2] = self.model.nodes_np
+        s = self.state.species.numpy()[:n][rows]
+        ids = self.state.particle_id.numpy()[:n][rows]
+        node_rows = np.arange(self.model.node_count) if self.world.is_root else np.zeros(0, int)
+        nodes = np.zeros((node_rows.size, 3))
+        nodes[:, :2] = self.model.nodes_np[node_rows]
+        distributed = self.spread is not None
         return [OutputSet("particles", pts, {"velocity": v, "e_field": e, "species": s.astype(np.float64),
-                                             "particle_id": self.state.particle_id.numpy()[:n].astype(np.float64),
-                                             "speed": np.linalg.norm(v, axis=1)}, frame_field="species"),
-                OutputSet("nodes", nodes, {"potential": self.potential.copy(), "charge": self.charge.numpy().copy()})]
+                                             "particle_id": ids.astype(np.float64),
+                                             "speed": np.linalg.norm(v, axis=1)}, frame_field="species",
+                          ids=ids if distributed else None),
+                OutputSet("nodes", nodes, {"potential": self.potential.copy()[node_rows],
+                                           "charge": self.charge.numpy().copy()[node_rows]},
+                          ids=node_rows if distributed else None)]
 
     def describe(self) -> dict:
         species = [{"name": ld.species.name, "count": ld.count, "weight": ld.weight, "charge": ld.species.charge,
@@ -370,7 +461,8 @@ class PICSolver(TimeDependentSolver):
                             "weight": self.macro_mass_np[len(self.loads) + k] / sp_.mass, "charge": sp_.charge,
                             "mass": sp_.mass, "density": sp_.density, "temperature": sp_.temperature,
                             "drift": list(sp_.drift), "flux": j.flux})
-        return {"particles": self.count, "species": species, "particle_walls": list(self.particle_walls),
+        d_spread = {} if self.spread is None else {"distributed": self.spread.describe()}
+        return {**d_spread, "particles": self.n, "species": species, "particle_walls": list(self.particle_walls),
                 "dt": self.dt, "gather": self.gather, "field_solve": self.coupling.field_solve,
                 "magnetic_field": float(self.magnetic_field), "plasma_frequency": self.plasma_frequency,
                 "omega_dt": self.plasma_frequency * self.dt,

@@ -26,6 +26,8 @@ from warpfree.distribution import launch_order
 from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.kernels import spem as K
 from warpfree.graph import StepGraph
+from warpfree.parallel import world as ranks_of_run
+from warpfree.particles import ParticleSet
 from warpfree.solver import OutputSet, State, StepRule, TimeDependentSolver
 
 from .layouts import HX, HY
@@ -88,7 +90,10 @@ class SPEMState(State):
 
 
 class _DeviceSource:
-    def __init__(self, source: Source, model: SPEMModel, device: str):
+    """A :class:`Source` on the device: ``index`` its E particles (global indices), ``particles`` those this process
+    updates (held indices of its own ones in a distributed run; ``local`` maps global to held indices and owned)."""
+
+    def __init__(self, source: Source, model: SPEMModel, device: str, local=None):
         idx = np.asarray(source.particles, dtype=np.int64).ravel()
         if idx.size == 0 or idx.min() < 0 or idx.max() >= model.layout.n_e or np.unique(idx).size != idx.size:
             raise ParameterError("source.particles", f"must be distinct indices of E particles (0..{model.layout.n_e - 1})")
@@ -100,8 +105,15 @@ class _DeviceSource:
             raise ParameterError("source.amplitude", "must be finite")
         self.source = source
         self.index = idx
-        self.particles = wp.array(idx.astype(np.int32), dtype=wp.int32, device=device)
-        self.amplitude = wp.array(amp.astype(np.float32), dtype=float, device=device)
+        mine = np.arange(idx.size)
+        here = idx
+        if local is not None:
+            here, mine = local(idx)
+        self.count = int(mine.size)
+        self.particles = wp.array(here.astype(np.int32) if mine.size else np.zeros(1, np.int32), dtype=wp.int32,
+                                  device=device)
+        self.amplitude = wp.array(amp[mine].astype(np.float32) if mine.size else np.zeros(1, np.float32), dtype=float,
+                                  device=device)
         self.additive = int(source.kind == "soft")
         self.signal = source_signal(source.waveform)
 
@@ -162,29 +174,76 @@ class SPEMSolver(TimeDependentSolver):
             hy0[carries != HY] = 0.0
         if kronecker:
             ez0, hx0, hy0 = self._nodal_values(model, ez0, hx0, hy0)
-        self.clock = DeviceClock(self.launcher)
-        self.state = SPEMState(e.add("ez", ez0), e.add("ezx", 0.5 * ez0), h.add("hx", hx0), h.add("hy", hy0),
-                               self.clock.values)
         sources = list(sources or [])
         for s in sources:
             if not isinstance(s, Source | PlaneWave):
                 raise ParameterError("sources", f"each source is a Source or a PlaneWave, got {type(s).__name__}")
-        self.sources = [_DeviceSource(s, model, dev) for s in sources if isinstance(s, Source)]
-        self.plane_waves = [DevicePlaneWave(s, model, dev) for s in sources if isinstance(s, PlaneWave)]
         held = model.held.copy()
-        for s in self.sources:
-            if s.additive == 0:
-                held[s.index] = True
-        self.held = e.add("held", held.astype(np.int32), dtype=wp.int32)
+        for s in sources:
+            if isinstance(s, Source) and s.kind == "hard":
+                held[np.asarray(s.particles, dtype=np.int64).ravel()] = True
+        self._held_whole = held
         self._dt_max = model.stable_dt()
         self._run_step: float | None = None   # the run's constant step (use_step)
         self._curl = None
         self.distribution = distribution
-        parts = self.launcher.threads
-        e_cost = np.where(held, 0, model.e_rows.rows.count.numpy()[:e.n])  # a held particle returns at once
-        h_cost = model.h_rows.rows.count.numpy()[:h.n]
-        self.e_order, self.h_order = (wp.array(launch_order(distribution, s.n, parts, cost=cost), dtype=wp.int32,
-                                               device=dev) for s, cost in ((e, e_cost), (h, h_cost)))
+        self.world = ranks_of_run()
+        self.clock = DeviceClock(self.launcher)
+        if self.world.distributed:
+            self._spread(model, sources, ez0, hx0, hy0)
+        else:
+            self.spread = None
+            #: the E and H sets this process steps: the model's own in one process; a distributed run's rank holds
+            #: its part (its own particles and their ghosts; ``numpy`` gathers the whole set)
+            self.electric, self.magnetic = e, h
+            self.state = SPEMState(e.add("ez", ez0), e.add("ezx", 0.5 * ez0), h.add("hx", hx0), h.add("hy", hy0),
+                                   self.clock.values)
+            self.sources = [_DeviceSource(s, model, dev) for s in sources if isinstance(s, Source)]
+            self.plane_waves = [DevicePlaneWave(s, model, dev) for s in sources if isinstance(s, PlaneWave)]
+            self.held = e.add("held", held.astype(np.int32), dtype=wp.int32)
+            self.e_rows, self.e_coefficient = model.e_rows.rows, model.e_coefficient
+            self.h_rows, self.h_coefficient = model.h_rows.rows, model.h_coefficient
+            parts = self.launcher.threads
+            e_cost = np.where(held, 0, model.e_rows.rows.count.numpy()[:e.n])  # a held particle returns at once
+            h_cost = model.h_rows.rows.count.numpy()[:h.n]
+            self.e_order, self.h_order = (wp.array(launch_order(distribution, s.n, parts, cost=cost),
+                                                   dtype=wp.int32, device=dev) for s, cost in ((e, e_cost), (h, h_cost)))
+
+    def _spread(self, model: SPEMModel, sources: list, ez0, hx0, hy0) -> None:
+        """A distributed run: this rank's part of the E and H sets (``warpfree.parallel``), their rows taken from the
+        model's (the same entries, coefficients and order: bitwise the one process's updates), the sources and the
+        total-field boundary's rows on its own particles, and the launch over its own particles only."""
+        from .spread import FieldSpread
+
+        dev = self.launcher.device
+        e, h = model.electric, model.magnetic
+        spread = self.spread = FieldSpread(self.world, model)
+        ep, hp = spread.electric, spread.magnetic
+
+        def held_set(name, whole, part, fields):
+            values = {"position": whole.numpy("position")[part.ids]}
+            values.update({k: (v if isinstance(v, np.ndarray) else whole.numpy(v))[part.ids] for k, v in fields.items()})
+            arrays = {k: wp.array(v, dtype=whole[k].dtype if k in whole.fields else
+                                  (wp.int32 if v.dtype.kind == "i" else float), device=dev) for k, v in values.items()}
+            return ParticleSet.view(name, model.dim, arrays, partition=part)
+
+        self.electric = held_set("electric", e, ep, {"inv_permittivity": "inv_permittivity", "loss": "loss",
+                                                     "ez": ez0.astype(np.float32),
+                                                     "ezx": (0.5 * ez0).astype(np.float32),
+                                                     "held": self._held_whole.astype(np.int32)})
+        self.magnetic = held_set("magnetic", h, hp, {"inv_permeability": "inv_permeability", "loss": "loss",
+                                                     "hx": hx0.astype(np.float32), "hy": hy0.astype(np.float32)})
+        self.state = SPEMState(self.electric["ez"], self.electric["ezx"], self.magnetic["hx"], self.magnetic["hy"],
+                               self.clock.values)
+        self.held = self.electric["held"]
+        self.e_rows, self.e_coefficient = spread.rows(model.e_rows.rows, model.e_coefficient, ep, hp)
+        self.h_rows, self.h_coefficient = spread.rows(model.h_rows.rows, model.h_coefficient, hp, ep)
+        self.sources = [_DeviceSource(s, model, dev, local=spread.owned_electric)
+                        for s in sources if isinstance(s, Source)]
+        self.plane_waves = [spread.plane_wave(DevicePlaneWave(s, model, dev)) for s in sources
+                            if isinstance(s, PlaneWave)]
+        self.e_order, self.h_order = (wp.array(p.owned_index.astype(np.int32), dtype=wp.int32, device=dev)
+                                      for p in (ep, hp))
 
     @staticmethod
     def _nodal_values(model: SPEMModel, ez0, hx0, hy0):
@@ -212,33 +271,43 @@ class SPEMSolver(TimeDependentSolver):
         self._launch_step()
         self.clock.launch_advance_and_choose()
 
-    def record_step(self) -> StepGraph:
-        """:meth:`advance` recorded as one Warp graph."""
+    def record_step(self) -> StepGraph | None:
+        """:meth:`advance` recorded as one Warp graph (None in a distributed run: its ghosts go through the host)."""
+        if self.spread is not None:
+            return None
         with self.launcher.capturing() as capture:
             self.advance()
         return StepGraph([capture.graph], after=self.clock.invalidate)
 
     def _launch_step(self) -> None:
-        """The step's launches; t and Δt from the clock (``kernels/clock.py``)."""
+        """The step's launches; t and Δt from the clock (``kernels/clock.py``). In a distributed run each phase ends
+        by giving the ghosts their owners' new values (Ez for the H phase, H for the next E phase)."""
         m, L, st, clock = self.model, self.launcher, self.state, self.clock.values
-        e, h = m.electric, m.magnetic
+        e, h = self.electric, self.magnetic
         with self.phases("electric"):
-            L.launch(K.update_electric, e.n, [self.e_order, clock, m.e_rows.rows, m.e_coefficient, st.hx, st.hy,
-                                              e["inv_permittivity"], e["loss"], self.held, st.ez, st.ezx])
+            L.launch(K.update_electric, self.e_order.shape[0], [self.e_order, clock, self.e_rows, self.e_coefficient,
+                                                                st.hx, st.hy, e["inv_permittivity"], e["loss"],
+                                                                self.held, st.ez, st.ezx])
             for w in self.plane_waves:  # TF/SF: the incident H^n across the box's boundary
                 L.launch(K.plane_wave_electric, w.n_e, [clock, w.struct, w.e_targets, w.e_rows, w.e_coefficient,
                                                         h.position, e["inv_permittivity"], e["loss"], self.held,
                                                         st.ez, st.ezx])
         with self.phases("sources"):
             for s in self.sources:
-                L.launch(K.set_source, s.index.size, [s.particles, s.amplitude, s.signal, clock, s.additive, st.ez,
-                                                      st.ezx])
+                L.launch(K.set_source, s.count, [s.particles, s.amplitude, s.signal, clock, s.additive, st.ez,
+                                                 st.ezx])
+        if self.spread is not None:
+            with self.phases("exchange"):
+                self.spread.electric.refresh(st.ez)
         with self.phases("magnetic"):
-            L.launch(K.update_magnetic, h.n, [self.h_order, clock, m.h_rows.rows, m.h_coefficient, st.ez,
-                                              h["inv_permeability"], h["loss"], st.hx, st.hy])
+            L.launch(K.update_magnetic, self.h_order.shape[0], [self.h_order, clock, self.h_rows, self.h_coefficient,
+                                                                st.ez, h["inv_permeability"], h["loss"], st.hx, st.hy])
             for w in self.plane_waves:  # TF/SF: the incident Ez^{n+1/2}
                 L.launch(K.plane_wave_magnetic, w.n_h, [clock, w.struct, w.h_targets, w.h_rows, w.h_coefficient,
                                                         e.position, h["inv_permeability"], h["loss"], st.hx, st.hy])
+        if self.spread is not None:
+            with self.phases("exchange"):
+                self.spread.magnetic.refresh(st.hx, st.hy)
 
     def stable_dt(self) -> float:
         return self._dt_max
@@ -265,9 +334,18 @@ class SPEMSolver(TimeDependentSolver):
         return self.model.layout.n_e + self.model.layout.n_h
 
     def output_sets(self) -> list[OutputSet]:
-        e, h = self.model.electric, self.model.magnetic
-        return [OutputSet("electric", e.numpy("position"), {"ez": e.numpy("ez")}, frame_field="ez"),
-                OutputSet("magnetic", h.numpy("position"), {"hx": h.numpy("hx"), "hy": h.numpy("hy")})]
+        """Ez on the E set, H on the H set: every particle in one process; a rank's own in a distributed run
+        (``OutputSet.ids``: their indices in the whole set)."""
+        e, h = self.electric, self.magnetic
+        if self.spread is None:
+            return [OutputSet("electric", e.numpy("position"), {"ez": e.numpy("ez")}, frame_field="ez"),
+                    OutputSet("magnetic", h.numpy("position"), {"hx": h.numpy("hx"), "hy": h.numpy("hy")})]
+        ep, hp = self.spread.electric, self.spread.magnetic
+        return [OutputSet("electric", ep.owned_values(e.position), {"ez": ep.owned_values(e["ez"])},
+                          frame_field="ez", ids=ep.ids[ep.owned_index]),
+                OutputSet("magnetic", hp.owned_values(h.position), {"hx": hp.owned_values(h["hx"]),
+                                                                    "hy": hp.owned_values(h["hy"])},
+                          ids=hp.ids[hp.owned_index])]
 
     def use_step(self, dt: float) -> None:
         """The run's constant step (told by the time loop before its first record): the step :meth:`energy`'s
@@ -291,23 +369,25 @@ class SPEMSolver(TimeDependentSolver):
         e, h, m = self.model.electric, self.model.magnetic, self.model
         if dt is None:
             dt = self._run_step if self._run_step is not None else self.clock.step
-        ez = e.numpy("ez").astype(np.float64)
-        hx, hy = h.numpy("hx").astype(np.float64), h.numpy("hy").astype(np.float64)
+        ez = self.electric.numpy("ez").astype(np.float64)
+        hx, hy = self.magnetic.numpy("hx").astype(np.float64), self.magnetic.numpy("hy").astype(np.float64)
         if self._curl is None:  # the E rows as host CSR matrices (set-up, once)
             self._curl = m.electric_operator()
         curl = self._curl[0] @ hy - (self._curl[1] @ hx if m.dim > 1 else 0.0)
-        ez_next = np.where(self.held.numpy() != 0, ez, ez + dt * e.numpy("inv_permittivity").astype(np.float64) * curl)
+        ez_next = np.where(self._held_whole, ez, ez + dt * e.numpy("inv_permittivity").astype(np.float64) * curl)
         we = 0.5 * np.sum(e.numpy("permittivity") * ez * ez_next * e.numpy("cell_volume"))
         wm = 0.5 * np.sum(h.numpy("permeability") * (hx ** 2 + hy ** 2) * h.numpy("cell_volume"))
         return {"electric_energy": float(we), "magnetic_energy": float(wm)}
 
     def diagnostics(self) -> dict[str, float]:
         d = self.energy()
-        d["ez_max"] = float(np.abs(self.model.electric.numpy("ez")).max())
+        d["ez_max"] = float(np.abs(self.electric.numpy("ez")).max())
         return d
 
     def describe(self) -> dict:
         d = self.model.describe()
         d.update(dt_max=self._dt_max, distribution=self.distribution, sources=[{"particles": int(s.index.size), "kind": s.source.kind,
                                                 "frequency": s.source.waveform.frequency} for s in self.sources])
+        if self.spread is not None:
+            d["distributed"] = self.spread.describe()
         return d

@@ -17,6 +17,7 @@ import numpy as np
 import warp as wp
 
 from warpfree.device import Launcher
+from warpfree.parallel import world as ranks_of_run
 from warpfree.errors import ParameterError, RunError, require_memory, require_positive
 from warpfree.kernels import wcsph as K
 from warpfree.neighbours import MovingNeighbours, NeighbourGrid, NeighbourList, empty_rows
@@ -29,6 +30,7 @@ from warpfree.kernels.wcsph_solids import add_surface_penalty
 from warpfree.solver import OutputSet, State, TimeDependentSolver
 
 from .model import WCSPHModel
+from .spread import STEP_FIELDS, FluidSpread
 
 __all__ = ["WCSPHSolver", "WCSPHState"]
 
@@ -74,83 +76,40 @@ class WCSPHSolver(TimeDependentSolver):
         if not isinstance(model, WCSPHModel):
             raise ParameterError("model", f"a WCSPHSolver takes a WCSPHModel, got {type(model).__name__}")
         launcher = launcher or model.launcher
-        dev = launcher.device
         params = model.params
         super().__init__(model, launcher)
-        nf, nb, n = model.nf, model.nb, model.n
+        nf, nb = model.nf, model.nb
         rho_f = np.full(nf, params.rho0) if density is None else np.asarray(density, float)
         if rho_f.shape != (nf,) or not np.all(np.isfinite(rho_f)) or np.any(rho_f <= 0):
             raise ParameterError("density", f"must be {nf} finite positive values")
         v_f = np.zeros((nf, 3)) if velocity is None else to_vec3(velocity, "velocity")
         if v_f.shape != (nf, 3):
             raise ParameterError("velocity", f"must have {nf} rows")
-
-        def arr(values, dtype):
-            return wp.array(values, dtype=dtype, device=dev)
-
-        position = arr(model.position_np, wp.vec3)
+        self.world = ranks_of_run()
+        #: how the fluid is spread over the ranks of a distributed run (None in one process)
+        self.spread = FluidSpread(self.world, model) if self.world.distributed else None
         self.clock = DeviceClock(launcher, K.REPORT_SLOTS)
-        self.state = WCSPHState(
-            position=position,
-            velocity=arr(np.vstack([v_f, np.zeros((nb, 3))]).astype(np.float32), wp.vec3),
-            density=arr(np.concatenate([rho_f, np.full(nb, params.rho0)]).astype(np.float32), float),
-            pressure=wp.zeros(n, dtype=float, device=dev),
-            acceleration=wp.zeros(nf, dtype=wp.vec3, device=dev),
-            density_rate=wp.zeros(nf, dtype=float, device=dev),
-            position_at_build=wp.zeros(nf, dtype=wp.vec3, device=dev),
-            clock=self.clock.values)
-        S = self.state
-        self.arrays = K.FluidArrays()
-        a = self.arrays
-        a.nf = nf
-        a.position, a.velocity, a.density, a.pressure = S.position, S.velocity, S.density, S.pressure
-        a.mass = model.mass
-        a.acceleration, a.density_rate = S.acceleration, S.density_rate
-        a.velocity_eval = wp.zeros(nf, dtype=wp.vec3, device=dev)
-        a.density_eval = wp.zeros(nf, dtype=float, device=dev)
-        a.ghost_velocity = wp.zeros(max(nb, 1), dtype=wp.vec3, device=dev)
-        a.report = wp.zeros(nf, dtype=wp.vec4, device=dev)
-        n_shift = nf if model.terms.shifting else 1  # scratch of this step's shift (written by rates, used by kick)
-        a.shift_velocity = wp.zeros(n_shift, dtype=wp.vec3, device=dev)
-        a.shift_acceleration = wp.zeros(n_shift, dtype=wp.vec3, device=dev)
-        a.shift_density_rate = wp.zeros(n_shift, dtype=float, device=dev)
         self.kernels = K.make_kernels(model.terms)
-
-        def part(array, start, stop):  # a view of rows [start, stop); Warp refuses empty slices
-            return array[start:stop] if stop > start else wp.zeros(0, dtype=array.dtype, device=dev)
-
-        walls = nf + model.n_container_walls
-        f, b, o = (0, nf), (nf, walls), (walls, n)
-        #: the fluid, the container walls and the obstacles' walls: named views into the combined arrays
-        self.fluid = ParticleSet.view("fluid", params.dim, {
-            "position": part(S.position, *f), "velocity": part(S.velocity, *f), "density": part(S.density, *f),
-            "pressure": part(S.pressure, *f), "mass": part(model.mass, *f)})
-        self.boundary, self.obstacle = (ParticleSet.view(name, params.dim, {
-            "position": part(S.position, *r), "density": part(S.density, *r), "pressure": part(S.pressure, *r),
-            "mass": part(model.mass, *r)}) for name, r in (("boundary", b), ("obstacle", o)))
-        #: all wall particles (containers, then obstacles): the static set the fluid's tables query
-        self.walls = part(S.position, nf, n)
-
-        self.max_neighbours = self._check_neighbours()
-        # Neighbour candidates within support + skin, rebuilt once a fluid particle may have moved skin/2.
-        self.moving_neighbours = MovingNeighbours(
-            launcher, model.space, self.fluid.position, params.support, model.skin,
-            static_sets={"walls": self.walls} if nb else None, position_at_build=S.position_at_build)
-        a.position_at_build = S.position_at_build
-        cap = int(self.max_neighbours * (1.0 + params.skin) ** params.dim * 1.2) + 8  # grows if ever too small
-        # the tables (3 of int32 rows of ``cap``) and about 25 float32 per particle of state and scratch
-        require_memory("dx", n, 100.0 + 12.0 * cap, "particles (fluid + wall) with their neighbour tables")
-        self.fluid_fluid = self.moving_neighbours.add_table("fluid_fluid", "moving", "moving", cap, exclude_self=True)
-        if nb:
-            self.fluid_wall = self.moving_neighbours.add_table("fluid_wall", "moving", "walls", cap)
-            self.wall_fluid = self.moving_neighbours.add_table("wall_fluid", "walls", "moving", cap)
-        else:  # valid empty rows for the kernels
-            self.fluid_wall = self.wall_fluid = SimpleNamespace(rows=empty_rows(nf, dev))
         self._report = Reduction(launcher, wp.vec4, "max")
         self._limits = self._step_limits()
+        mass = model.mass.numpy()
+        fluid = {"position": model.position_np[:nf], "velocity": v_f.astype(np.float32),
+                 "density": rho_f.astype(np.float32), "mass": mass[:nf]}
+        walls = {"position": model.position_np[nf:], "mass": mass[nf:]}
+        if self.spread is not None:
+            fluid = {k: self.spread.fluid.take(v) for k, v in fluid.items()}
+            walls = {k: self.spread.held_walls(v) for k, v in walls.items()}
+        self._grid_sizes = self._whole_grid_sizes()
+        self.max_neighbours = self._check_neighbours(fluid["position"])
+        cap = int(self.max_neighbours * (1.0 + params.skin) ** params.dim * 1.2) + 8  # grows if ever too small
+        # the tables (3 of int32 rows of ``cap``) and about 25 float32 per particle of state and scratch
+        require_memory("dx", len(fluid["position"]) + len(walls["position"]), 100.0 + 12.0 * cap,
+                       "particles (fluid + wall) with their neighbour tables")
+        self._lay_out(fluid, walls, {"fluid_fluid": cap, "fluid_wall": cap, "wall_fluid": cap},
+                      mass=model.mass if self.spread is None else None)
         self.solids = model.solids
         if self.solids is not None:
-            inside = self.solids.penetration(self.fluid.position)
+            inside = self._penetration()
             if inside:
                 raise ParameterError("fluid", f"{inside.count} fluid particle(s) start inside a solid (deepest "
                                               f"{inside.max_depth:.3g} m {inside.where}, particle {inside.first_index})")
@@ -158,15 +117,119 @@ class WCSPHSolver(TimeDependentSolver):
             self._penalty = self.solids.penalty(0.5 * params.dx, params.c0)
         self.initialise()
 
+    def _lay_out(self, fluid: dict[str, np.ndarray], walls: dict[str, np.ndarray], capacities: dict[str, int],
+                 mass: wp.array | None = None) -> None:
+        """The held particles' arrays, [fluid | walls] (the whole sets in one process; this rank's and its ghosts in a
+        distributed run), their views, and the neighbour tables of the given capacities. ``fluid``: position,
+        velocity, density and mass, and optionally pressure, acceleration, density_rate, velocity_eval and
+        density_eval (the predicted state a rebuild carries); ``walls``: position and mass."""
+        dev = self.launcher.device
+        model, params = self.model, self.model.params
+        nf, nb = len(fluid["position"]), len(walls["position"])
+        n = nf + nb
+        self.nf, self.nb, self.n = nf, nb, n
+        self.n_container_walls = model.n_container_walls if self.spread is None else self.spread.n_container_walls()
+
+        def arr(values, dtype):
+            return wp.array(values, dtype=dtype, device=dev)
+
+        def fluid_or_zeros(name, dtype, shape):
+            values = fluid.get(name)
+            return arr(values, dtype) if values is not None else wp.zeros(shape, dtype=dtype, device=dev)
+
+        self.state = WCSPHState(
+            position=arr(np.vstack([fluid["position"], walls["position"]]).astype(np.float32), wp.vec3),
+            velocity=arr(np.vstack([fluid["velocity"], np.zeros((nb, 3))]).astype(np.float32), wp.vec3),
+            density=arr(np.concatenate([fluid["density"], np.full(nb, params.rho0)]).astype(np.float32), float),
+            pressure=arr(np.concatenate([fluid.get("pressure", np.zeros(nf)), np.zeros(nb)]).astype(np.float32),
+                         float),
+            acceleration=fluid_or_zeros("acceleration", wp.vec3, nf),
+            density_rate=fluid_or_zeros("density_rate", float, nf),
+            position_at_build=arr(fluid["position_at_build"], wp.vec3) if "position_at_build" in fluid
+            else wp.zeros(nf, dtype=wp.vec3, device=dev),
+            clock=self.clock.values)
+        S = self.state
+        if self.spread is not None:  # which fluid particles the arrays hold: a checkpoint read on other ranks needs it
+            S.fluid_id = self.spread.fluid.ids.astype(np.int64)
+            S.fluid_owned = self.spread.fluid.owned.astype(np.int8)
+        self.mass = mass if mass is not None else arr(np.concatenate([fluid["mass"], walls["mass"]]), float)
+        self.arrays = K.FluidArrays()
+        a = self.arrays
+        a.nf = nf
+        a.position, a.velocity, a.density, a.pressure = S.position, S.velocity, S.density, S.pressure
+        a.mass = self.mass
+        a.acceleration, a.density_rate = S.acceleration, S.density_rate
+        a.velocity_eval = fluid_or_zeros("velocity_eval", wp.vec3, nf)
+        a.density_eval = fluid_or_zeros("density_eval", float, nf)
+        a.ghost_velocity = wp.zeros(max(nb, 1), dtype=wp.vec3, device=dev)
+        a.report = wp.zeros(nf, dtype=wp.vec4, device=dev)
+        n_shift = nf if model.terms.shifting else 1  # scratch of this step's shift (written by rates, used by kick)
+        a.shift_velocity = wp.zeros(n_shift, dtype=wp.vec3, device=dev)
+        a.shift_acceleration = wp.zeros(n_shift, dtype=wp.vec3, device=dev)
+        a.shift_density_rate = wp.zeros(n_shift, dtype=float, device=dev)
+
+        def part(array, start, stop):  # a view of rows [start, stop); Warp refuses empty slices
+            return array[start:stop] if stop > start else wp.zeros(0, dtype=array.dtype, device=dev)
+
+        walls_end = nf + self.n_container_walls
+        f, b, o = (0, nf), (nf, walls_end), (walls_end, n)
+        spread = self.spread
+        #: the fluid, the container walls and the obstacles' walls: named views into the combined arrays (in a
+        #: distributed run a set's ``numpy`` gathers the whole set)
+        self.fluid = ParticleSet.view("fluid", params.dim, {
+            "position": part(S.position, *f), "velocity": part(S.velocity, *f), "density": part(S.density, *f),
+            "pressure": part(S.pressure, *f), "mass": part(self.mass, *f)},
+            partition=None if spread is None else spread.fluid)
+        self.boundary, self.obstacle = (ParticleSet.view(name, params.dim, {
+            "position": part(S.position, *r), "density": part(S.density, *r), "pressure": part(S.pressure, *r),
+            "mass": part(self.mass, *r)}) for name, r in (("boundary", b), ("obstacle", o)))
+        #: all wall particles (containers, then obstacles): the static set the fluid's tables query
+        self.walls = part(S.position, nf, n)
+        self._walls_view = {"pressure": part(S.pressure, nf, n), "density": part(S.density, nf, n),
+                            "ghost_velocity": part(a.ghost_velocity, 0, nb)}
+
+        # Neighbour candidates within support + skin, rebuilt once a fluid particle may have moved skin/2.
+        self.moving_neighbours = MovingNeighbours(
+            self.launcher, model.space, self.fluid.position, params.support, model.skin,
+            static_sets={"walls": self.walls} if model.nb else None, position_at_build=S.position_at_build,
+            sized_for=self._grid_sizes)
+        a.position_at_build = S.position_at_build
+        self.fluid_fluid = self.moving_neighbours.add_table("fluid_fluid", "moving", "moving",
+                                                            capacities["fluid_fluid"], exclude_self=True)
+        if model.nb:
+            self.fluid_wall = self.moving_neighbours.add_table("fluid_wall", "moving", "walls",
+                                                               capacities["fluid_wall"])
+            self.wall_fluid = self.moving_neighbours.add_table("wall_fluid", "walls", "moving",
+                                                               capacities["wall_fluid"])
+        else:  # valid empty rows for the kernels
+            self.fluid_wall = self.wall_fluid = SimpleNamespace(rows=empty_rows(nf, dev), capacity=1)
+
+    def _whole_grid_sizes(self) -> dict[str, int] | None:
+        """The grid points the one process's hash tables are sized for (fluid at its start, walls), which a
+        distributed run's ranks size theirs for; None in one process (each grid sizes itself)."""
+        if self.spread is None:
+            return None
+        model, P = self.model, self.model.params
+        reach = P.support + model.skin
+        grid = NeighbourGrid(self.launcher, reach, model.space)
+        dev = self.launcher.device
+        sizes = {"moving": grid.grid_points(wp.array(model.position_np[:model.nf], dtype=wp.vec3, device=dev))}
+        if model.nb:
+            sizes["walls"] = grid.grid_points(wp.array(model.position_np[model.nf:], dtype=wp.vec3, device=dev))
+        return sizes
+
     # -- set-up --------------------------------------------------------------------------------
-    def _check_neighbours(self) -> int:
-        """Reject an h too small for the spacing, reporting the neighbour count (fluid–fluid)."""
+    def _check_neighbours(self, fluid_position: np.ndarray) -> int:
+        """Reject an h too small for the spacing, reporting the neighbour count (fluid–fluid) of the
+        best-surrounded fluid particle (over every rank)."""
         P = self.model.params
-        x = wp.clone(self.fluid.position)
+        x = wp.array(np.asarray(fluid_position, np.float32), dtype=wp.vec3, device=self.launcher.device)
         counts = NeighbourList(NeighbourGrid(self.launcher, P.support, self.model.space, x), x,
                                exclude_self=True).counts()
+        if self.spread is not None:
+            counts = counts[self.spread.fluid.owned_index]
+        best = int(self.world.allreduce(np.array([counts.max() if counts.size else 0]), "max")[0])
         need = MIN_NEIGHBOURS[P.dim]
-        best = int(counts.max())
         if best < need and self.model.nf > 8 * need:
             raise ParameterError(
                 "h_factor", f"h = {P.h:.4g} is too small for dx = {P.dx:.4g}: the best-surrounded "
@@ -179,10 +242,13 @@ class WCSPHSolver(TimeDependentSolver):
         a, c = self.arrays, self.model.constants
         wp.copy(a.velocity_eval, self.fluid["velocity"])
         wp.copy(a.density_eval, self.fluid["density"])
-        self.launcher.launch(K.equation_of_state, self.model.nf, [c, a.density_eval, self.state.pressure])
+        self.launcher.launch(K.equation_of_state, self.nf, [c, a.density_eval, self.state.pressure])
         with self.phases("neighbours"):
             self.moving_neighbours.rebuild()
         self.compute_rates()
+        if self.spread is not None:  # the ghosts' first drift needs their owners' rates
+            with self.phases("exchange"):
+                self.spread.fluid.refresh(self.state.acceleration, self.state.density_rate)
         self._launch_report()
 
     def settle(self, duration: float, damping: float) -> dict:
@@ -218,12 +284,15 @@ class WCSPHSolver(TimeDependentSolver):
         L, a, c = self.launcher, self.arrays, self.model.constants
         if self.model.terms.walls == "dynamic":
             with self.phases("boundary"):
-                L.launch(self.kernels.wall_pressure, self.model.nb, [c, a, self.wall_fluid.rows])
+                L.launch(self.kernels.wall_pressure, self.nb, [c, a, self.wall_fluid.rows])
+            if self.spread is not None:  # a ghost wall's fluid neighbours are not all held: its owner's values
+                with self.phases("exchange"):
+                    self.spread.walls.refresh(*self._walls_view.values())
         with self.phases("rates"):
-            L.launch(self.kernels.rates, self.model.nf, [c, a, self.fluid_fluid.rows, self.fluid_wall.rows])
+            L.launch(self.kernels.rates, self.nf, [c, a, self.fluid_fluid.rows, self.fluid_wall.rows])
         if self.solids is not None:
             with self.phases("surfaces"):
-                L.launch(add_surface_penalty, self.model.nf, [self._penalty, self.fluid_wall.rows.count,
+                L.launch(add_surface_penalty, self.nf, [self._penalty, self.fluid_wall.rows.count,
                                                               self.fluid.position, a.acceleration])
 
     def _step_limits(self) -> K.StepLimits:
@@ -242,12 +311,16 @@ class WCSPHSolver(TimeDependentSolver):
         """The step's report reduced on the device, then copied into the clock with the next stable step; at the end
         of a step, the time moved on and the next step picked in the same launch."""
         self._report.launch(self.arrays.report)
+        if self.spread is not None:  # the one reduction of a distributed step: every rank's largest values
+            with self.phases("exchange"):
+                result = self._report.result
+                result.assign(self.world.allreduce(result.numpy(), "max"))
         self.launcher.launch(K.finish_step, 1, [self._limits, self._report.result, self.clock.values,
                                                 int(end_of_step)])
         self.clock.invalidate()
 
     def _launch_report(self) -> None:
-        self.launcher.launch(K.step_report, self.model.nf, [self.model.constants, self.arrays])
+        self.launcher.launch(K.step_report, self.nf, [self.model.constants, self.arrays])
         self._finish(end_of_step=False)
 
     def report(self) -> np.ndarray:
@@ -272,18 +345,20 @@ class WCSPHSolver(TimeDependentSolver):
 
     def record_step(self) -> StepGraph:
         """:meth:`advance` as two Warp graphs around the host's rebuild decision: (drift), then a neighbour
-        rebuild if the last report says a particle may have moved past the skin, then (rates, kick, report)."""
+        rebuild if the last report says a particle may have moved past the skin, then (rates, kick, report). None in a
+        distributed run (a step exchanges ghosts through the host, and a rebuild lays the arrays out anew)."""
+        if self.spread is not None:
+            return None
         L, a, c = self.launcher, self.arrays, self.model.constants
         with L.capturing() as first:
             with self.phases("integrate"):
-                L.launch(self.kernels.drift, self.model.nf, [c, a, self.clock.values])
+                L.launch(self.kernels.drift, self.nf, [c, a, self.clock.values])
         with L.capturing() as second:
             self._after_drift()
 
         def rebuild_if_needed():
             if self.moving_neighbours.needs_rebuild(self._bound):
-                with self.phases("neighbours"):
-                    self.moving_neighbours.rebuild()
+                self._rebuild()
 
         def decide():
             self._bound = self._moved_bound(self.clock.next_step())
@@ -298,19 +373,60 @@ class WCSPHSolver(TimeDependentSolver):
 
     def _launch_step(self, moved_bound: float) -> None:
         with self.phases("integrate"):
-            self.launcher.launch(self.kernels.drift, self.model.nf, [self.model.constants, self.arrays,
-                                                                      self.clock.values])
+            self.launcher.launch(self.kernels.drift, self.nf, [self.model.constants, self.arrays,
+                                                                self.clock.values])
         if self.moving_neighbours.needs_rebuild(moved_bound):
-            with self.phases("neighbours"):
-                self.moving_neighbours.rebuild()
+            self._rebuild()
         self._after_drift()
+
+    def _rebuild(self) -> None:
+        """The neighbour tables at the current positions; in a distributed run the fluid first moves to the ranks
+        whose boxes now hold it (and the decomposition is cut anew when the work is out of balance)."""
+        with self.phases("neighbours"):
+            if self.spread is not None:
+                self._redistribute()
+            self.moving_neighbours.rebuild()
+
+    def _step_fields(self) -> list[wp.array]:
+        """The held fluid arrays a ghost takes from its owner after each kick (``spread.STEP_FIELDS``)."""
+        S, a, nf = self.state, self.arrays, self.nf
+        views = {"position": self.fluid.position, "velocity": self.fluid["velocity"],
+                 "density": self.fluid["density"], "acceleration": S.acceleration, "density_rate": S.density_rate,
+                 "report": a.report}
+        return [views[k] for k in STEP_FIELDS]
+
+    def _redistribute(self) -> None:
+        """Carry the held fluid (``spread.MOVING_FIELDS``, after the drift) to where it now belongs and lay the arrays
+        out anew; the neighbour counts of the last build weigh the ranks' work."""
+        S, a = self.state, self.arrays
+        held = {"position": self.fluid.numpy_held("position"), "velocity": self.fluid.numpy_held("velocity"),
+                "density": self.fluid.numpy_held("density"), "pressure": self.fluid.numpy_held("pressure"),
+                "acceleration": S.acceleration.numpy(), "density_rate": S.density_rate.numpy(),
+                "velocity_eval": a.velocity_eval.numpy(), "density_eval": a.density_eval.numpy(),
+                "mass": self.fluid.numpy_held("mass")}
+        fluid_cost = self.fluid_fluid.counts().astype(np.float64)
+        wall_cost = np.zeros(self.nb)
+        if self.model.nb:
+            fluid_cost = fluid_cost + self.fluid_wall.counts()
+            wall_cost = self.wall_fluid.counts().astype(np.float64)
+        capacities = {"fluid_fluid": self.fluid_fluid.capacity, "fluid_wall": self.fluid_wall.capacity,
+                      "wall_fluid": self.wall_fluid.capacity}
+        fluid = self.spread.redistribute(held, fluid_cost, wall_cost)
+        mass = self.model.mass.numpy()[self.model.nf:]
+        walls = {"position": self.spread.held_walls(self.spread.wall_points).astype(np.float32),
+                 "mass": self.spread.held_walls(mass)}
+        self._lay_out(fluid, walls, capacities)
 
     def _after_drift(self) -> None:
         """Rates at the predicted state, the second kick, the step report and the clock's time."""
         self.compute_rates()
         with self.phases("integrate"):
-            self.launcher.launch(self.kernels.kick, self.model.nf, [self.model.constants, self.arrays,
-                                                                     self.clock.values])
+            self.launcher.launch(self.kernels.kick, self.nf, [self.model.constants, self.arrays,
+                                                               self.clock.values])
+        if self.spread is not None:  # every ghost as its owner: the next drift and this report read these
+            with self.phases("exchange"):
+                self.spread.fluid.refresh(*self._step_fields())
+        with self.phases("integrate"):
             self._finish()  # finish_step also moves the time on and picks the next step
 
     def problem(self) -> str | None:
@@ -318,15 +434,42 @@ class WCSPHSolver(TimeDependentSolver):
         if self.report()[3] == K.STATUS_OK:
             return None
         status = self.arrays.report.numpy()[:, 3]  # only on failure: which particles
-        bad = np.flatnonzero(status != K.STATUS_OK)
-        kind = "non-finite values" if np.any(status[bad] == K.STATUS_NONFINITE) else "particles outside the container"
-        return f"{kind} in {bad.size} fluid particle(s), first index {int(bad[0])}"
+        rows, ids = self._own_fluid()
+        bad = rows[status[rows] != K.STATUS_OK]
+        message = None
+        if bad.size:
+            kind = ("non-finite values" if np.any(status[bad] == K.STATUS_NONFINITE)
+                    else "particles outside the container")
+            count = bad.size
+            message = f"{kind} in {{count}} fluid particle(s), first index {int(ids[np.searchsorted(rows, bad[0])])}"
+        else:
+            count = 0
+        total = int(self.world.allreduce(np.array([count]), "sum")[0])
+        message = self.world.first_message(message)
+        return message.replace("{count}", str(total)) if message else None
+
+    def _penetration(self):
+        """The fluid inside a solid, over every rank: the count, and the deepest particle (global index)."""
+        rows, ids = self._own_fluid()
+        positions = self.fluid.position if self.spread is None else wp.array(
+            self.fluid.numpy_held("position")[rows], dtype=wp.vec3, device=self.launcher.device)
+        inside = self.solids.penetration(positions)
+        if self.spread is None:
+            return inside
+        mine = (inside.count, inside.max_depth, int(ids[inside.first_index]) if inside else -1, inside.where,
+                tuple(inside.position))
+        every = self.world.comm.allgather(mine)
+        count = sum(e[0] for e in every)
+        deepest = max((e for e in every if e[0] > 0), key=lambda e: e[1], default=None)
+        if deepest is None:
+            return type(inside)(0, 0.0, -1)
+        return type(inside)(count, deepest[1], deepest[2], deepest[3], deepest[4])
 
     def audit(self) -> str | None:
         """Fluid particles inside a solid (the true container and obstacle surfaces), measured on the device."""
         if self.solids is None:
             return None
-        inside = self.solids.penetration(self.fluid.position)
+        inside = self._penetration()
         if not inside:
             return None
         dx = self.model.params.dx
@@ -339,6 +482,40 @@ class WCSPHSolver(TimeDependentSolver):
         self.moving_neighbours.build_tables()
         self._launch_report()
 
+    #: the fluid arrays a checkpoint read on another number of processes carries (the walls' are recomputed by a
+    #: step before they are read; the predicted values by its drift)
+    RESTORED = ("position", "velocity", "density", "pressure", "acceleration", "density_rate", "position_at_build")
+
+    def restore_pieces(self, pieces: list[dict]) -> None:
+        """The whole fluid from every process's checkpoint (each its own particles, by ``fluid_id``), spread anew over
+        this run's ranks as at a rebuild from the build positions: the tables, made from ``position_at_build``, are
+        the ones the run had, and it continues as it would have."""
+        model = self.model
+        nf = model.nf
+        whole = {}
+        for piece in pieces:
+            held = piece["acceleration"].shape[0]
+            ids = piece.get("fluid_id", np.arange(held))
+            owned = piece.get("fluid_owned", np.ones(held, np.int8)).astype(bool)
+            for k in self.RESTORED:
+                values = piece[k][:held]
+                if k not in whole:
+                    whole[k] = np.zeros((nf,) + values.shape[1:], dtype=values.dtype)
+                whole[k][ids[owned]] = values[owned]
+        mass = model.mass.numpy()
+        fluid = dict(whole, mass=mass[:nf])
+        walls = {"position": model.position_np[nf:], "mass": mass[nf:]}
+        if self.spread is not None:
+            self.spread.respread(whole["position_at_build"].astype(np.float64))
+            fluid = {k: self.spread.fluid.take(v) for k, v in fluid.items()}
+            walls = {k: self.spread.held_walls(v) for k, v in walls.items()}
+        capacities = {"fluid_fluid": self.fluid_fluid.capacity, "fluid_wall": self.fluid_wall.capacity,
+                      "wall_fluid": self.wall_fluid.capacity}
+        self._lay_out(fluid, walls, capacities, mass=model.mass if self.spread is None else None)
+        self.clock.values.assign(pieces[0]["clock"])
+        self.clock.invalidate()
+        self.after_load()
+
     # -- outputs, diagnostics ------------------------------------------------------------------------
     @property
     def dim(self) -> int:
@@ -349,21 +526,46 @@ class WCSPHSolver(TimeDependentSolver):
         """Particles a step touches (fluid + boundary: walls get a pressure pass every step)."""
         return self.model.n
 
+    def _own_fluid(self) -> tuple[np.ndarray, np.ndarray]:
+        """(held rows of this rank's own fluid particles, their global indices): every row in one process."""
+        if self.spread is None:
+            rows = np.arange(self.nf)
+            return rows, rows
+        part = self.spread.fluid
+        return part.owned_index, part.ids[part.owned_index]
+
+    def _own_walls(self) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+        """For the container walls and the obstacles' walls: (rows in their held view, global indices in their set)."""
+        ncw = self.n_container_walls
+        if self.spread is None:
+            return (np.arange(ncw), np.arange(ncw)), (np.arange(self.nb - ncw), np.arange(self.nb - ncw))
+        part = self.spread.walls
+        own, ids = part.owned_index, part.ids[part.owned_index]
+        box, obs = own < ncw, own >= ncw
+        return (own[box], ids[box]), (own[obs] - ncw, ids[obs] - self.model.n_container_walls)
+
     def output_sets(self) -> list[OutputSet]:
-        """The fluid (coloured by speed by default) and the walls, as NumPy copies."""
-        fluid = {k: self.fluid.numpy(k) for k in ("velocity", "density", "pressure")}
+        """The fluid (coloured by speed by default) and the walls, as NumPy copies: every particle in one process;
+        a rank's own in a distributed run (``OutputSet.ids``: their indices in the whole set)."""
+        rows, ids = self._own_fluid()
+        fluid = {k: self.fluid.numpy_held(k)[rows] for k in ("velocity", "density", "pressure")}
         fluid["speed"] = np.linalg.norm(fluid["velocity"], axis=1)
-        sets = [OutputSet("fluid", self.fluid.numpy("position"), fluid, frame_field="speed"),
-                OutputSet("boundary", self.boundary.numpy("position"),
-                          {k: self.boundary.numpy(k) for k in ("density", "pressure")})]
-        if self.obstacle.n:
-            sets.append(OutputSet("obstacle", self.obstacle.numpy("position"),
-                                  {k: self.obstacle.numpy(k) for k in ("density", "pressure")}, solid=True))
+        distributed = self.spread is not None
+        (b_rows, b_ids), (o_rows, o_ids) = self._own_walls()
+        sets = [OutputSet("fluid", self.fluid.numpy_held("position")[rows], fluid, frame_field="speed",
+                          ids=ids if distributed else None),
+                OutputSet("boundary", self.boundary.numpy_held("position")[b_rows],
+                          {k: self.boundary.numpy_held(k)[b_rows] for k in ("density", "pressure")},
+                          ids=b_ids if distributed else None)]
+        if self.model.nb > self.model.n_container_walls:
+            sets.append(OutputSet("obstacle", self.obstacle.numpy_held("position")[o_rows],
+                                  {k: self.obstacle.numpy_held(k)[o_rows] for k in ("density", "pressure")}, solid=True,
+                                  ids=o_ids if distributed else None))
         return sets
 
     def output_fields(self) -> dict[str, list[str]]:
         fields = {"fluid": ["velocity", "density", "pressure", "speed"], "boundary": ["density", "pressure"]}
-        if self.obstacle.n:
+        if self.model.nb > self.model.n_container_walls:
             fields["obstacle"] = ["density", "pressure"]
         return fields
 
@@ -374,8 +576,11 @@ class WCSPHSolver(TimeDependentSolver):
         from .surface import free_surface_mesh
 
         m = self.fluid.numpy("mass") / self.fluid.numpy("density")
+        positions = self.fluid.position
+        if self.spread is not None:  # the whole fluid's surface, on every rank (rank 0 writes it)
+            positions = wp.array(self.fluid.numpy("position"), dtype=wp.vec3, device=self.launcher.device)
         volumes = wp.array(m.astype(np.float32), dtype=float, device=self.launcher.device)
-        mesh = free_surface_mesh(self.launcher, self.fluid.position, volumes, self.model.params.h,
+        mesh = free_surface_mesh(self.launcher, positions, volumes, self.model.params.h,
                                  kernel=self.model.params.kernel)
         return {"surface": (mesh.vertices, mesh.faces)}
 
@@ -396,5 +601,7 @@ class WCSPHSolver(TimeDependentSolver):
     def describe(self) -> dict:
         d = self.model.describe()
         d.update({"max_neighbours": self.max_neighbours, "list_builds": self.moving_neighbours.builds})
+        if self.spread is not None:
+            d["distributed"] = self.spread.describe()
         return d
 

@@ -1,0 +1,68 @@
+"""Comparing two run directories: every snapshot of every series (a ``.pvtu``'s pieces joined in global order), and
+the summary's figures."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from warpfree.io.vtk import read_pvd, read_snapshot
+from warpfree.scene_loader import load_scene, value_text
+
+
+def smallest_sets(scene: str) -> list[str]:
+    """``--set`` arguments of a scene's smallest run."""
+    return [a for k, v in load_scene(scene).SMALLEST.items() for a in ("--set", f"{k}={value_text(v)}")]
+
+
+def snapshot_differences(a: Path, b: Path) -> list[str]:
+    """What differs between the series of two runs (empty: every snapshot of every series bitwise the same, and the
+    same series and times)."""
+    out = []
+    names_a, names_b = sorted(p.name for p in a.glob("*.pvd")), sorted(p.name for p in b.glob("*.pvd"))
+    if names_a != names_b:
+        return [f"series {names_a} against {names_b}"]
+    for name in names_a:
+        ea, eb = read_pvd(a / name), read_pvd(b / name)
+        if [t for t, _ in ea] != [t for t, _ in eb]:
+            out.append(f"{name}: times differ")
+            continue
+        for (t, fa), (_, fb) in zip(ea, eb):
+            pa, da = in_id_order(*read_snapshot(a / fa))
+            pb, db = in_id_order(*read_snapshot(b / fb))
+            if not np.array_equal(pa, pb):
+                out.append(f"{name} t={t}: points differ by {np.abs(pa - pb).max():.3g}")
+            for k in da:
+                if k not in db or not np.array_equal(da[k], db[k]):
+                    out.append(f"{name} t={t}: field {k} differs")
+    return out
+
+
+def in_id_order(points: np.ndarray, fields: dict) -> tuple[np.ndarray, dict]:
+    """A snapshot's rows by ``particle_id`` when it has one (PIC writes its particles in their sorted slots; the
+    pieces of a distributed run join in id order)."""
+    if "particle_id" not in fields:
+        return points, fields
+    order = np.argsort(fields["particle_id"], kind="stable")
+    return points[order], {k: v[order] for k, v in fields.items()}
+
+
+def relative_differences(a, b, prefix: str = "") -> dict[str, float]:
+    """Every number of two nested summaries' sections, flattened: |a - b| / max(|a|, tiny) where they differ."""
+    out = {}
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in a:
+            if k in b:
+                out.update(relative_differences(a[k], b[k], f"{prefix}{k}/"))
+    elif isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        for i, (x, y) in enumerate(zip(a, b)):
+            out.update(relative_differences(x, y, f"{prefix}{i}/"))
+    elif isinstance(a, (int, float)) and isinstance(b, (int, float)) and a != b and not (a != a and b != b):
+        out[prefix.rstrip("/")] = abs(a - b) / max(abs(a), 1e-300)
+    return out
+
+
+def summary(run: Path) -> dict:
+    return json.loads((run / "summary.json").read_text())

@@ -1,0 +1,121 @@
+"""Scenes under ``mpiexec -n 2`` and ``-n 3`` (oversubscribed on a CI machine): the same outputs as one process,
+bitwise (every snapshot, the probes, the diagnostics and the analyses), a ParaView index of the ranks' pieces, the
+ranks' part of the summary, and the refusals of a distributed run."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from helpers.runs import relative_differences, smallest_sets, snapshot_differences, summary
+from warpfree.cli import main
+from warpfree.parallel import MPI_EXTRA
+from warpfree.parallel.launch import find_mpiexec, run_ranks
+
+needs_mpi = pytest.mark.skipif(find_mpiexec() is None, reason=f"no MPI here: {MPI_EXTRA}")
+
+#: (scene, ranks): walls and a rebalancing cut (2D dam break), a rank that starts with no fluid (3D), periodic
+#: axes cut across (Taylor-Green, Poiseuille), a settled tank given its wave (standing wave); SPEM in 1D, with a PML
+#: and a point source (waveguide), with a total-field box (plane wave)
+CASES = [("dam_break_2d", 2), ("dam_break_2d", 3), ("dam_break_3d", 3), ("taylor_green_2d", 3),
+         ("poiseuille_2d", 2), ("standing_wave_2d", 2), ("em_line_1d", 3), ("em_waveguide_2d", 3),
+         ("em_plane_wave_2d", 2), ("em_cavity_2d", 2)]
+
+
+def run_distributed(ranks: int, args: list[str]) -> subprocess.CompletedProcess:
+    return run_ranks(ranks, ["-m", "warpfree", *args], timeout=900)
+
+
+@needs_mpi
+@pytest.mark.parametrize("scene,ranks", CASES)
+def test_a_distributed_run_gives_the_one_process_outputs_bitwise(scene, ranks, tmp_path):
+    sets = smallest_sets(scene)
+    one, many = tmp_path / "one", tmp_path / "many"
+    assert main(["run", scene, *sets, "--out", str(one), "--no-progress", "--no-frames", "--threads", "1"]) == 0
+    done = run_distributed(ranks, ["run", scene, *sets, "--out", str(many), "--no-progress", "--no-frames"])
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert done.stdout.count(f"{scene}:") == 1                      # rank 0 alone reports
+    assert snapshot_differences(one, many) == []
+    a, b = summary(one), summary(many)
+    for key in ("probes", "steps", "time"):
+        assert a[key] == b[key], key
+    for key in ("diagnostics", "analysis"):
+        assert relative_differences(a[key], b[key]) == {}, key
+    assert b["ranks"]["size"] == ranks and len(b["ranks"]["phases_s"]) == ranks
+    spread = b["model"]["distributed"]
+    assert spread["ghost_fraction"] > 0
+    main_set = "fluid" if "n_fluid" in a["model"] else "electric"
+    if main_set == "fluid":
+        assert sum(spread["fluid_owned"]) == a["model"]["n_fluid"]
+    else:
+        assert sum(spread["electric_owned"]) == a["model"]["n_electric"]
+    assert list((many / "vtk").glob(f"{main_set}_*_0001.vtu")) and list((many / "vtk").glob(f"{main_set}_*.pvtu"))
+
+
+@needs_mpi
+@pytest.mark.parametrize("scene,ranks", [("pic_plasma_oscillation", 2), ("pic_two_stream", 3)])
+def test_a_distributed_plasma_moves_its_particles_bitwise_and_sums_them_to_round_off(scene, ranks, tmp_path):
+    """The particles (every snapshot, in id order) and the nodal charge and potential bitwise; the step's particle
+    sums (kinetic energy, momentum: each rank's own particles', added) to round-off, the momentum being round-off
+    itself (< 1e-12 of the box's particle momentum scale)."""
+    sets = smallest_sets(scene)
+    one, many = tmp_path / "one", tmp_path / "many"
+    assert main(["run", scene, *sets, "--out", str(one), "--no-progress", "--no-frames", "--threads", "1"]) == 0
+    done = run_distributed(ranks, ["run", scene, *sets, "--out", str(many), "--no-progress", "--no-frames"])
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert snapshot_differences(one, many) == []
+    a, b = summary(one), summary(many)
+    for section in ("analysis", "diagnostics"):
+        for key, rel in relative_differences(a[section], b[section]).items():
+            if "momentum" in key:
+                assert abs(_at(a[section], key) - _at(b[section], key)) < 1e-12, key
+            else:
+                assert rel < 1e-12, key
+    assert sum(b["model"]["distributed"]["particles_owned"]) == a["model"]["particles"]
+
+
+def _at(tree: dict, key: str):
+    for part in key.split("/"):
+        tree = tree[int(part)] if isinstance(tree, list) else tree[part]
+    return tree
+
+
+@needs_mpi
+def test_a_distributed_run_resumes_bitwise_on_its_rank_count_on_another_and_in_one_process(tmp_path):
+    """A 2-rank run stopped at an output time (the step landing is then the uninterrupted run's) after its fluid has
+    moved between ranks, resumed on 2 ranks, on 3 and in one process: each continues as the uninterrupted run."""
+    sets = ["--set", "dx=0.1", "--set", "output_interval=0.02"]
+    full, part = tmp_path / "full", tmp_path / "part"
+    assert main(["run", "dam_break_2d", *sets, "--set", "t_end=0.1", "--out", str(full), "--no-progress",
+                 "--no-frames"]) == 0
+    done = run_distributed(2, ["run", "dam_break_2d", *sets, "--set", "t_end=0.06", "--checkpoint-every", "7",
+                               "--out", str(part), "--no-progress", "--no-frames"])
+    assert done.returncode == 0, done.stderr[-3000:]
+    pieces = sorted(p.name for p in (part / "checkpoints").glob("*.npz"))
+    assert pieces[-2:] == ["step_00000056_rank_0000_of_0002.npz", "step_00000056_rank_0001_of_0002.npz"], pieces
+    for ranks in (2, 3, 1):
+        again = tmp_path / f"again_{ranks}"
+        shutil.copytree(part, again)
+        args = ["run", "--resume", str(again), "--set", "t_end=0.1", "--no-progress", "--no-frames"]
+        done = run_distributed(ranks, args) if ranks > 1 else subprocess.run(
+            [sys.executable, "-m", "warpfree", *args], capture_output=True, text=True, timeout=900)
+        assert done.returncode == 0, done.stderr[-3000:]
+        assert "resuming from step 56 written by 2 process(es)" in done.stderr
+        assert snapshot_differences(full, again) == [], ranks
+        assert summary(full)["probes"] == summary(again)["probes"], ranks
+
+
+@needs_mpi
+def test_a_distributed_run_is_refused_in_one_line_without_mpi_for_python(tmp_path):
+    """Started by a launcher on two ranks, with no mpi4py to import: exit 2, the extra named, nothing written."""
+    code = ("import sys; sys.modules['mpi4py'] = None; from warpfree.cli import main; "
+            f"sys.exit(main(['run', 'dam_break_2d', '--out', {str(tmp_path / 'run')!r}]))")
+    env = {"OMPI_COMM_WORLD_SIZE": "2", "PATH": "/usr/bin:/bin"}
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines()[-1] == ("warpfree: error: mpi: this run was started on 2 ranks, and a "
+                                                    f"distributed run needs MPI for Python: {MPI_EXTRA}")
+    assert not (tmp_path / "run").exists()
