@@ -129,6 +129,9 @@ class Run(ABC):
         #: the ranks of the run (one process, or ``mpiexec``'s): rank 0 writes the summary, the indices, the frames
         #: and the plots; every rank its own piece of each snapshot and its checkpoints
         self.world = world()
+        if self.world.distributed and not self.solver.distributes:
+            raise ParameterError("ranks", f"the {self.solver.name} solver runs in one process only: start it without "
+                                          f"mpiexec (this run has {self.world.size} ranks)")
 
     # -- outputs --------------------------------------------------------------------------------
     def _frame_choice(self) -> tuple[str | None, str | None]:

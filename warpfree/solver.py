@@ -214,13 +214,15 @@ class StepRule:
 class Solver(ABC):
     """What every solver provides. Subclass :class:`TimeDependentSolver` or :class:`StaticSolver`.
 
-    Class attributes: ``name`` (the method family, e.g. "wcsph") and ``work_unit`` (what
+    Class attributes: ``name`` (the method family, e.g. "wcsph"), ``work_unit`` (what
     :attr:`work_items` counts, e.g. "particle-steps" for a time-dependent solver, "Gauss points" for a
-    static one). Instance attributes set by :meth:`__init__`: ``model``, ``launcher``, ``phases``.
+    static one) and ``distributes`` (whether it splits its work over the ranks of an ``mpiexec`` run: its
+    partitions, ghost refreshes and global reductions; a run of a solver that does not is refused on several ranks). Instance attributes set by :meth:`__init__`: ``model``, ``launcher``, ``phases``.
     """
 
     name: ClassVar[str] = "solver"
     work_unit: ClassVar[str] = "items"
+    distributes: ClassVar[bool] = False
 
     def __init__(self, model, launcher: Launcher):
         self.model = model

@@ -75,8 +75,9 @@ for size in (8, 1024, 65536, 1 << 20, 8 << 20):
     out[size] = (time.perf_counter() - t0) / (2 * reps)
 c.Barrier()
 t0 = time.perf_counter()
+mine, every = np.zeros(4), np.zeros(4)
 for _ in range(500):
-    c.allreduce(np.zeros(4), op=MPI.MAX)
+    c.Allreduce(mine, every, op=MPI.MAX)
 out["allreduce"] = (time.perf_counter() - t0) / 500
 if c.rank == 0:
     print(json.dumps(out))
@@ -305,7 +306,7 @@ def main(argv=None) -> int:
         for fam in args.families.split(","):
             print(f"{fam}:", flush=True)
             families[fam] = measure_family(fam, args.repeats)
-    result = {"machine": {"cpu": common.cpu_model(), "cores": common.cpu_count()}, "repeats": args.repeats,
+    result = {"machine": common.machine_info(), "repeats": args.repeats,
               "families": families, "model": model(families.get("wcsph"), net, pack)}
     fig, ax = common.new_figure(figsize=(7, 4.5))
     d = result["model"]["dam_break_3d"]

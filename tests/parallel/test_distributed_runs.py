@@ -119,3 +119,14 @@ def test_a_distributed_run_is_refused_in_one_line_without_mpi_for_python(tmp_pat
     assert done.stderr.strip().splitlines()[-1] == ("warpfree: error: mpi: this run was started on 2 ranks, and a "
                                                     f"distributed run needs MPI for Python: {MPI_EXTRA}")
     assert not (tmp_path / "run").exists()
+
+
+@needs_mpi
+def test_a_solver_that_does_not_distribute_is_refused_on_several_ranks(tmp_path):
+    """The heat example solver has no partitions: on two ranks it is refused in one line naming ``ranks``, exit 2,
+    nothing written (the run directory --out names stays empty)."""
+    done = run_distributed(2, ["run", "heat_conduction_2d", "--out", str(tmp_path / "run"), "--no-progress"])
+    assert done.returncode == 2
+    assert ("warpfree: error: ranks: the heat solver runs in one process only: start it without mpiexec (this run "
+            "has 2 ranks)") in done.stderr.splitlines()
+    assert not any((tmp_path / "run").glob("*"))

@@ -88,6 +88,8 @@ class EFGSolver(StaticSolver):
     alone, seed 002's).
     """
 
+    distributes = True
+
     name: ClassVar[str] = "efg"
     work_unit: ClassVar[str] = "Gauss points"
     components: ClassVar[int] = 1

@@ -81,6 +81,7 @@ class PICSolver(TimeDependentSolver):
     """
 
     name = "pic"
+    distributes = True
     work_unit = "particle pushes"
     time_unit = "/ω_pe"
 

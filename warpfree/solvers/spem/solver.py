@@ -145,6 +145,7 @@ class SPEMSolver(TimeDependentSolver):
     interval (:class:`~warpfree.solver.StepRule`)."""
 
     name = "spem"
+    distributes = True
     work_unit = "particle-steps"
 
     def __init__(self, model: SPEMModel, sources: list[Source] | None = None, ez=None, hx=None, hy=None,

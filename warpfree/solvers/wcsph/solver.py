@@ -70,6 +70,7 @@ class WCSPHSolver(TimeDependentSolver):
     """
 
     name = "wcsph"
+    distributes = True
     work_unit = "particle-steps"
 
     def __init__(self, model: WCSPHModel, density=None, velocity=None, launcher: Launcher | None = None):
