@@ -24,6 +24,9 @@ from .world import World
 
 __all__ = ["Partition", "host_view"]
 
+#: refresh plans a part keeps (the lists of arrays it refreshes: two or three per solver)
+MAX_PLANS = 4
+
 
 def host_view(array):
     """(NumPy array of ``array``'s values, write-back): a view for NumPy or a CPU Warp array (writing it writes the
@@ -59,6 +62,7 @@ class Partition:
         self.send = send
         self.receive = receive
         self.count = int(count)
+        self._plans: dict[tuple, _RefreshPlan] = {}
 
     @property
     def n(self) -> int:
@@ -146,6 +150,7 @@ class Partition:
             out[k] = np.ascontiguousarray(table[:, at:at + w]).view(ref.dtype).reshape((-1,) + ref.shape[1:])
             at += w
         part = Partition.of_items(world, decomposition, self.depth, ids, new_points, self.count)
+        self.release()
         return part, out
 
     # -- using one ------------------------------------------------------------------------------------------
@@ -154,22 +159,41 @@ class Partition:
         return np.asarray(values)[self.ids]
 
     def refresh(self, *arrays) -> None:
-        """Give every ghost its owner's current values in each of ``arrays`` (held rows: Warp or NumPy arrays)."""
+        """Give every ghost its owner's current values in each of ``arrays`` (held rows: Warp or NumPy arrays).
+
+        Arrays in host memory (NumPy, Warp CPU) go through a :class:`_RefreshPlan` made at their first refresh on
+        this part and kept while the part and the arrays are: its buffers, its host views and its persistent MPI
+        requests are made once, so a refresh is a gather into the send buffer per array, one start and wait of
+        every message, and a scatter out of the receive buffer per array. GPU arrays stage through the host."""
         if not self.send and not self.receive:
             return
+        if not all(_in_host_memory(a) for a in arrays):
+            self._refresh_staged(arrays)
+            return
+        key = tuple(_address(a) for a in arrays)
+        plan = self._plans.pop(key, None)
+        if plan is None:
+            plan = _RefreshPlan(self, arrays)
+            while len(self._plans) >= MAX_PLANS:  # the oldest: arrays a rebuild has replaced
+                self._plans.pop(next(iter(self._plans))).free()
+        self._plans[key] = plan                   # the most recently used last
+        plan.run()
+
+    def release(self) -> None:
+        """Free the refresh plans' MPI requests (a part that a redistribution has replaced)."""
+        for plan in self._plans.values():
+            plan.free()
+        self._plans.clear()
+
+    def _refresh_staged(self, arrays) -> None:
+        """:meth:`refresh` through host copies (arrays on a GPU)."""
         views = [host_view(a) for a in arrays]
-        sends = {}
-        for r, index in self.send.items():
-            sends[r] = np.hstack([_rows(v[index]) for v, _ in views]).reshape(-1)
-        widths = [_rows(v[:0]).shape[1] for v, _ in views]
-        row = sum(widths)
+        sends = {r: _field_blocks([v[index] for v, _ in views]) for r, index in self.send.items()}
+        row = sum(_rows(v[:0]).shape[1] for v, _ in views)
         received = self.world.exchange(sends, {s: index.size * row for s, index in self.receive.items()})
         for s, index in self.receive.items():
-            table = received[s].reshape(index.size, row)
-            at = 0
-            for (v, _), w in zip(views, widths):
-                v[index] = np.ascontiguousarray(table[:, at:at + w]).view(v.dtype).reshape((-1,) + v.shape[1:])
-                at += w
+            for (v, _), block in zip(views, _split_blocks(received[s], [v for v, _ in views], index.size)):
+                v[index] = block
         for _, write_back in views:
             if write_back is not None:
                 write_back()
@@ -192,6 +216,67 @@ class Partition:
     def describe(self) -> dict:
         return {"held": self.n, "owned": self.n_owned, "ghosts": self.n_ghosts,
                 "neighbours": sorted(set(self.send) | set(self.receive))}
+
+
+def _in_host_memory(array) -> bool:
+    return isinstance(array, np.ndarray) or array.device.is_cpu
+
+
+def _address(array) -> tuple:
+    """What identifies an array's memory (a refresh plan holds views of it)."""
+    if isinstance(array, np.ndarray):
+        return (array.__array_interface__["data"][0], array.shape, array.dtype.str)
+    return (array.ptr, array.shape, str(array.dtype))
+
+
+def _field_blocks(values: list[np.ndarray]) -> np.ndarray:
+    """One uint8 message of several arrays of n rows: each array's bytes in turn (field-major)."""
+    return np.concatenate([np.ascontiguousarray(v).reshape(-1).view(np.uint8) for v in values]) if values else \
+        np.zeros(0, np.uint8)
+
+
+def _split_blocks(message: np.ndarray, like: list[np.ndarray], n: int) -> list[np.ndarray]:
+    """The arrays of n rows a :func:`_field_blocks` message holds, each of the dtype and trailing shape of ``like``
+    (views of the message)."""
+    out, at = [], 0
+    for ref in like:
+        size = n * int(np.prod(ref.shape[1:], dtype=np.int64)) * ref.dtype.itemsize
+        out.append(message[at:at + size].view(ref.dtype).reshape((n,) + ref.shape[1:]))
+        at += size
+    return out
+
+
+class _RefreshPlan:
+    """The made-once parts of refreshing one list of host arrays on one :class:`Partition`: the arrays' NumPy
+    views; per neighbour rank a send and a receive buffer, laid out field-major (each array's rows in turn), with
+    typed views of each field's block; the persistent MPI requests of every message."""
+
+    def __init__(self, part: Partition, arrays):
+        self.arrays = arrays                       # kept alive while the plan holds views of them
+        self.views = [host_view(a)[0] for a in arrays]
+        self.gathers = []                          # (held rows to send, the send buffer's typed block) per field
+        self.scatters = []                         # (held rows to receive, the receive buffer's typed block)
+        sends, receives = {}, {}
+        row = sum(_rows(v[:0]).shape[1] for v in self.views)
+        for r, index in part.send.items():
+            sends[r] = np.empty(index.size * row, np.uint8)
+            for v, block in zip(self.views, _split_blocks(sends[r], self.views, index.size)):
+                self.gathers.append((v, index, block))
+        for s, index in part.receive.items():
+            receives[s] = np.empty(index.size * row, np.uint8)
+            for v, block in zip(self.views, _split_blocks(receives[s], self.views, index.size)):
+                self.scatters.append((v, index, block))
+        self.messages = part.world.persistent_exchange(sends, receives)
+
+    def run(self) -> None:
+        for v, index, block in self.gathers:
+            np.take(v, index, axis=0, out=block, mode="clip")   # indices are held rows: in range
+        self.messages.start_and_wait()
+        for v, index, block in self.scatters:
+            v[index] = block
+
+    def free(self) -> None:
+        self.messages.free()
 
 
 def as_warp(values: np.ndarray, dtype, device) -> wp.array:

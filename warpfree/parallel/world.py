@@ -132,6 +132,12 @@ class World:
             MPI.Request.Waitall(requests)
         return received
 
+    def persistent_exchange(self, sends: dict[int, np.ndarray], receives: dict[int, np.ndarray]) -> "Messages":
+        """The messages of an exchange repeated many times with the same buffers (``sends[r]`` to rank r, from each
+        rank s into ``receives[s]``: uint8, their sizes agreed by both sides' plans), made once as persistent MPI
+        requests: :meth:`Messages.start_and_wait` runs them."""
+        return Messages(self.comm, sends, receives)
+
     def exchange_sizes(self, sizes: dict[int, int]) -> dict[int, int]:
         """Each rank tells every other how many bytes (or items) it will send it: ``sizes[r]`` -> what each rank s
         will send here (only the nonzero ones)."""
@@ -143,6 +149,35 @@ class World:
         matrix = np.empty((self.size, self.size), dtype=np.int64)
         self.comm.Allgather(row, matrix)
         return {s: int(matrix[s, self.rank]) for s in range(self.size) if matrix[s, self.rank] > 0}
+
+
+class Messages:
+    """Persistent point-to-point requests (:meth:`World.persistent_exchange`); no requests in one process."""
+
+    TAG = 8
+
+    def __init__(self, comm, sends: dict[int, np.ndarray], receives: dict[int, np.ndarray]):
+        self.buffers = (sends, receives)         # the requests point into these
+        self.requests = []
+        if comm is None:
+            return
+        for source, buffer in receives.items():
+            self.requests.append(comm.Recv_init(buffer, source=source, tag=self.TAG))
+        for dest, buffer in sends.items():
+            self.requests.append(comm.Send_init(buffer, dest=dest, tag=self.TAG))
+
+    def start_and_wait(self) -> None:
+        if not self.requests:
+            return
+        from mpi4py import MPI
+
+        MPI.Prequest.Startall(self.requests)
+        MPI.Request.Waitall(self.requests)
+
+    def free(self) -> None:
+        for request in self.requests:
+            request.Free()
+        self.requests = []
 
 
 def abort_on_error(code: int = 1) -> None:

@@ -105,6 +105,7 @@ class FluidSpread:
             cost = np.concatenate(self.world.allgather(fluid_cost[self.fluid.owned_index].astype(np.float64))
                                   + self.world.allgather(wall_cost[self.walls.owned_index].astype(np.float64)))
             self.decomposition = self._cut(points, cost)
+            self.walls.release()
             self.walls = Partition.of_all(self.world, self.decomposition, self.depth, self.wall_points)
             self.rebalances += 1
         self.fluid, held = self.fluid.redistribute(self.decomposition, fluid_fields["position"], fluid_fields)
@@ -115,6 +116,8 @@ class FluidSpread:
         hold the parts of that cut."""
         cost = np.concatenate([np.ones(len(fluid_at_build)), np.full(len(self.wall_points), WALL_COST)])
         self.decomposition = self._cut(np.vstack([fluid_at_build, self.wall_points]), cost)
+        self.fluid.release()
+        self.walls.release()
         self.fluid = Partition.of_all(self.world, self.decomposition, self.depth, fluid_at_build)
         self.walls = Partition.of_all(self.world, self.decomposition, self.depth, self.wall_points)
 
