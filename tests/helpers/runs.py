@@ -40,6 +40,32 @@ def snapshot_differences(a: Path, b: Path) -> list[str]:
     return out
 
 
+def field_differences(a: Path, b: Path) -> float:
+    """The largest difference of any field of any snapshot of two runs with the same series and points, relative to
+    that field's largest magnitude (0: bitwise the same); inf when the series, times or points differ."""
+    names_a, names_b = sorted(p.name for p in a.glob("*.pvd")), sorted(p.name for p in b.glob("*.pvd"))
+    if names_a != names_b or not names_a:
+        return float("inf")
+    worst = 0.0
+    for name in names_a:
+        ea, eb = read_pvd(a / name), read_pvd(b / name)
+        if [t for t, _ in ea] != [t for t, _ in eb]:
+            return float("inf")
+        for (_, fa), (_, fb) in zip(ea, eb):
+            pa, da = in_id_order(*read_snapshot(a / fa))
+            pb, db = in_id_order(*read_snapshot(b / fb))
+            if not np.array_equal(pa, pb) or set(da) != set(db):
+                return float("inf")
+            for k in da:
+                x, y = np.asarray(da[k], float), np.asarray(db[k], float)
+                scale = float(np.max(np.abs(x))) if x.size else 0.0
+                if x.shape != y.shape:
+                    return float("inf")
+                if scale > 0:
+                    worst = max(worst, float(np.max(np.abs(x - y))) / scale)
+    return worst
+
+
 def in_id_order(points: np.ndarray, fields: dict) -> tuple[np.ndarray, dict]:
     """A snapshot's rows by ``particle_id`` when it has one (PIC writes its particles in their sorted slots; the
     pieces of a distributed run join in id order)."""

@@ -10,10 +10,11 @@ import sys
 
 import pytest
 
-from helpers.runs import relative_differences, smallest_sets, snapshot_differences, summary
+from helpers.runs import field_differences, relative_differences, smallest_sets, snapshot_differences, summary
 from warpfree.cli import main
 from warpfree.parallel import MPI_EXTRA
 from warpfree.parallel.launch import find_mpiexec, run_ranks
+from warpfree.parallel.petsc_system import PETSC_EXTRA
 
 needs_mpi = pytest.mark.skipif(find_mpiexec() is None, reason=f"no MPI here: {MPI_EXTRA}")
 
@@ -108,6 +109,37 @@ def test_a_distributed_run_resumes_bitwise_on_its_rank_count_on_another_and_in_o
         assert summary(full)["probes"] == summary(again)["probes"], ranks
 
 
+#: (scene, settings, stop, end, checkpoint every): the waveguide (PML, a point source: static E and H sets) and the
+#: two-stream plasma (moving particles, each piece holding its owned particles and the ghosts, one copy kept by id)
+RESUME_CASES = [("em_waveguide_2d", ["--set", "particles_per_wavelength=20", "--set", "output_interval=0.41e-9"],
+                 "0.82e-9", "1.64e-9", "5"),
+                ("pic_two_stream", smallest_sets("pic_two_stream"), "1.2", "2.4", "4")]
+
+
+@needs_mpi
+@pytest.mark.parametrize("scene,sets,stop,end,every", RESUME_CASES)
+def test_a_distributed_run_resumes_bitwise_on_another_rank_count_and_in_one_process(scene, sets, stop, end, every,
+                                                                                     tmp_path):
+    """Run on 2 ranks to an output time with checkpoints, resumed on 3 ranks and in one process: each continues
+    bitwise as the uninterrupted one-process run (every snapshot of every series)."""
+    full, part = tmp_path / "full", tmp_path / "part"
+    assert main(["run", scene, *sets, "--set", f"t_end={end}", "--out", str(full), "--no-progress", "--no-frames",
+                 "--threads", "1"]) == 0
+    done = run_distributed(2, ["run", scene, *sets, "--set", f"t_end={stop}", "--checkpoint-every", every,
+                               "--out", str(part), "--no-progress", "--no-frames"])
+    assert done.returncode == 0, done.stderr[-3000:]
+    for ranks in (3, 1):
+        again = tmp_path / f"again_{ranks}"
+        shutil.copytree(part, again)
+        args = ["run", "--resume", str(again), "--set", f"t_end={end}", "--no-progress", "--no-frames"]
+        done = run_distributed(ranks, args) if ranks > 1 else subprocess.run(
+            [sys.executable, "-m", "warpfree", *args], capture_output=True, text=True, timeout=900)
+        assert done.returncode == 0, done.stderr[-3000:]
+        assert "written by 2 process(es)" in done.stderr
+        assert snapshot_differences(full, again) == [], ranks
+        assert summary(full)["steps"] == summary(again)["steps"], ranks
+
+
 @needs_mpi
 def test_a_distributed_run_is_refused_in_one_line_without_mpi_for_python(tmp_path):
     """Started by a launcher on two ranks, with no mpi4py to import: exit 2, the extra named, nothing written."""
@@ -129,4 +161,63 @@ def test_a_solver_that_does_not_distribute_is_refused_on_several_ranks(tmp_path)
     assert done.returncode == 2
     assert ("warpfree: error: ranks: the heat solver runs in one process only: start it without mpiexec (this run "
             "has 2 ranks)") in done.stderr.splitlines()
+    assert not any((tmp_path / "run").glob("*"))
+
+
+def _has_petsc() -> bool:
+    try:
+        import petsc4py  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+needs_petsc = pytest.mark.skipif(not _has_petsc(), reason=f"no PETSc here: {PETSC_EXTRA}")
+
+#: (scene, ranks, settings): the beam's saddle point (Lagrange multipliers: the fieldsplit preconditioner) and
+#: its penalty form (algebraic multigrid on the elliptic matrix), the two-material resistor (Nitsche interface
+#: terms, rank 0 alone adding them), Cook's membrane, NEM on the beam's Delaunay triangles (direct substitution)
+GALERKIN_CASES = [("efg_timoshenko", 2, []), ("efg_timoshenko", 3, ["--set", "method=penalty"]),
+                  ("efg_resistor", 3, []), ("efg_cook", 2, []),
+                  ("efg_timoshenko", 2, ["--set", "model=nem", "--set", "integration=gauss"])]
+#: the solves' agreement: PETSc stops at a relative residual of 1e-12 and SuperLU's own is ~1e-15; the numbers
+#: the analysis reports (tip deflection, energies, error norms: integrals of the solution) then agree to
+#: cond(K) x 1e-12, below 1e-7 relative for these systems
+GALERKIN_RTOL = 1e-7
+
+
+@needs_mpi
+@needs_petsc
+@pytest.mark.parametrize("scene,ranks,settings", GALERKIN_CASES)
+def test_a_distributed_galerkin_solve_through_petsc_gives_the_one_process_results_to_its_tolerance(
+        scene, ranks, settings, tmp_path):
+    """Each rank integrates its own Gauss points, PETSc solves the ranks' parts as one matrix: the analysis (errors
+    against the exact or reference solution) and every output field agree with one process's SuperLU solve to
+    the Krylov solve's tolerance, and summary.json names the solve and its relative residual."""
+    sets = smallest_sets(scene) + settings
+    one, many = tmp_path / "one", tmp_path / "many"
+    assert main(["run", scene, *sets, "--out", str(one), "--no-progress", "--no-frames", "--threads", "1"]) == 0
+    done = run_distributed(ranks, ["run", scene, *sets, "--out", str(many), "--no-progress", "--no-frames"])
+    assert done.returncode == 0, done.stderr[-3000:]
+    a, b = summary(one), summary(many)
+    differences = relative_differences(a["analysis"], b["analysis"])
+    assert differences, "the analyses agree bitwise: the distributed run did not solve on its own"
+    worst = max(differences.items(), key=lambda kv: kv[1])
+    assert worst[1] < GALERKIN_RTOL, worst
+    solve = b["model"]["linear_solver"]
+    assert solve["library"] == "PETSc" and solve["relative_residual"] < 1e-11
+    assert sum(solve["rows_per_rank"]) == solve["unknowns"] and len(solve["rows_per_rank"]) == ranks
+    assert a["model"]["linear_solver"]["library"] == "SciPy SuperLU"
+    assert field_differences(one, many) < GALERKIN_RTOL
+
+
+@needs_mpi
+def test_a_distributed_galerkin_solve_is_refused_in_one_line_without_petsc(tmp_path):
+    """Two ranks, petsc4py hidden: exit 2, the extra named, nothing written."""
+    code = ("import sys; sys.modules['petsc4py'] = None; from warpfree.cli import entry; sys.argv = ['warpfree', "
+            f"'run', 'efg_timoshenko', '--out', {str(tmp_path / 'run')!r}, '--no-progress']; entry()")
+    done = run_ranks(2, ["-c", code], timeout=600)
+    assert done.returncode == 2, done.stderr[-2000:]
+    assert (f"warpfree: error: linear_solver: a distributed Galerkin solve needs PETSc for Python: {PETSC_EXTRA}"
+            in done.stderr.splitlines())
     assert not any((tmp_path / "run").glob("*"))

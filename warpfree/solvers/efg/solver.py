@@ -5,7 +5,9 @@ points (:class:`~warpfree.galerkin.quadrature.QuadraturePoints`: background cell
 (:mod:`~warpfree.solvers.efg.boundary`) and materials, and ``solve()`` in timed phases: "shape functions" (at the
 Gauss points), "assembly", "boundary", "factorisation", "solve". The system is factorised once
 (:class:`~warpfree.sparse.FactorisedSystem`, SciPy's SuperLU) and kept: :meth:`EFGSolver.resolve` solves again for
-new loads (the PIC field solve). The solution is nodal parameters ``nodal`` (not nodal values unless the shape
+new loads (the PIC field solve). In a distributed run each rank integrates its own Gauss points and the ranks'
+parts of the system are solved by PETSc as one distributed matrix (:class:`~warpfree.parallel.PETScSystem`,
+``linear_solver="petsc"``, the default there). The solution is nodal parameters ``nodal`` (not nodal values unless the shape
 functions interpolate); :meth:`EFGSolver.field_at` evaluates u^h and ∇u^h anywhere.
 
 Problems:
@@ -29,6 +31,7 @@ from scipy.spatial import cKDTree
 
 from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.parallel import world as ranks_of_run
+from warpfree.parallel.petsc_system import PRECONDITIONERS, PETScSystem, require_petsc
 from warpfree.solver import OutputSet, StaticSolver
 from warpfree.sparse import FactorisedSystem, PrescribedValues
 
@@ -45,6 +48,9 @@ from .plots import von_mises
 __all__ = ["EFGSolver", "PoissonSolver", "ElasticitySolver", "elasticity_matrix", "METHODS"]
 
 METHODS = ("lagrange", "penalty", "direct")
+#: how the system is solved: "auto" (SuperLU in one process, PETSc over several ranks), "superlu" (every process
+#: the whole system, factorised by SciPy's SuperLU), "petsc" (the ranks' parts as one PETSc matrix, a Krylov solve)
+LINEAR_SOLVERS = ("auto", "superlu", "petsc")
 INTEGRATIONS = ("consistent", "gauss", "scni")
 #: relative tolerance of the check that the boundary pieces enclose the cells (∮ x·n dΓ = 2 · area)
 CLOSURE_RTOL = 1e-6
@@ -97,7 +103,8 @@ class EFGSolver(StaticSolver):
     def __init__(self, model: ShapeModel, cells: QuadraturePoints, essential: list[Essential] | None = None,
                  natural: list[Natural] | None = None, method: str = "lagrange", penalty: float = 1e7,
                  cell_material=None, free: list | None = None, interfaces: list[Interface] | None = None,
-                 integration: str = "consistent", interface_condition: str = "nitsche", nitsche_penalty: float = 20.0):
+                 integration: str = "consistent", interface_condition: str = "nitsche", nitsche_penalty: float = 20.0,
+                 linear_solver: str = "auto", preconditioner: str = "auto"):
         super().__init__(model, model.launcher)
         if method not in METHODS:
             raise ParameterError("method", f"must be one of {list(METHODS)}, got {method!r}")
@@ -139,6 +146,7 @@ class EFGSolver(StaticSolver):
         self.multipliers = np.zeros(0)
         self.correction: np.ndarray | None = None  # ξ_I of consistent integration (N, 2)
         self.world = ranks_of_run()
+        self.set_linear_solver(linear_solver, preconditioner)
         if self.world.distributed and integration == "scni":
             raise ParameterError("integration", "a distributed run cannot integrate on smoothing cells ('scni') yet: "
                                                 "use 'consistent' or 'gauss', or run in one process")
@@ -151,6 +159,22 @@ class EFGSolver(StaticSolver):
         self._material = None if self.point_material is None else self.point_material[self._mine]
         self._multiplier_scale = 1.0
         self._interface_cache: dict = {}
+
+    def set_linear_solver(self, linear_solver: str = "auto", preconditioner: str = "auto") -> None:
+        """How :meth:`solve` solves the system (:data:`LINEAR_SOLVERS`; ``preconditioner``: PETSc's, one of
+        ``warpfree.parallel.petsc_system.PRECONDITIONERS``). PETSc missing: ParameterError naming the extra."""
+        if linear_solver not in LINEAR_SOLVERS:
+            raise ParameterError("linear_solver", f"must be one of {list(LINEAR_SOLVERS)}, got {linear_solver!r}")
+        if preconditioner not in PRECONDITIONERS:
+            raise ParameterError("preconditioner", f"must be one of {list(PRECONDITIONERS)}, got {preconditioner!r}")
+        #: the ranks' parts of the system solved as one PETSc matrix (each rank keeps its part of K)
+        self.petsc = linear_solver == "petsc" or (linear_solver == "auto" and self.world.distributed)
+        if self.petsc:
+            require_petsc("linear_solver")
+        self.preconditioner = preconditioner
+        #: the share of a term every rank computes in full (boundary and interface terms) that this rank adds to
+        #: its part of the system: 1 unless the parts stay apart (PETSc), where rank 0 adds them alone
+        self._share = 1.0 if (not self.petsc or self.world.is_root) else 0.0
 
     # -- what a problem defines --------------------------------------------------------------------------------
     def stiffness(self, shape: ShapeData, test_dphi) -> sp.csr_matrix:
@@ -202,7 +226,7 @@ class EFGSolver(StaticSolver):
         with self.phases("assembly"):
             K = self._total_matrix(self.stiffness(self.shape, test))
             if self.interfaces and self.interface_condition == "nitsche":
-                K = K + self.interface_stiffness()
+                K = K + self._share * self.interface_stiffness()
             f = total(self.body_load(self.shape))
             for nat, sh in natural:
                 f = f + self._natural_load(nat, sh)
@@ -211,7 +235,11 @@ class EFGSolver(StaticSolver):
         self._condition_rhs = rhs.copy()
         self._condition_rhs[: c * model.node_count] -= f      # what the boundary conditions add
         with self.phases("factorisation"):
-            self.system = FactorisedSystem(system_matrix, prescribed, symmetric_pattern=True)
+            if self.petsc:
+                saddle = c * model.node_count if self.method == "lagrange" else None
+                self.system = PETScSystem(self.world, system_matrix, prescribed, self.preconditioner, saddle=saddle)
+            else:
+                self.system = FactorisedSystem(system_matrix, prescribed, symmetric_pattern=True)
         with self.phases("solve"):
             x = self.system.solve(rhs)
         n = c * model.node_count
@@ -248,8 +276,8 @@ class EFGSolver(StaticSolver):
         return self.world.allreduce(values, "sum") if self.world.distributed else values
 
     def _total_matrix(self, K: sp.csr_matrix) -> sp.csr_matrix:
-        """Every rank's part of the stiffness, added (in rank order), on every rank."""
-        if not self.world.distributed:
+        """Every rank's part of the stiffness, added (in rank order), on every rank; with PETSc this rank's part."""
+        if not self.world.distributed or self.petsc:
             return K
         coo = K.tocoo()
         rows = np.concatenate(self.world.allgather(coo.row.astype(np.int64)))
@@ -382,16 +410,22 @@ class EFGSolver(StaticSolver):
                 mass = M if mass is None else mass + M
                 rhs_parts.append(fb)
         if self.method == "penalty":
-            alpha = self.penalty * float(np.abs(K.diagonal()).max()) / float(np.abs(mass.diagonal()).max())
-            return (K + alpha * mass).tocsr(), f + alpha * np.sum(rhs_parts, axis=0), PrescribedValues([], [], n)
+            alpha = self.penalty * self._largest_diagonal(K) / float(np.abs(mass.diagonal()).max())
+            return (K + self._share * alpha * mass).tocsr(), f + alpha * np.sum(rhs_parts, axis=0), PrescribedValues([], [], n)
         # scale the constraint rows so that both blocks' pivots are of K's size (K ~ E, G ~ length: unscaled, the
         # multipliers' Schur complement -GᵀK⁻¹G is 1e-14 of K's pivots and reads as singular); λ = β λ'
         G = sp.hstack(blocks).tocsr()
         m = G.shape[1]
-        beta = float(np.abs(K.diagonal()).max()) / max(float(np.abs(G).max()), 1e-300)
+        beta = self._largest_diagonal(K) / max(float(np.abs(G).max()), 1e-300)
         self._multiplier_scale = beta
-        kkt = sp.bmat([[K, beta * G], [beta * G.T, None]]).tocsr()
+        G = self._share * beta * G
+        kkt = sp.bmat([[K, G], [G.T, None]]).tocsr()
         return kkt, np.concatenate([f] + [beta * q for q in rhs_parts]), PrescribedValues([], [], n + m)
+
+    def _largest_diagonal(self, K) -> float:
+        """max |K_II| of the whole stiffness (with PETSc, K is this rank's part: its diagonal is added first)."""
+        diagonal = K.diagonal()
+        return float(np.abs(self._total(diagonal) if self.petsc and self.world.distributed else diagonal).max())
 
     def resolve(self, load) -> np.ndarray:
         """Solve again with the kept factorisation for a new load vector on the nodes, under the same boundary
@@ -440,7 +474,9 @@ class EFGSolver(StaticSolver):
         return {**self.model.describe(), "gauss_points": self.work_items, "method": self.method,
                 "integration": self.integration,
                 "unknowns": int(self.components * self.model.node_count),
-                "multipliers": int(self.multipliers.size)}
+                "multipliers": int(self.multipliers.size),
+                "linear_solver": (self.system.describe() if isinstance(self.system, PETScSystem)
+                                  else {"library": "SciPy SuperLU"})}
 
 
 class PoissonSolver(EFGSolver):

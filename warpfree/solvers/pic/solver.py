@@ -35,9 +35,9 @@ from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.galerkin.mls import MLSModel
 from warpfree.graph import StepGraph
 from warpfree.kernels import pic as pk
-from warpfree.parallel import world as ranks_of_run
+from warpfree.parallel import Partition, world as ranks_of_run
 from warpfree.parallel.halo import host_view
-from warpfree.solver import OutputSet, StepRule, TimeDependentSolver
+from warpfree.solver import HostTable, OutputSet, StepRule, TimeDependentSolver
 
 from .coupling import GATHERS, NodeCoupling
 from .field import PlasmaPoisson
@@ -412,6 +412,50 @@ class PICSolver(TimeDependentSolver):
     def t(self) -> float:
         """The time of x^n, n Δt (ω_pe⁻¹)."""
         return self.state.steps * self.dt
+
+    #: the per-particle arrays a checkpoint piece carries (its first ``particle_count`` slots)
+    RESTORED = ("position", "velocity", "species", "particle_id")
+
+    def restore_pieces(self, pieces: list[dict]) -> None:
+        """The whole plasma from every process's checkpoint: each piece's live particles, one copy of each by id (a
+        ghost is its owner's copy: the pieces agree on every particle they share), spread over this run's ranks as at
+        a step's redistribution; the host values (step count, history, tallies: every rank's alike) from the first
+        piece. Then as :meth:`after_load`: the run continues bitwise as the uninterrupted one."""
+        rows = {k: [] for k in self.RESTORED}
+        for piece in pieces:
+            n = int(piece["particle_count"])
+            for k in self.RESTORED:
+                rows[k].append(np.asarray(piece[k])[:n])
+        ids = np.concatenate(rows["particle_id"]).astype(np.int64)
+        unique, first = np.unique(ids, return_index=True)
+        whole = {k: np.concatenate(v)[first] for k, v in rows.items()}
+        held = whole
+        if self.spread is not None:
+            if not np.array_equal(unique, np.arange(unique.size)):
+                raise ParameterError("resume", "the checkpoint's particle ids are not 0..N-1 (particles were injected "
+                                               "or absorbed): it resumes on the number of processes that wrote it")
+            part = Partition.of_all(self.world, self.spread.decomposition, self.spread.depth,
+                                    np.c_[whole["position"], np.zeros(unique.size)])
+            self.spread.particles.release()
+            self.spread.particles = part
+            held = {k: v[part.ids] for k, v in whole.items()}
+        st = self.state
+        for k, v in st.host_values().items():
+            if k == "particle_count":
+                continue
+            saved = pieces[0][k]
+            if isinstance(v, HostTable):
+                v.restore(np.asarray(saved))
+            else:
+                setattr(st, k, np.array(saved, copy=True) if isinstance(v, np.ndarray) else type(v)(saved))
+        count = held["position"].shape[0]
+        if count > st.capacity:
+            st.resize(count + max(16, count // 4))
+        for k in self.RESTORED:
+            if count:
+                getattr(st, k)[:count].assign(held[k])
+        st.particle_count = count
+        self.after_load()
 
     def after_load(self) -> None:
         pa = self.particles

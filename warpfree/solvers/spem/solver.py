@@ -236,6 +236,9 @@ class SPEMSolver(TimeDependentSolver):
                                                      "hx": hx0.astype(np.float32), "hy": hy0.astype(np.float32)})
         self.state = SPEMState(self.electric["ez"], self.electric["ezx"], self.magnetic["hx"], self.magnetic["hy"],
                                self.clock.values)
+        for name, part in (("electric", ep), ("magnetic", hp)):  # which particles a checkpoint piece holds
+            setattr(self.state, f"{name}_id", part.ids.astype(np.int64))
+            setattr(self.state, f"{name}_owned", part.owned.astype(np.int8))
         self.held = self.electric["held"]
         self.e_rows, self.e_coefficient = spread.rows(model.e_rows.rows, model.e_coefficient, ep, hp)
         self.h_rows, self.h_coefficient = spread.rows(model.h_rows.rows, model.h_coefficient, hp, ep)
@@ -333,6 +336,35 @@ class SPEMSolver(TimeDependentSolver):
     @property
     def work_items(self) -> int:
         return self.model.layout.n_e + self.model.layout.n_h
+
+    #: the state's fields on each set (the clock is every process's alike)
+    RESTORED = {"electric": ("ez", "ezx"), "magnetic": ("hx", "hy")}
+
+    def restore_pieces(self, pieces: list[dict]) -> None:
+        """The whole fields from every process's checkpoint (each its own particles, by ``electric_id`` and
+        ``magnetic_id``; one process's piece holds every particle), then this rank's held rows of them: the sets are
+        static, so the run continues bitwise as the uninterrupted one."""
+        counts = {"electric": self.model.layout.n_e, "magnetic": self.model.layout.n_h}
+        whole = {}
+        for piece in pieces:
+            for name, keys in self.RESTORED.items():
+                held = piece[keys[0]].shape[0]
+                ids = piece.get(f"{name}_id", np.arange(held))
+                owned = piece.get(f"{name}_owned", np.ones(held, np.int8)).astype(bool)
+                if held != ids.size:
+                    raise ParameterError("resume", "a checkpoint piece does not match this scene")
+                for k in keys:
+                    values = piece[k]
+                    if k not in whole:
+                        whole[k] = np.zeros((counts[name],) + values.shape[1:], dtype=values.dtype)
+                    whole[k][ids[owned]] = values[owned]
+        for name, keys in self.RESTORED.items():
+            part = None if self.spread is None else getattr(self.spread, name)
+            for k in keys:
+                getattr(self.state, k).assign(whole[k] if part is None else whole[k][part.ids])
+        self.clock.values.assign(pieces[0]["clock"])
+        self.clock.invalidate()
+        self.after_load()
 
     def output_sets(self) -> list[OutputSet]:
         """Ez on the E set, H on the H set: every particle in one process; a rank's own in a distributed run
