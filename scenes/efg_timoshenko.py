@@ -37,7 +37,8 @@ LAYOUTS = ("regular", "random")
 
 def beam_solver(cells_x: int, cells_y: int, layout: str = "regular", seed: int = 0, d_max: float = 3.5,
                 weight: str = "cubic_spline", basis: str = "linear", gauss: int = 2, method: str = "lagrange",
-                integration: str | None = None, model: str = "efg") -> ElasticitySolver:
+                integration: str | None = None, model: str = "efg", linear_solver: str = "auto",
+                preconditioner: str = "auto") -> ElasticitySolver:
     """The beam's solver (not yet solved) on (cells_x + 1)(cells_y + 1) nodes; ``model`` "efg" or "nem" (the
     natural element method on the same nodes, direct substitution; by default stabilized conforming nodal integration
     on the nodes' Voronoi cells, ``integration="gauss"`` or ``"consistent"``: Delaunay triangles with 3 Gauss
@@ -73,7 +74,7 @@ def beam_solver(cells_x: int, cells_y: int, layout: str = "regular", seed: int =
                             natural=[Natural(polyline_points(right, 3), lambda q, n: beam.traction_end(q),
                                              name="end_load")],
                             free=[polyline_points(top, 3), polyline_points(bottom, 3)], method=method,
-                            integration=integration)
+                            integration=integration, linear_solver=linear_solver, preconditioner=preconditioner)
 
 
 def beam_errors(solver: ElasticitySolver) -> dict:
@@ -96,18 +97,19 @@ SMALLEST = {"cells_x": 12, "cells_y": 3}
 def build(cells_x: int = 48, cells_y: int = 12, layout: str = "regular", seed: int = 0, d_max: float = 3.5,
           weight: str = "cubic_spline", basis: str = "linear", gauss: int | None = None, method: str = "lagrange",
           integration: str | None = None, model: str = "efg", refinements: int = 0, magnify: float = 200.0,
-          frames: bool = True,
+          linear_solver: str = "auto", preconditioner: str = "auto", frames: bool = True,
           vtk: bool = True) -> StaticRun:
     """``cells_x`` x ``cells_y`` node spacings (nodes: one more each way); ``gauss``: points per cell side (None: the
     basis's, ``warpfree.galerkin.quadrature.CELL_ORDER``); ``refinements``: also solve on that many layouts from
-    6 x 1.5 ... cells doubling (convergence study)."""
+    6 x 1.5 ... cells doubling (convergence study); ``linear_solver``, ``preconditioner``: how the system is solved
+    (``warpfree.solvers.efg.solver.LINEAR_SOLVERS``: SuperLU in one process, PETSc over several ranks)."""
     gauss = cell_order(basis, gauss)
     params = dict(locals())
     for name in ("cells_x", "cells_y", "gauss", "refinements"):
         require_integer(name, params[name], minimum=0 if name == "refinements" else 1)
     require_positive("magnify", magnify)
     options = dict(layout=layout, seed=seed, d_max=d_max, weight=weight, basis=basis, gauss=gauss, method=method,
-                   integration=integration, model=model)
+                   integration=integration, model=model, linear_solver=linear_solver, preconditioner=preconditioner)
     with reported_as(**NAMES):
         solver = beam_solver(cells_x, cells_y, **options)
 

@@ -21,7 +21,7 @@ interior cubic (square in 2D) box of n particles are the particles within the gh
 the 3D dam break is then modelled at 10^6 to 10^9 particles on 1 to 1 024 ranks.
 
 Usage
-    python bench/core/scaling.py [--repeats 3] [--families wcsph,spem,pic,efg] [--quick]
+    python bench/core/scaling.py [--repeats 3] [--families wcsph,spem,pic,efg] [--size large|small]
 Writes bench/results/scaling.{json,md,png}. Needs MPI (pip install 'warpfree[mpi]').
 """
 
@@ -46,15 +46,26 @@ import common  # noqa: E402
 #: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
 RUN_ALL = [[]]
 
-#: family -> (scene, the parameter that sets the size, its value for n and for 2n work items, other settings)
-CASES = {
-    "wcsph": ("dam_break_2d", "dx", 0.0283, 0.02, {"t_end": 0.06}),
-    "spem": ("em_cavity_2d", "cells_per_radius", 40, 57, {}),
-    "pic": ("pic_thermal_plasma", "box", (16.0, 32.0), (16.0, 64.0), {}),
-    "efg": ("efg_timoshenko", "cells_x", 48, 68, {"cells_y": 12}),
+#: family -> (scene, the parameter that sets the size, its value for n and for 2n work items, other settings), for
+#: the sizes the sweep measures ("large", the default: 2n about 20 000 to 130 000 work items; "small": the smallest
+#: sizes at which each family's step is still mostly compute, a minute's sweep)
+SIZES = {
+    "large": {
+        "wcsph": ("dam_break_2d", "dx", 0.0141, 0.01, {"t_end": 0.03}),
+        "spem": ("em_cavity_2d", "cells_per_radius", 80, 113, {}),
+        "pic": ("pic_thermal_plasma", "box", (32.0, 32.0), (32.0, 64.0), {}),
+        "efg": ("efg_timoshenko", "cells_x", 96, 136, {"cells_y": 24}),
+    },
+    "small": {
+        "wcsph": ("dam_break_2d", "dx", 0.0283, 0.02, {"t_end": 0.06}),
+        "spem": ("em_cavity_2d", "cells_per_radius", 40, 57, {}),
+        "pic": ("pic_thermal_plasma", "box", (16.0, 32.0), (16.0, 64.0), {}),
+        "efg": ("efg_timoshenko", "cells_x", 48, 68, {"cells_y": 12}),
+    },
 }
-#: the weak case's 2n size of EFG scales cells_y too (cells_x 68, cells_y 17: twice the Gauss points)
-EFG_2N = {"cells_y": 17}
+CASES = SIZES["large"]
+#: the weak case's 2n size of EFG scales cells_y too (twice the Gauss points)
+EFG_2N = {"large": {"cells_y": 34}, "small": {"cells_y": 17}}
 
 PINGPONG = r'''
 import sys, time, json
@@ -141,10 +152,10 @@ def concurrent_pair(scene: str, settings: dict) -> list[dict]:
         return list(pool.map(lambda _: run_scene(scene, settings, 1), range(2)))
 
 
-def measure_family(family: str, repeats: int) -> dict:
-    scene, param, small, large, extra = CASES[family]
+def measure_family(family: str, repeats: int, size: str = "large") -> dict:
+    scene, param, small, large, extra = SIZES[size][family]
     n1 = {**extra, param: small}
-    n2 = {**extra, param: large, **(EFG_2N if family == "efg" else {})}
+    n2 = {**extra, param: large, **(EFG_2N[size] if family == "efg" else {})}
     runs = {"strong_1": [], "strong_2": [], "threads_2": [], "weak_1x2": [], "weak_2": []}
     for r in range(repeats):  # in turn: a drift of the machine's speed touches every configuration alike
         runs["strong_1"].append(run_scene(scene, n2, 1))
@@ -297,6 +308,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--families", default=",".join(CASES))
+    p.add_argument("--size", choices=sorted(SIZES), default="large", help="the problem sizes (SIZES)")
     p.add_argument("--model-only", action="store_true", help="the network, packing and model parts only")
     args = p.parse_args(argv)
     net = pingpong()
@@ -305,8 +317,8 @@ def main(argv=None) -> int:
     if not args.model_only:
         for fam in args.families.split(","):
             print(f"{fam}:", flush=True)
-            families[fam] = measure_family(fam, args.repeats)
-    result = {"machine": common.machine_info(), "repeats": args.repeats,
+            families[fam] = measure_family(fam, args.repeats, args.size)
+    result = {"machine": common.machine_info(), "repeats": args.repeats, "size": args.size,
               "families": families, "model": model(families.get("wcsph"), net, pack)}
     fig, ax = common.new_figure(figsize=(7, 4.5))
     d = result["model"]["dam_break_3d"]

@@ -10,14 +10,18 @@ unknowns p eliminated (:class:`~warpfree.sparse.PrescribedValues`),
 and both sums are PETSc's: each rank gives its part's triplets (``MatSetValuesCOO``, entries of rows another rank
 owns sent to it) and its part of the right-hand side (rank 0 adds ``b_f``, which every rank knows); PETSc's rows
 are split in contiguous blocks over the ranks. The solve is a Krylov method with a preconditioner
-(:data:`PRECONDITIONERS`); ``bench/efg/petsc_solvers.py`` measured them on the elasticity systems of the EFG scenes:
+(:data:`PRECONDITIONERS`), chosen by measurement (``bench/efg/petsc_solvers.py``):
 
-- "fieldsplit" (the saddle points of Lagrange multipliers, the EFG default): GMRES on [K G; Gᵀ 0] with a
-  Schur-complement split, the displacement block by algebraic multigrid (GAMG), the multipliers' Schur complement
-  by its diagonal approximation Gᵀ diag(K)⁻¹ G (solved exactly: it has as many rows as multipliers);
-- "gamg": GMRES (CG for a symmetric matrix) with algebraic multigrid on the whole matrix (a penalty or direct
-  substitution leaves K alone: an elliptic matrix);
-- "lu": every rank factorises the whole matrix (PETSc's LU on a redundant copy), the one-process direct solve.
+- "superlu" (the default): flexible GMRES preconditioned by SciPy's SuperLU factorisation of the whole K_ff on
+  every rank (the ranks' parts gathered once; threshold pivoting, which a saddle point's zero block needs). It
+  solves every system the EFG scenes make, saddle points and penalties alike, in one or two iterations, at the
+  one-process direct solve's cost: the assembly and the Krylov solve are distributed, the factorisation is not.
+  PETSc's own LU (``-pc_type redundant``) does not pivot: with a permutation and a shift for the zero pivots it
+  needed 2 066 iterations on the 96 x 24 beam, and external direct solvers (MUMPS, SuperLU_dist) are downloads
+  PETSc's build makes;
+- "gamg": CG (a symmetric matrix) or GMRES with algebraic multigrid, for an elliptic matrix (direct substitution
+  of the prescribed values). It fails on a saddle point (K alone is singular: its rigid motions are held only by
+  the multipliers) and converges slowly under a penalty (the penalty's 10⁷ scale is its condition number).
 
 PETSc's own options (``PETSC_OPTIONS="-ksp_type ... -pc_type ..."``) come last and override the choice.
 Precision: float64 (PETSc's scalar); the relative residual of the solve ``rtol`` (default 1e-12), checked after it.
@@ -31,7 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from warpfree.errors import ParameterError, RunError
-from warpfree.sparse import PrescribedValues
+from warpfree.sparse import FactorisedSystem, PrescribedValues
 
 from .world import World
 
@@ -40,9 +44,9 @@ __all__ = ["PETScSystem", "PRECONDITIONERS", "PETSC_EXTRA", "require_petsc"]
 #: what to install for a distributed Galerkin solve
 PETSC_EXTRA = "pip install 'warpfree[petsc]' (PETSc builds from source: install petsc first, then petsc4py)"
 
-#: the preconditioners :class:`PETScSystem` offers (module docstring); "auto": fieldsplit for a saddle-point
-#: system, gamg otherwise
-PRECONDITIONERS = ("auto", "fieldsplit", "gamg", "lu")
+#: the preconditioners :class:`PETScSystem` offers (module docstring); "auto": "superlu", the one that solved every
+#: system of the EFG scenes (``bench/results/petsc_solvers.md``)
+PRECONDITIONERS = ("auto", "superlu", "gamg")
 
 
 def require_petsc(parameter: str = "linear_solver"):
@@ -58,6 +62,33 @@ def require_petsc(parameter: str = "linear_solver"):
     return PETSc
 
 
+class _WholeFactorisation:
+    """The "superlu" preconditioner (a PETSc Python PC): SuperLU's factorisation of the whole K_ff on every rank
+    (:class:`~warpfree.sparse.FactorisedSystem`, threshold pivoting on a symmetric-pattern ordering); applied to a
+    distributed vector, it gathers the vector, solves, and keeps this rank's rows."""
+
+    def __init__(self, system: "PETScSystem"):
+        whole = system.whole_free_matrix()
+        self.lu = FactorisedSystem(whole, PrescribedValues([], [], whole.shape[0]), symmetric_pattern=True)
+        self.gather, self.whole = system._gather, system._whole
+        self.rows = slice(*system._rows)
+        self.PETSc = system._PETSc
+
+    def apply(self, pc, x, y) -> None:
+        PETSc = self.PETSc
+        self.gather.scatter(x, self.whole, addv=PETSc.InsertMode.INSERT_VALUES, mode=PETSc.ScatterMode.FORWARD)
+        z = self.lu.solve(self.whole.getArray(readonly=True))
+        y.setArray(z[self.rows])
+
+
+def _defaults(PETSc, options: dict[str, str]) -> None:
+    """PETSc options this module chooses, each unless the user gave it (PETSC_OPTIONS, the command line)."""
+    database = PETSc.Options()
+    for key, value in options.items():
+        if not database.hasName(key):
+            database.setValue(key, value)
+
+
 class PETScSystem:
     """``K u = b`` with prescribed values over ``world``'s ranks, its matrix assembled once and solved many times.
 
@@ -67,8 +98,6 @@ class PETScSystem:
     part: this rank's part K_r of the square matrix (SciPy sparse, n x n; the parts add up to K).
     prescribed: the prescribed unknowns (every rank the same).
     preconditioner: one of :data:`PRECONDITIONERS`.
-    saddle: the number of leading unknowns that are not Lagrange multipliers (the rest are: a saddle-point
-        system), None when there are none.
     symmetric: K is symmetric (CG instead of GMRES for "gamg").
     rtol: the relative residual the Krylov solve reaches.
 
@@ -78,7 +107,7 @@ class PETScSystem:
     """
 
     def __init__(self, world: World, part, prescribed: PrescribedValues, preconditioner: str = "auto",
-                 saddle: int | None = None, symmetric: bool = False, rtol: float = 1e-12):
+                 symmetric: bool = False, rtol: float = 1e-12):
         if preconditioner not in PRECONDITIONERS:
             raise ParameterError("preconditioner", f"must be one of {list(PRECONDITIONERS)}, got {preconditioner!r}")
         PETSc = require_petsc()
@@ -86,10 +115,7 @@ class PETScSystem:
         self.world = world
         self.prescribed = prescribed
         self.rtol = float(rtol)
-        self.preconditioner = preconditioner if preconditioner != "auto" else ("fieldsplit" if saddle else "gamg")
-        if self.preconditioner == "fieldsplit" and not saddle:
-            raise ParameterError("preconditioner", "'fieldsplit' splits Lagrange multipliers off: this system has "
-                                                   "none (use 'gamg' or 'lu')")
+        self.preconditioner = "superlu" if preconditioner == "auto" else preconditioner
         self.timings = {"assemble": 0.0, "setup": 0.0, "solve": 0.0, "last_solve": 0.0}
         self.counts = {"factorise": 0, "solve": 0}
         self.iterations = 0
@@ -98,14 +124,15 @@ class PETScSystem:
         K_ff, self.K_fp = prescribed.split(sp.csr_matrix(part, dtype=np.float64))
         self.n_free = K_ff.shape[0]
         comm = PETSc.COMM_SELF if world.comm is None else PETSc.Comm(world.comm)
-        self._matrix = self._assemble(comm, K_ff.tocoo())
+        self._part_ff = K_ff.tocoo()
+        self._matrix = self._assemble(comm, self._part_ff)
         self._rows = self._matrix.getOwnershipRange()
         self.rows_per_rank = np.concatenate(world.allgather(
             np.array([self._rows[1] - self._rows[0]], dtype=np.int64))).tolist()
         self.timings["assemble"] = time.perf_counter() - start
         start = time.perf_counter()
-        self._ksp = self._krylov(comm, saddle, symmetric)
         self._gather, self._whole = PETSc.Scatter.toAll(self._matrix.createVecRight())
+        self._ksp = self._krylov(comm, symmetric)
         self.timings["setup"] = time.perf_counter() - start
         self.counts["factorise"] = 1
 
@@ -115,49 +142,47 @@ class PETScSystem:
         A = PETSc.Mat().create(comm=comm)
         A.setSizes(((PETSc.DECIDE, self.n_free), (PETSc.DECIDE, self.n_free)))
         A.setType(PETSc.Mat.Type.AIJ)
-        A.setPreallocationCOO(coo.row.astype(PETSc.IntType), coo.col.astype(PETSc.IntType))
-        A.setValuesCOO(coo.data.astype(PETSc.ScalarType), addv=PETSc.InsertMode.ADD_VALUES)
+        # every diagonal entry present (the multipliers' block has none: factorisations and Jacobi need them)
+        diagonal = np.arange(self.n_free, dtype=np.int64) if self.world.is_root else np.zeros(0, np.int64)
+        rows = np.concatenate([coo.row, diagonal]).astype(PETSc.IntType)
+        cols = np.concatenate([coo.col, diagonal]).astype(PETSc.IntType)
+        A.setPreallocationCOO(rows, cols)
+        A.setValuesCOO(np.concatenate([coo.data, np.zeros(diagonal.size)]).astype(PETSc.ScalarType),
+                       addv=PETSc.InsertMode.ADD_VALUES)
         A.assemble()
         return A
 
-    def _krylov(self, comm, saddle: int | None, symmetric: bool):
+    def _krylov(self, comm, symmetric: bool):
         PETSc = self._PETSc
         ksp = PETSc.KSP().create(comm=comm)
         ksp.setOperators(self._matrix)
         ksp.setTolerances(rtol=self.rtol, atol=0.0, max_it=10_000)
         pc = ksp.getPC()
-        if self.preconditioner == "lu":
-            ksp.setType(PETSc.KSP.Type.PREONLY)
-            pc.setType(PETSc.PC.Type.REDUNDANT)
-            PETSc.Options().setValue("redundant_pc_type", "lu")
-        elif self.preconditioner == "gamg":
+        if self.preconditioner == "superlu":
+            ksp.setType(PETSc.KSP.Type.FGMRES)  # its residual is the true one
+            pc.setType(PETSc.PC.Type.PYTHON)
+            pc.setPythonContext(_WholeFactorisation(self))
+        else:
             ksp.setType(PETSc.KSP.Type.CG if symmetric else PETSc.KSP.Type.GMRES)
             pc.setType(PETSc.PC.Type.GAMG)
-        else:
-            ksp.setType(PETSc.KSP.Type.FGMRES)
-            ksp.setGMRESRestart(200)
-            pc.setType(PETSc.PC.Type.FIELDSPLIT)
-            lo, hi = self._rows
-            rows = np.arange(lo, hi, dtype=PETSc.IntType)
-            n_u = int(saddle) - self._prescribed_before(saddle)
-            u = PETSc.IS().createGeneral(rows[rows < n_u], comm=comm)
-            m = PETSc.IS().createGeneral(rows[rows >= n_u], comm=comm)
-            pc.setFieldSplitIS(("u", u), ("m", m))
-            pc.setFieldSplitType(PETSc.PC.CompositeType.SCHUR)
-            pc.setFieldSplitSchurFactType(PETSc.PC.FieldSplitSchurFactType.FULL)
-            pc.setFieldSplitSchurPreType(PETSc.PC.FieldSplitSchurPreType.SELFP)
-            options = PETSc.Options()
-            for key, value in (("fieldsplit_u_ksp_type", "preonly"), ("fieldsplit_u_pc_type", "gamg"),
-                               ("fieldsplit_m_ksp_type", "preonly"), ("fieldsplit_m_pc_type", "redundant"),
-                               ("fieldsplit_m_redundant_pc_type", "lu")):
-                options.setValue(key, value)
+        # the stopping test on the true residual |b - A x| / |b| (GMRES preconditioned on the right), the figure
+        # :meth:`solve` checks
+        if ksp.getType() == PETSc.KSP.Type.GMRES:
+            ksp.setPCSide(PETSc.PC.Side.RIGHT)
+        ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
         ksp.setFromOptions()
         ksp.setUp()
         return ksp
 
-    def _prescribed_before(self, n: int) -> int:
-        """Prescribed unknowns among the first n (they leave the free numbering)."""
-        return int(np.count_nonzero(self.prescribed.indices < n))
+    def whole_free_matrix(self) -> sp.csr_matrix:
+        """K_ff itself on every rank: the ranks' parts gathered and added (in rank order)."""
+        coo = self._part_ff
+        if self.world.comm is None:
+            return coo.tocsr()
+        rows = np.concatenate(self.world.allgather(coo.row.astype(np.int64)))
+        cols = np.concatenate(self.world.allgather(coo.col.astype(np.int64)))
+        data = np.concatenate(self.world.allgather(coo.data.astype(np.float64)))
+        return sp.csr_matrix((data, (rows, cols)), shape=coo.shape)
 
     # -- solving --------------------------------------------------------------------------------------------
     def solve(self, b, values=None) -> np.ndarray:

@@ -236,8 +236,7 @@ class EFGSolver(StaticSolver):
         self._condition_rhs[: c * model.node_count] -= f      # what the boundary conditions add
         with self.phases("factorisation"):
             if self.petsc:
-                saddle = c * model.node_count if self.method == "lagrange" else None
-                self.system = PETScSystem(self.world, system_matrix, prescribed, self.preconditioner, saddle=saddle)
+                self.system = PETScSystem(self.world, system_matrix, prescribed, self.preconditioner)
             else:
                 self.system = FactorisedSystem(system_matrix, prescribed, symmetric_pattern=True)
         with self.phases("solve"):
