@@ -91,7 +91,8 @@ class EFGSolver(StaticSolver):
     cell averages; linear fields exact; one material, no interfaces); interface_condition: "nitsche"
     (the interface term of the weak form that domain truncation drops, its symmetric partner and a penalty
     ``nitsche_penalty`` · k_max / h: a conforming interface, ``boundary_terms.interface_matrix``) or "none" (truncation
-    alone, seed 002's).
+    alone, seed 002's); linear_solver, preconditioner: :meth:`set_linear_solver` (SuperLU in one process, PETSc
+    over several ranks).
     """
 
     distributes = True
