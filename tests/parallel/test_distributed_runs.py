@@ -98,15 +98,21 @@ def test_a_distributed_run_resumes_bitwise_on_its_rank_count_on_another_and_in_o
     pieces = sorted(p.name for p in (part / "checkpoints").glob("*.npz"))
     assert pieces[-2:] == ["step_00000056_rank_0000_of_0002.npz", "step_00000056_rank_0001_of_0002.npz"], pieces
     for ranks in (2, 3, 1):
-        again = tmp_path / f"again_{ranks}"
-        shutil.copytree(part, again)
-        args = ["run", "--resume", str(again), "--set", "t_end=0.1", "--no-progress", "--no-frames"]
-        done = run_distributed(ranks, args) if ranks > 1 else subprocess.run(
-            [sys.executable, "-m", "warpfree", *args], capture_output=True, text=True, timeout=900)
-        assert done.returncode == 0, done.stderr[-3000:]
+        again, done = resume_copy(part, tmp_path / f"again_{ranks}", ranks, "0.1")
         assert "resuming from step 56 written by 2 process(es)" in done.stderr
         assert snapshot_differences(full, again) == [], ranks
         assert summary(full)["probes"] == summary(again)["probes"], ranks
+
+
+def resume_copy(part, again, ranks: int, t_end: str):
+    """Copy the interrupted run ``part`` to ``again`` and resume it there to ``t_end`` on ``ranks`` ranks (1: one
+    process, no launcher); the completed process (asserted to have succeeded)."""
+    shutil.copytree(part, again)
+    args = ["run", "--resume", str(again), "--set", f"t_end={t_end}", "--no-progress", "--no-frames"]
+    done = run_distributed(ranks, args) if ranks > 1 else subprocess.run(
+        [sys.executable, "-m", "warpfree", *args], capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-3000:]
+    return again, done
 
 
 #: (scene, settings, stop, end, checkpoint every): the waveguide (PML, a point source: static E and H sets) and the
@@ -129,12 +135,7 @@ def test_a_distributed_run_resumes_bitwise_on_another_rank_count_and_in_one_proc
                                "--out", str(part), "--no-progress", "--no-frames"])
     assert done.returncode == 0, done.stderr[-3000:]
     for ranks in (3, 1):
-        again = tmp_path / f"again_{ranks}"
-        shutil.copytree(part, again)
-        args = ["run", "--resume", str(again), "--set", f"t_end={end}", "--no-progress", "--no-frames"]
-        done = run_distributed(ranks, args) if ranks > 1 else subprocess.run(
-            [sys.executable, "-m", "warpfree", *args], capture_output=True, text=True, timeout=900)
-        assert done.returncode == 0, done.stderr[-3000:]
+        again, done = resume_copy(part, tmp_path / f"again_{ranks}", ranks, end)
         assert "written by 2 process(es)" in done.stderr
         assert snapshot_differences(full, again) == [], ranks
         assert summary(full)["steps"] == summary(again)["steps"], ranks
