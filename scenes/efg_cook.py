@@ -9,8 +9,9 @@ nodes on the bilinear map of a regular grid (``layout="random"``: one random nod
 cells of 2 x 2 Gauss points; variationally consistent integration by default.
 
 Writes ``deformed.png``, VTU of the Gauss points and nodes, and into ``summary.json`` u_y(48, 60) and u_y(48, 52)
-against the reference; with ``refinements`` > 0 the same at that many layouts (4·2^k cells a side) and
-``convergence.png``. The corner (0, 44) where the clamped edge meets a free one carries a stress singularity
+against the reference, with ``checks`` (:func:`cook_checks`); with ``refinements`` > 0 the same at that many layouts
+(4·2^k cells a side) and ``convergence.png`` (u_y(48, 60) by layout against the reference, the relative errors of
+both points below with their tolerances). Lengths, forces and E are in the consistent units of Table 5.2. The corner (0, 44) where the clamped edge meets a free one carries a stress singularity
 (the reference converges at order 1.29 in energy there), so no method converges fast in this problem.
 
 Errors by layout and quadrature: ``bench/results/scene_studies.md``.
@@ -21,15 +22,15 @@ import os
 import numpy as np
 
 from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
-from warpfree.io.frames import plot_series
 from warpfree.run import OutputOptions, StaticRun
 from warpfree.solvers.efg.boundary import Essential, Natural
 from warpfree.galerkin.node_layouts import quadrilateral_nodes
 from warpfree.galerkin.mls import MLSModel, MLSSettings
+from warpfree.io.validation_plots import plot_against_reference
 from warpfree.solvers.efg.plots import plot_deformed
 from warpfree.galerkin.quadrature import polyline_points, quadrilateral_cells, structured_quadrilateral
 from warpfree.solvers.efg.solver import ElasticitySolver
-from warpfree.validation import efg_cook as cook
+from warpfree.validation import efg_cook as cook, tolerance_check
 
 LAYOUTS = ("regular", "random")
 
@@ -73,12 +74,33 @@ def cook_errors(solver: ElasticitySolver) -> dict:
             "strain_energy": solver.strain_energy(), "reference_strain_energy": ref["strain_energy"]}
 
 
+#: where the reference comes from
+REFERENCE = ("Q9 FEM 16²-512², Richardson limit (warpfree/validation/efg_cook/README.md; cross-checked with the "
+             "published CoFEA and 23.96 values there)")
+#: the tolerances on u_y(48, 60) and u_y(48, 52), fractions of the reference
+TOLERANCE = {"uy_48_60": 1e-2, "uy_48_52": 2e-3}
+
+
+def cook_checks(errors: dict) -> dict:
+    """u_y(48, 60) within 1 % and u_y(48, 52) within 0.2 % of the reference (per F = 1, E = 240.565)."""
+    basis = {"uy_48_60": "1 % of the reference: the accuracy asked of EFG at 32 cells a side (1089 nodes); the corner "
+                         "(48, 60) carries a traction jump and converges at order ~1 only (seed 003 reports "
+                         "plots, no accuracy)",
+             "uy_48_52": "0.2 % of the reference: the accuracy asked of EFG at 32 cells a side (1089 nodes) at the "
+                         "loaded edge's middle, away from the corner's traction jump"}
+    return {name: tolerance_check(errors[name], TOLERANCE[name] * abs(errors[f"reference_{name}"]), REFERENCE,
+                                  reference=errors[f"reference_{name}"], basis=basis[name]) for name in TOLERANCE}
+
+
 #: the scene's parameters behind the solver's internal names: an error names what the user set
 NAMES = {"order": "gauss", "support": "cells, d_max"}
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
 SMALLEST = {"cells": 4}
+
+#: ``warpfree validate --quick``: the default layout (1089 nodes, under 2 s), the resolution the tolerances are for
+QUICK = {"cells": 32}
 
 
 def build(cells: int = 32, layout: str = "regular", seed: int = 0, d_max: float = 1.8, gauss: int = 2,
@@ -95,6 +117,7 @@ def build(cells: int = 32, layout: str = "regular", seed: int = 0, d_max: float 
 
     def accuracy(run, out_dir):
         result = {"cook": cook_errors(run.solver)}
+        result["cook"]["checks"] = cook_checks(result["cook"])
         if refinements:
             study = []
             for k in range(refinements):
@@ -102,10 +125,13 @@ def build(cells: int = 32, layout: str = "regular", seed: int = 0, d_max: float 
                 s.solve()
                 study.append(cook_errors(s))
             result["convergence"] = {"levels": study}
-            _plot_convergence(os.path.join(out_dir, "convergence.png"), study)
-        u, _, sig = run.solver.gauss_strain_stress()
-        plot_deformed(os.path.join(out_dir, "deformed.png"), run.solver.cells.position, u, sig, magnify,
-                      "EFG Cook's membrane", (5.0, 5.0))
+            if out_dir is not None:
+                _plot_convergence(os.path.join(out_dir, "convergence.png"), study)
+        if out_dir is not None:
+            u, _, sig = run.solver.gauss_strain_stress()
+            plot_deformed(os.path.join(out_dir, "deformed.png"), run.solver.cells.position, u, sig, magnify,
+                          "EFG Cook's membrane", (5.0, 5.0), stress_unit="Table 5.2 stress unit",
+                          length_unit="Table 5.2 length unit")
         return result
 
     return StaticRun(solver, name="efg_cook", params=params, analyses=[accuracy],
@@ -113,8 +139,13 @@ def build(cells: int = 32, layout: str = "regular", seed: int = 0, d_max: float 
 
 
 def _plot_convergence(path, study):
+    """u_y(48, 60) by layout against the reference (above); both points' relative errors (below), the 1 % line."""
     n = np.array([s["nodes"] for s in study], dtype=np.float64)
-    reference = study[0]["reference_uy_48_60"]
-    plot_series(path, n, {"EFG u_y(48, 60)": [s["uy_48_60"] for s in study],
-                          "Q9 FEM, extrapolated": np.full(n.size, reference)},
-                xlabel="nodes", ylabel="u_y(48, 60) / F", title="Cook's membrane: convergence", logx=True, marker="o")
+    errors = {f"u_y({p[3:5]}, {p[6:]})": np.abs([s[f"{p}_rel_error"] for s in study]) * 100 for p in TOLERANCE}
+    tolerance = {f"tolerance {TOLERANCE[p] * 100:g} % ({label})": TOLERANCE[p] * 100
+                 for p, label in zip(TOLERANCE, errors)}
+    plot_against_reference(path, n, {"EFG": [s["uy_48_60"] for s in study]}, study[0]["reference_uy_48_60"], errors,
+                           tolerance, xlabel="nodes", ylabel="u_y(48, 60) / F (Table 5.2 length / force unit)",
+                           error_label="|u_y / reference − 1| (%)", logx=True, error_logy=True,
+                           title="Cook's membrane: top-corner deflection against the Q9 FEM reference",
+                           reference_label="Q9 FEM, Richardson limit")

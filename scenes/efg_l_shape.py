@@ -5,11 +5,15 @@ u prescribed on the outer sides (Lagrange multipliers), the flux ∂u/∂n on th
 points per node spacing). Regular nodes at spacing 1/``n``, one background cell per node spacing with ``gauss`` x
 ``gauss`` points (None: the basis's, ``warpfree.galerkin.quadrature.CELL_ORDER``), the cubic-spline weight,
 consistent integration (its quadratic form for the quadratic basis). Writes into ``summary.json`` the relative L2
-error (3 x 3 Gauss points on a 40 x 40 grid per unit square) and, with ``refinements`` > 0, the errors at
-spacings 1/(n·2^-k) ... and the rates between them.
+error (3 x 3 Gauss points on a 40 x 40 grid per unit square) and, with ``refinements`` > 0 (2 by default), the
+errors at spacings 1/(n·2^-k) ..., the rates between them, ``checks``: the finest rate against the order 3 of MLS on
+regular nodes (:func:`l_shape_checks`), and ``convergence.png`` (the errors against the order-3 line, the rates
+with the tolerance band below). The domain is the unit-free L of the manufactured case (lengths in its units).
 """
 
 from __future__ import annotations
+
+import os
 
 import numpy as np
 
@@ -19,14 +23,32 @@ from warpfree.galerkin.node_layouts import BYTES_PER_NODE
 from warpfree.galerkin.quadrature import QuadraturePoints, cell_order, rectangle_cells, segment_points
 from warpfree.run import OutputOptions, StaticRun
 from warpfree.solvers.efg.boundary import Essential, Natural
+from warpfree.io.validation_plots import plot_against_reference
 from warpfree.solvers.efg.solver import PoissonSolver
+from warpfree.validation import tolerance_check
 from warpfree.validation.efg_l_shape import OUTER, SQUARES, exact, exact_gradient, source
 
 NAMES = {"cells": "n", "order": "gauss", "support": "n, d_max"}
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
-SMALLEST = {"n": 4}
+SMALLEST = {"n": 4, "refinements": 0}
+
+#: ``warpfree validate --quick``: the default (spacings 1/4, 1/8, 1/16; about 1 s), the rate check's resolution
+QUICK = {"n": 16, "refinements": 2}
+
+#: the L2 order EFG keeps on regular nodes here, and the slack on the finest observed rate
+ORDER, ORDER_TOLERANCE = 3.0, 0.5
+EXACT = "manufactured solution u = sin(1.3x + 0.4) exp(0.7y) (warpfree/validation/efg_l_shape/README.md)"
+
+
+def l_shape_checks(rates: list[float]) -> dict:
+    """The observed L2 rate between the two finest spacings against the order 3 of MLS on regular nodes."""
+    return {"l2_rate": tolerance_check(
+        rates[-1], ORDER_TOLERANCE, EXACT, reference=ORDER,
+        basis="order 3: linear MLS on regular nodes (its minimum is 2) and the quadratic basis (p + 1), with "
+              "consistent integration; ±0.5 for the pre-asymptotic scatter between 1/8 and 1/16 (a rate that "
+              "falls off is a quadrature defect, README)")}
 
 
 def l_shape_solver(n: int, basis: str = "linear", d_max: float = 2.0, gauss: int | None = None) -> PoissonSolver:
@@ -65,7 +87,7 @@ def l2_error(solver: PoissonSolver) -> float:
     return float(np.sqrt(error / norm))
 
 
-def build(n: int = 16, basis: str = "linear", d_max: float = 2.0, gauss: int | None = None, refinements: int = 0,
+def build(n: int = 16, basis: str = "linear", d_max: float = 2.0, gauss: int | None = None, refinements: int = 2,
           frames: bool = True, vtk: bool = True) -> StaticRun:
     """``n``: node spacings per unit length (the L is 2 x 2); ``refinements``: also solve at n/2, n/4, ... (that
     many coarser levels, each a whole number of at least 2) for the rates."""
@@ -91,7 +113,24 @@ def build(n: int = 16, basis: str = "linear", d_max: float = 2.0, gauss: int | N
             errors = [c["l2_error"] for c in coarse] + [result["l2_error"]]
             result["levels"] = coarse
             result["rates"] = np.log2(np.asarray(errors[:-1]) / np.asarray(errors[1:])).tolist()
+            result["checks"] = l_shape_checks(result["rates"])
+            if out_dir is not None:
+                _plot_convergence(os.path.join(out_dir, "convergence.png"), [c["n"] for c in coarse] + [n], errors,
+                                  result["rates"], basis)
         return {"l_shape": result}
 
     return StaticRun(solver, name="efg_l_shape", params=params, analyses=[accuracy],
                      output=OutputOptions(vtk=vtk, frames=frames), reported_as=NAMES)
+
+
+def _plot_convergence(path, ns, errors, rates, basis: str):
+    """Relative L2 error against the spacing with the order-3 line through the finest (above); the rate of each
+    halving, placed at its finer spacing, with the band 3 ± 0.5 (below)."""
+    h = 1.0 / np.asarray(ns, dtype=np.float64)
+    e = np.asarray(errors)
+    rate = np.r_[np.nan, rates]
+    plot_against_reference(path, h, {f"EFG, {basis} basis": e}, e[-1] * (h / h[-1]) ** ORDER, {"observed rate": rate},
+                           ORDER_TOLERANCE, band_center=ORDER, xlabel="node spacing h (length units of the L)",
+                           ylabel="relative L2 error", error_label="rate log2(e(2h) / e(h))", logx=True, logy=True,
+                           title="L-shaped domain: L2 error against the manufactured solution",
+                           reference_label=f"order {ORDER:g}", tolerance_label=f"{ORDER:g} ± {ORDER_TOLERANCE:g}")

@@ -24,8 +24,8 @@ Writes ``lines.png`` (V and |E| along the crossing line x = 1.5 mm against the r
 relative |E| error on the crossing lines, the normal-current mismatch σ1 E_y(below) / σ2 E_y(above) - 1 and the
 tangential-field mismatch along the interface (x in 1.1..1.9 mm), the conductance against the reference, an
 oscillation measure (the total variation of |E| along the crossing line beyond the reference's), and ``checks``: the
-potential, field and normal-current errors against seed 002's accuracy, each with its tolerance and pass/fail
-(:func:`resistor_checks`).
+potential, field, normal-current and tangential-field errors against seed 002's accuracy, each with its tolerance and
+pass/fail (:func:`resistor_checks`).
 
 Errors at the defaults, by basis and interface condition: ``bench/results/scene_studies.md``.
 """
@@ -109,6 +109,12 @@ def interface_fields(solver: PoissonSolver):
     return below["x"][keep], SIGMA[0] * e_below[:, 1] / (SIGMA[1] * e_above[:, 1]) - 1.0, e_below, e_above
 
 
+def tangential_mismatch(e_below: np.ndarray, e_above: np.ndarray) -> np.ndarray:
+    """|E_x(below) - E_x(above)| / |E(above)| at each interface point: the relative error of the field above
+    predicted from below by E1t = E2t (seed 002 §6.2.2, Fig. 6.16)."""
+    return np.abs(e_below[:, 0] - e_above[:, 0]) / np.hypot(e_above[:, 0], e_above[:, 1])
+
+
 def resistor_errors(solver: PoissonSolver) -> dict:
     """Errors against the reference (module docstring)."""
     lines = ref.lines()
@@ -141,6 +147,7 @@ def resistor_errors(solver: PoissonSolver) -> dict:
     out["potential_uniform_max_error_beyond_corners"] = float(err[~near].max())
     x, jn, e_below, e_above = interface_fields(solver)
     out["normal_current_max_mismatch"] = float(np.abs(jn).max())
+    out["tangential_field_mean_mismatch"] = float(np.mean(tangential_mismatch(e_below, e_above)))
     out["normal_current_mean_mismatch"] = float(np.abs(jn).mean())
     middle = (x > 1.4 * MM) & (x < 1.6 * MM)      # farthest from the singular corners
     out["normal_current_middle_mean_mismatch"] = float(np.abs(jn[middle]).mean())
@@ -160,13 +167,29 @@ def resistor_errors(solver: PoissonSolver) -> dict:
 THESIS = "seed 002 §6.2 (warpfree/validation/efg_resistor/README.md)"
 
 
+#: the tolerances of :func:`resistor_checks` and why they are what they are
+TOLERANCES = {
+    "potential_lines_max_error": (2e-3, "V", "0.2 % of the 1 V between the electrodes: the thesis's potential error "
+                                             "(< 0.2 % for every d_max, 721 nodes, §6.2.1)"),
+    "field_crossing_max_rel_error": (0.07, "", "the thesis's largest |E| error on the crossing line (<= 7 % for every "
+                                               "d_max, 721 nodes, §6.2.1, Figs 6.6-6.7)"),
+    "normal_current_mean_mismatch": (1e-3, "", "the thesis's jump-condition error σ1 E1n = σ2 E2n away from the "
+                                               "critical regions ('frequently less than 0.1 %, on average 0.04 %', "
+                                               "§6.2.2, Fig. 6.15): 0.1 % on the mean over x 1.1-1.9 mm"),
+    "tangential_field_mean_mismatch": (1e-3, "", "the thesis's continuity-condition error E1t = E2t away from the "
+                                                 "critical regions (the same 'frequently less than 0.1 %, on average "
+                                                 "0.04 %', §6.2.2, Fig. 6.16): 0.1 % on the mean over x 1.1-1.9 mm")}
+
+
 def resistor_checks(errors: dict) -> dict:
-    """The errors of :func:`resistor_errors` against the thesis's accuracy: potential within 0.2 % of 1 V, |E| on the
-    crossing line within 7 %, the normal current σ E_y continuous across the interface within 0.1 % (mean over
-    x 1.1-1.9 mm, away from the corners, as the thesis's "frequently less than 0.1 %, on average 0.04 %")."""
-    return {"potential_lines_max_error": tolerance_check(errors["potential_lines_max_error"], 2e-3, THESIS),
-            "field_crossing_max_rel_error": tolerance_check(errors["field_crossing_max_rel_error"], 0.07, THESIS),
-            "normal_current_mean_mismatch": tolerance_check(errors["normal_current_mean_mismatch"], 1e-3, THESIS)}
+    """The errors of :func:`resistor_errors` against the thesis's accuracy (:data:`TOLERANCES`): potential within
+    0.2 % of 1 V on the reference lines, |E| on the crossing line within 7 %, the normal current σ E_y and the
+    tangential field E_x continuous across the interface within 0.1 % (means over x 1.1-1.9 mm, away from the
+    corners). The reference is our Q9 FEM solution (the thesis's geometry is lost), so the thesis gives the
+    accuracy, not the numbers."""
+    source = f"Q9 FEM reference, accuracy of {THESIS}"
+    return {name: tolerance_check(errors[name], tol, source, unit=unit, basis=basis)
+            for name, (tol, unit, basis) in TOLERANCES.items()}
 
 
 #: the scene's parameters behind the solver's internal names: an error names what the user set
@@ -176,6 +199,10 @@ NAMES = {"cells": "per_mm", "order": "gauss", "support": "per_mm, d_max", "level
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
 SMALLEST = {"per_mm": 6}
+
+#: ``warpfree validate --quick``: the defaults (7 153 graded nodes, about 4 s): the thesis's accuracy holds for the
+#: interface conditions only at this resolution (0.65 % normal-current mismatch at ``per_mm=6``)
+QUICK = {"per_mm": 40, "corner_levels": 5}
 
 
 def build(per_mm: int = 40, d_max: float = 2.5, weight: str = "cubic_spline", method: str = "lagrange",
@@ -201,25 +228,26 @@ def build(per_mm: int = 40, d_max: float = 2.5, weight: str = "cubic_spline", me
     def accuracy(run, out_dir):
         result = resistor_errors(run.solver)
         result["checks"] = resistor_checks(result)
-        line = ref.lines()["crossing"]
-        v, e = _line_field(run.solver, line)
-        _plot_line(os.path.join(out_dir, "lines.png"), line, v, np.hypot(*e.T), interface_fields(run.solver)[:2],
-                   result["checks"]["normal_current_mean_mismatch"]["tolerance"])
+        if out_dir is not None:
+            line = ref.lines()["crossing"]
+            v, e = _line_field(run.solver, line)
+            x, jn, e_below, e_above = interface_fields(run.solver)
+            _plot_line(os.path.join(out_dir, "lines.png"), line, v, np.hypot(*e.T),
+                       (x, jn, tangential_mismatch(e_below, e_above)))
         return {"resistor": result}
 
     return StaticRun(solver, name="efg_resistor", params=params, analyses=[accuracy],
                      output=OutputOptions(vtk=vtk, frames=frames), reported_as=NAMES)
 
 
-def _plot_line(path, line, v, e, interface, tolerance: float):
-    """The crossing line against the reference (above) and the errors (below): V and |E| along the line, and the
-    normal-current mismatch along the interface with its tolerance."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def _plot_line(path, line, v, e, interface):
+    """The crossing line against the reference (above) and the errors (below, magnitudes on log axes with the
+    tolerances of :data:`TOLERANCES` as dotted lines): V and |E| along the line, and the normal-current and
+    tangential-field mismatches along the interface."""
+    from warpfree.io.validation_plots import draw_bound, new_figure, save_figure
 
-    fig, ((a, b, c), (ea, eb, ec)) = plt.subplots(2, 3, figsize=(13, 6), dpi=110, sharex="col",
-                                                  gridspec_kw={"height_ratios": (3, 2)})
+    fig = new_figure(13.0, 6.0)
+    (a, b, c), (ea, eb, ec) = fig.subplots(2, 3, sharex="col", gridspec_kw={"height_ratios": (3, 2)})
     y = line["y"] / MM
     a.plot(y, line["V"], "k-", lw=1, label="Q9 FEM reference")
     a.plot(y, v, "--", label="EFG")
@@ -227,27 +255,36 @@ def _plot_line(path, line, v, e, interface, tolerance: float):
     b.plot(y, line["E"], "k-", lw=1, label="Q9 FEM reference")
     b.plot(y, e, "--", label="EFG")
     b.set_ylabel("|E| (V/m)")
-    ea.plot(y, (v - line["V"]) * 1e3, "C0-", lw=1)
-    ea.set_ylabel("V − reference (mV)")
-    eb.plot(y, (e / line["E"] - 1.0) * 100, "C0-", lw=1)
-    eb.set_ylabel("|E| / reference − 1 (%)")
+    tol_v = TOLERANCES["potential_lines_max_error"][0]
+    tol_e = TOLERANCES["field_crossing_max_rel_error"][0]
+    ea.semilogy(y, np.abs(v - line["V"]), "C0-", lw=1, label="EFG")
+    draw_bound(ea, tol_v, f"tolerance {tol_v * 1e3:g} mV (0.2 % of 1 V)")
+    ea.set_ylabel("|V − reference| (V)")
+    eb.semilogy(y, np.abs(e / line["E"] - 1.0) * 100, "C0-", lw=1, label="EFG")
+    draw_bound(eb, tol_e * 100, f"tolerance {tol_e * 100:g} %")
+    eb.set_ylabel("| |E| / reference − 1 | (%)")
     for ax in (ea, eb):
         ax.set_xlabel("y (mm), x = 1.5 mm")
     for ax in (a, b, ea, eb):
         ax.axvline(1.0, color="0.7", lw=0.8)
-    for ax in (a, b):
+    for ax in (a, b, ea, eb):
         ax.legend(fontsize=7)
-    x, jn = interface
+    x, jn, jt = interface
+    tol_n = TOLERANCES["normal_current_mean_mismatch"][0]
+    tol_t = TOLERANCES["tangential_field_mean_mismatch"][0]
     c.axis("off")
-    c.text(0.0, 0.5, f"normal current σ1 E_y(below) / σ2 E_y(above) − 1\nalong the interface y = 1 mm:\n"
-                     f"mean |·| {np.abs(jn).mean() * 100:.3f} %, largest {np.abs(jn).max() * 100:.3f} %\n"
-                     f"tolerance (mean) {tolerance * 100:g} %", fontsize=9, va="center", transform=c.transAxes)
-    ec.plot(x / MM, jn * 100, "C0-", lw=1, label="EFG")
-    ec.axhspan(-tolerance * 100, tolerance * 100, color="C2", alpha=0.2, label=f"±{tolerance * 100:g} %")
+    c.text(0.0, 0.5, f"along the interface y = 1 mm, x 1.1-1.9 mm:\n"
+                     f"normal current |σ1 E_y(below) / σ2 E_y(above) − 1|:\n"
+                     f"  mean {np.abs(jn).mean() * 100:.3f} %, largest {np.abs(jn).max() * 100:.3f} %, "
+                     f"tolerance (mean) {tol_n * 100:g} %\n"
+                     f"tangential field |E_x(below) − E_x(above)| / |E(above)|:\n"
+                     f"  mean {jt.mean() * 100:.3f} %, largest {jt.max() * 100:.3f} %, "
+                     f"tolerance (mean) {tol_t * 100:g} %", fontsize=9, va="center", transform=c.transAxes)
+    ec.semilogy(x / MM, np.abs(jn) * 100, "C0-", lw=1, label="normal current")
+    ec.semilogy(x / MM, jt * 100, "C1-", lw=1, label="tangential field")
+    draw_bound(ec, tol_n * 100, f"tolerance of the means {tol_n * 100:g} %")
     ec.set_xlabel("x (mm), y = 1 mm")
-    ec.set_ylabel("normal-current mismatch (%)")
+    ec.set_ylabel("interface mismatch (%)")
     ec.legend(fontsize=7)
     fig.suptitle("Two-material resistor against the Q9 FEM reference")
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    save_figure(fig, path)

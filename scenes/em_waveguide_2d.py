@@ -6,8 +6,9 @@ y = 0, s(t) = sin(2π f t) with f = 1.2 × the TM1 cutoff (359.8 MHz), switched 
 once, as the thesis). The thesis drove the line uniformly (its profile is not given); the TM1 profile makes the
 exact solution a single mode, Ez = E0 sin(πx/a) u(y, t), u evaluated by Fourier transform
 (``warpfree/validation/em_waveguide_2d``). Compared at t = 4.1 ns along the column nearest x = 0.244 m, outside
-the PML (the thesis: mean error 0.39 % at 80 particles per wavelength). Writes ``waveguide.png`` and the mean
-and largest error, relative to E0, into ``summary.json``.
+the PML (the thesis: mean error 0.39 % at 80 particles per wavelength). Writes ``waveguide.png`` (Ez over the
+exact field, and below it Ez − exact with the tolerance) and the mean and largest error, relative to E0, into
+``summary.json``, the mean checked against the thesis's 0.39 % (:func:`waveguide_checks`).
 
 Model: E at the lattice nodes, H in Yee's staggering (Hx and Hy at the midpoints of the cell sides,
 ``warpfree/solvers/spem/layouts.py``), Δ = λ0/``particles_per_wavelength`` (λ0 = c/f = 0.833 m), the
@@ -26,12 +27,27 @@ from warpfree.errors import ParameterError, reported_as, require_positive
 from warpfree.run import OutputOptions
 from warpfree.solvers.spem import C0, PML, Source, SPEMModel, SPEMSolver, Waveform, staggered_box
 from warpfree.time_loop import TimeLoop
+from warpfree.validation import tolerance_check
 from warpfree.validation.em_waveguide_2d import cutoff_frequency, tm1_field
 
 
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
 SMALLEST = {"particles_per_wavelength": 20, "t_end": 1.64e-9}
+#: ``warpfree validate --quick``: the default run (about 2 s) at half the thesis's density (literal values only)
+QUICK = {}
+
+#: where the reference and the tolerance come from
+SOURCE = "exact TM1 signalling solution, seed 000 §4.4 (warpfree/validation/em_waveguide_2d/README.md)"
+
+
+def waveguide_checks(result: dict) -> dict:
+    """The thesis's accuracy (§4.4): mean |Ez - exact| / E0 along the line outside the PML below 0.39 %, which it
+    reached at 80 particles per wavelength, required here at the scene's 40 and above. The largest error is
+    reported, not checked (the thesis states none)."""
+    basis = ("the thesis's mean error 0.39 % at 80 particles per wavelength, required at 40 "
+             "(tests/spem/test_spem.py)")
+    return {"mean_error": tolerance_check(result["mean_error"], 3.9e-3, SOURCE, basis=basis)}
 
 
 def build(width: float = 0.5, length: float = 0.4, pml_thickness: float = 0.1, frequency_ratio: float = 1.2,
@@ -76,11 +92,15 @@ def build(width: float = 0.5, length: float = 0.4, pml_thickness: float = 0.1, f
         y = e[column, 1]
         exact = amplitude * math.sin(math.pi * column_x / width) * tm1_field(y, t_e, width, waveform, frequency)
         err = np.abs(ez - exact) / amplitude
-        _plot(os.path.join(out_dir, "waveguide.png"), y, ez, exact, column_x, t_e)
-        return {"waveguide": {"mean_error": float(np.mean(err)), "max_error": float(np.max(err)),
-                              "line_x": float(column_x), "frequency": frequency, "spacing": spacing,
-                              "particles_per_wavelength": C0 / frequency / spacing, "dt": dt,
-                              "courant": dt / s.stable_dt(), "time_of_ez": t_e}}
+        result = {"mean_error": float(np.mean(err)), "max_error": float(np.max(err)),
+                  "line_x": float(column_x), "frequency": frequency, "spacing": spacing,
+                  "particles_per_wavelength": C0 / frequency / spacing, "dt": dt,
+                  "courant": dt / s.stable_dt(), "time_of_ez": t_e}
+        result["checks"] = waveguide_checks(result)
+        if out_dir is not None:
+            _plot(os.path.join(out_dir, "waveguide.png"), y, ez, exact, column_x, t_e, amplitude,
+                  result["checks"]["mean_error"])
+        return {"waveguide": result}
 
     run = TimeLoop(solver, t_end=t_end, output_interval=output_interval, name="em_waveguide_2d", params=params,
                     analyses=[waveguide_analysis],
@@ -90,8 +110,18 @@ def build(width: float = 0.5, length: float = 0.4, pml_thickness: float = 0.1, f
     return run
 
 
-def _plot(path, y, ez, exact, x, t):
-    from warpfree.io.frames import plot_series
+def _plot(path, y, ez, exact, x, t, amplitude, check):
+    """Ez and the exact TM1 field along the column (above), Ez − exact with the tolerance on its mean |error|,
+    the check's fraction of E0 in V/m (below)."""
+    from warpfree.solvers.spem.plots import plot_profile_check
 
-    plot_series(path, None, {"SPEM Ez": (y, ez), "exact TM1": (y, exact)}, xlabel="y (m)", ylabel="Ez (V/m)",
-                title=f"Waveguide, x = {x:.3f} m, t = {t * 1e9:.2f} ns")
+    tolerance, mean = check["tolerance"] * amplitude, check["value"] * amplitude
+    plot_profile_check(path, y, ez, exact, xlabel="y (m)", ylabel="Ez (V/m)", error_ylabel="Ez − exact (V/m)",
+                       title=f"Parallel-plate waveguide, TM1: SPEM against the exact field along x = {x:.3f} m, "
+                             f"t = {t * 1e9:.2f} ns",
+                       computed_label="SPEM Ez (E particles)", exact_label="exact TM1 (Fourier integral)",
+                       tolerance=tolerance,
+                       tolerance_label=f"tolerance on the mean |error|: {check['tolerance']:.2%} of E0 "
+                                       f"= {tolerance:.2g} V/m",
+                       pointwise=False, measure=mean,
+                       measure_label=f"mean |error| = {check['value']:.3%} of E0 = {mean:.2g} V/m")

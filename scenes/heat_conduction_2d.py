@@ -21,6 +21,9 @@ from warpfree.time_loop import TimeLoop
 #: bench/compare_commits.py run it (literal values only)
 SMALLEST = {"n": 16, "t_end": 2.0, "output_interval": 0.25}
 
+#: ``warpfree validate --quick``: 20 particles per wavelength (the tolerance's basis: ``rate_tolerance``)
+QUICK = {"n": 20}
+
 
 def build(n: int = 40, length: float = 1.0, alpha: float = 0.01, mode: int = 1, amplitude: float = 1.0,
           t_end: float = 2.5, output_interval: float = 0.05, frames: bool = True, vtk: bool = True) -> TimeLoop:
@@ -50,18 +53,54 @@ def build(n: int = 40, length: float = 1.0, alpha: float = 0.01, mode: int = 1, 
         a = np.asarray(run.series["amplitude"])
         exact = amplitude * np.exp(-alpha * k * k * t)
         rate = -np.polyfit(t, np.log(a), 1)[0]
-        _plot(os.path.join(out_dir, "decay.png"), t, a, exact)
-        return {"decay": {"rate": rate, "exact_rate": alpha * k * k,
-                          "rate_rel_error": rate / (alpha * k * k) - 1.0,
-                          "max_amplitude_error": float(np.max(np.abs(a - exact)) / amplitude)}}
+        heat = np.asarray(run.diag_series["heat_content"], dtype=np.float64)
+        res = {"rate": rate, "exact_rate": alpha * k * k, "rate_rel_error": rate / (alpha * k * k) - 1.0,
+               "max_amplitude_error": float(np.max(np.abs(a - exact)) / amplitude),
+               "heat_content_drift": float(np.max(np.abs(heat / heat[0] - 1.0)))}
+        rate_tol = rate_tolerance(n / mode)
+        amp_tol = rate_tol * float(np.max(alpha * k * k * t * np.exp(-alpha * k * k * t)))
+        res["checks"] = decay_checks(res, rate_tol, amp_tol, n / mode)
+        if out_dir is not None:
+            _plot(os.path.join(out_dir, "decay.png"), t, a, exact, amplitude, amp_tol)
+        return {"decay": res}
 
     return TimeLoop(solver, t_end=t_end, output_interval=output_interval, name="heat_conduction_2d", params=params,
                     probes={"amplitude": sine_amplitude}, analyses=[decay_analysis],
                     output=OutputOptions(vtk=vtk, frames=frames, frame_bounds=((0, length), (0, length))))
 
 
-def _plot(path, t, a, exact):
-    from warpfree.io.frames import plot_series
+SOURCE = "the exact decay T0 + A exp(-α k² t) sin(kx) of the heat equation; warpfree/validation/heat_conduction_2d/README.md"
 
-    plot_series(path, t, {"warpfree SPH": a}, xlabel="t (s)", ylabel="amplitude (K)",
-                title="Heat conduction: decay of a sine mode", reference={"exp(-α k² t)": (t, exact)})
+
+def rate_tolerance(per_wavelength: float) -> float:
+    """The check's bound on the decay rate's relative error: 0.2 % at 40 particles per wavelength, second order in the
+    spacing, 2e-3 (40 / per_wavelength)²."""
+    return 2.0e-3 * (40.0 / per_wavelength) ** 2
+
+
+def decay_checks(res: dict, rate_tol: float, amp_tol: float, per_wavelength: float) -> dict:
+    """The decay rate's relative error, the largest amplitude error (of A) and the heat content's drift."""
+    from warpfree.validation import tolerance_check
+
+    return {
+        "rate_rel_error": tolerance_check(
+            res["rate_rel_error"], rate_tol, SOURCE,
+            basis=f"0.2 % at 40 particles per wavelength (4x the measured +0.05 %), second order in the spacing (the "
+                  f"amplitude error falls 4.0x per halving): {rate_tol:.3g} at {per_wavelength:g} per wavelength"),
+        "amplitude_error_max": tolerance_check(
+            res["max_amplitude_error"], amp_tol, SOURCE, unit="A",
+            basis="the amplitude error a decay rate off by the rate check's tolerance ε makes over the run: "
+                  "max_t ε α k² t exp(-α k² t) (<= ε/e)"),
+        "heat_content_drift": tolerance_check(
+            res["heat_content_drift"], 1.0e-6, "conservation of heat, Σ V T (exact: the pair exchange is antisymmetric)",
+            basis="float32 round-off of T ≈ 300 K summed over the particles and steps (measured < 1e-6)"),
+    }
+
+
+def _plot(path, t, a, exact, amplitude, amp_tol):
+    from warpfree.io.validation_plots import plot_series_check
+
+    plot_series_check(path, t, a, exact, (a - exact) / amplitude, amp_tol, computed_label="warpfree SPH",
+                      reference_label="exact A exp(-α k² t)", xlabel="t (s)", ylabel="sine-mode amplitude (K)",
+                      error_label="(computed − exact) / A", title="Heat conduction: decay of a sine mode against the "
+                      "exact decay", tolerance_label=f"tolerance ±{amp_tol:.3g} A")

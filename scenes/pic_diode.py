@@ -13,9 +13,9 @@ half of the run, evaluated along y, against the steady monotone profile (``warpf
 Γ / sqrt(v0² + 2φ)), the anode current against the injected one, and the charge balance (in the box = injected -
 absorbed). Steady beam-through states exist up to Γ_max (``beam_through_limit``, reported over Γ_CL; 1.112 Γ_CL at
 v0 = 0.05, V = 1); above it a virtual cathode turns part of the beam back: the scene reports the transmitted and
-returned currents. Writes ``history.csv``, ``energy.png``,
-``profile.png`` (mean potential and the reference along y), ``phase_space.png`` (y, v_y at the end), particle
-frames and VTU.
+returned currents. Writes ``history.csv``, ``energy.png`` (with the charge
+balance), ``profile.png`` (mean potential and the reference along y, and their difference), ``phase_space.png``
+(y, v_y at the end), particle frames coloured by speed and VTU.
 """
 
 import math
@@ -24,12 +24,13 @@ import os
 import numpy as np
 
 from warpfree.errors import reported_as, require_integer, require_positive
-from warpfree.io.frames import plot_series
 from warpfree.run import OutputOptions
 from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.solvers.pic import Injection, PICSolver, PlasmaPoisson, Species
-from warpfree.solvers.pic.scene_tools import POTENTIAL_FRAMES, lattice_nodes, plot_history, walled_box, write_history
+from warpfree.solvers.pic.scene_tools import (POTENTIAL_FRAMES, lattice_nodes, plot_history, plot_profile, walled_box,
+                                              write_history)
 from warpfree.time_loop import TimeLoop
+from warpfree.validation import tolerance_check
 from warpfree.validation.pic_diode import beam_through_limit, child_langmuir_flux, steady_potential
 
 
@@ -37,6 +38,16 @@ from warpfree.validation.pic_diode import beam_through_limit, child_langmuir_flu
 #: bench/compare_commits.py run it (literal values only)
 SMALLEST = {"node_spacing": 0.0625, "width": 0.5, "particles_per_step": 20.0, "t_end": 0.6,
             "output_every": 5}
+
+#: ``warpfree validate --quick``: the default (32 node spacings across the gap, t = 20; about 15 s on 2 cores), VTU
+#: and frames off
+QUICK = {"t_end": 20.0}
+
+#: the mean potential's largest error over V at 32 node spacings across the gap (tests/pic/test_pic_diode.py:
+#: measured 4.4e-5 there, 2.4e-4 at 16 spacings, 2.2e-5 at 64)
+POTENTIAL_TOLERANCE = 2e-4
+#: the charge balance (in the box = injected - absorbed) holds to round-off (float64 tallies)
+BALANCE_TOLERANCE = 1e-11
 
 
 def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5, injection_speed: float = 0.1,
@@ -88,26 +99,57 @@ def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5
                                                                   / child_langmuir_flux(voltage, gap)),
                   "charge_balance_error": float(np.max(np.abs(balance)) / max(abs(h["injected_charge"][-1]), 1e-300)),
                   "particles": s.count, "nodes": model.node_count}
-        curves = {"PIC (mean over the second half)": (y, mean)}
-        reference = None
+        ref = None
         try:
             ref = steady_potential(y, flux, v0, voltage, gap)
         except ValueError as exc:  # above the space-charge limit: no steady monotone profile
             result["reference"] = str(exc)
         else:
-            reference = {"steady beam (Child–Langmuir–Jaffé)": (y[::4], ref[::4])}
             result["potential_max_error"] = float(np.max(np.abs(mean - ref)) / voltage)
-        write_history(os.path.join(out_dir, "history.csv"), h)
-        plot_history(out_dir, h, None, s)
-        plot_series(os.path.join(out_dir, "profile.png"), None, curves, reference=reference, xlabel="y",
-                    ylabel="potential", title=f"diode at Γ = {injected_fraction:g} Γ_CL")
-        values = s.particle_values()
-        p, v = values["position"], values["velocity"]
-        plot_series(os.path.join(out_dir, "phase_space.png"), None, {}, reference={"electrons": (p[:, 1], v[:, 1])},
-                    xlabel="y", ylabel="v_y", title=f"phase space at t = {s.t:.3g}")
+        result["checks"] = diode_checks(result)
+        if out_dir is not None:
+            write_history(os.path.join(out_dir, "history.csv"), h)
+            plot_history(out_dir, h, s, BALANCE_TOLERANCE, f"± {BALANCE_TOLERANCE:g} (round-off)",
+                         below={"values": balance / max(abs(h["injected_charge"][-1]), 1e-300),
+                                "label": "(Q_box - Q_injected + Q_absorbed) / Q_injected(end)",
+                                "ylabel": "charge balance error", "title": "the charge balance",
+                                "xlabel": "t (normalised: ε0 = e = m_e = 1)"})
+            plot_profile(os.path.join(out_dir, "profile.png"), y, mean, ref, voltage, POTENTIAL_TOLERANCE,
+                         f"± {POTENTIAL_TOLERANCE:g} (the tolerance at 32 node spacings)",
+                         f"diode at Γ = {injected_fraction:g} Γ_CL: mean potential against the steady beam")
+            _phase_space(os.path.join(out_dir, "phase_space.png"), s)
         return {"diode": result}
 
     return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, name="pic_diode",
                     params=params, analyses=[diode_analysis],
-                    output=OutputOptions(vtk=vtk, frames=frames, extra_frames=POTENTIAL_FRAMES,
+                    output=OutputOptions(vtk=vtk, frames=frames, frame_field="speed", extra_frames=POTENTIAL_FRAMES,
                                          frame_bounds=((0.0, width), (0.0, gap))))
+
+
+def diode_checks(result: dict) -> dict:
+    """The validated quantities: below the space-charge limit the mean potential against the steady beam, the
+    transmitted current (all of it); in every case the charge balance."""
+    checks = {"charge_balance_error": tolerance_check(
+        result["charge_balance_error"], BALANCE_TOLERANCE, "exact: charge in the box = injected - absorbed",
+        basis="float64 round-off of the injection and wall tallies (tests/pic/test_pic_diode.py)")}
+    if "potential_max_error" in result:
+        source = ("steady beam equations φ'' = Γ / sqrt(v0² + 2φ) (Child 1911, Langmuir 1913, Jaffé 1944; "
+                  "warpfree/validation/pic_diode)")
+        checks["potential_max_error"] = tolerance_check(
+            result["potential_max_error"], POTENTIAL_TOLERANCE, source,
+            basis="the EFG solve's error at 32 node spacings across the gap (measured 4.4e-5; 2.4e-4 at 16)")
+        checks["anode_over_injected"] = tolerance_check(
+            result["anode_over_injected"], 1e-6, source + ": a beam-through state passes the whole beam",
+            reference=1.0, basis="the fitted slope of the anode tally over the second half: round-off of a "
+                                 "steady, fully transmitted beam")
+    return checks
+
+
+def _phase_space(path, solver):
+    """phase_space.png: the electrons' (y, v_y) at the end of the run."""
+    from warpfree.io.frames import plot_series
+
+    values = solver.particle_values()
+    p, v = values["position"], values["velocity"]
+    plot_series(path, None, {}, reference={"electrons": (p[:, 1], v[:, 1])}, xlabel="y (normalised length)",
+                ylabel="v_y (normalised speed)", title=f"phase space at t = {solver.t:.3g}")

@@ -10,6 +10,7 @@ import json
 import os
 import shutil
 import sys
+import time
 
 from . import __version__
 from .errors import ParameterError, RunError
@@ -20,9 +21,10 @@ from .scene_loader import load_scene, parse_overrides, scene_parameters, scene_p
 DESCRIPTION = """warpfree: meshfree particle methods (WCSPH fluids, SPEM, EFG, PIDC) as NVIDIA Warp kernels.
 
 Commands:
-  list    the scenes shipped with warpfree, one line each
-  run     run a scene: a shipped scene's name or a path to a scene file (a Python module with build(**params)
-          returning a TimeLoop or StaticRun)
+  list      the scenes shipped with warpfree, one line each
+  run       run a scene: a shipped scene's name or a path to a scene file (a Python module with build(**params)
+            returning a TimeLoop or StaticRun)
+  validate  run every validation case (--quick: at a short size) and print and write its table of checks
 
 Example:
   warpfree run dam_break_2d --set dx=0.02 --out runs/db --threads 2
@@ -35,6 +37,11 @@ already holds files is refused unless --overwrite replaces the earlier run in it
 keeps checkpoints, and --resume DIR continues such a run (bitwise the same as an uninterrupted one). Under
 mpiexec -n N the scene runs over N ranks (one process each: pip install 'warpfree[mpi]'), with the same
 results as one process; each rank writes its piece of every snapshot (a .pvtu joins them), rank 0 the rest."""
+
+VALIDATE_HELP = """Run every validation case (a shipped scene with a reference: its checks compare computed
+quantities with exact solutions, experiments or published results, each with a tolerance and its source) at its
+default size, or with --quick at a short one. Prints each check as PASS or FAIL and writes validation.json and
+validation.md into --out. Exit code 0 when every check passed, 1 when one failed."""
 
 #: parameters a resumed run may change: they move the end, not the model
 RESUMABLE = ("t_end",)
@@ -66,6 +73,16 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--resume", default=None, metavar="DIR", help="continue the run in DIR from its last checkpoint")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     run.add_argument("--list", action="store_true", help="list the scene's parameters, types and defaults, then exit")
+    check = sub.add_parser("validate", help="run the validation cases and tabulate their checks",
+                           description=VALIDATE_HELP)
+    check.add_argument("--quick", action="store_true", help="each case at its short QUICK settings")
+    check.add_argument("--scenes", default=None, metavar="A,B", help="only these cases (default: all)")
+    check.add_argument("--out", default=None, help="directory for the cases' runs and the tables "
+                                                   "(default: runs/validate or runs/validate_quick)")
+    check.add_argument("--overwrite", action="store_true", help="replace an earlier validation in --out")
+    check.add_argument("--table", default=None, metavar="FILE", help="also write the Markdown table to FILE")
+    check.add_argument("--threads", type=int, default=None, help="CPU threads (default: all cores)")
+    check.add_argument("--device", default="cpu", help="cpu (default), cuda or cuda:N")
     return parser
 
 
@@ -79,7 +96,8 @@ def list_command() -> int:
 
 
 def run_command(args) -> int:
-    from . import device
+    started = time.perf_counter()  # the run's set-up starts here: loading the scene and Warp, building it
+    from . import device, progress
     from .run import build_scene
     from .time_loop import TimeLoop
 
@@ -115,11 +133,12 @@ def run_command(args) -> int:
         out_dir = args.out or os.path.join("runs", os.path.splitext(os.path.basename(scene_file))[0])
         require_fresh(out_dir, args.overwrite)
     ranks = world()
+    progress.enable(not args.no_progress and ranks.is_root)
     ranks.barrier()  # every rank has looked at the run directory before rank 0 writes in it
     if ranks.is_root:
         require_writable(out_dir)
     device.use(*rank_device(args.device, args.threads, ranks))
-    run = build_scene(module, overrides)
+    run = build_scene(module, overrides, started)
     checkpoint_every = meta.get("checkpoint_every") if args.resume else args.checkpoint_every
     if checkpoint_every is not None:
         if not isinstance(run, TimeLoop):
@@ -148,6 +167,33 @@ def run_command(args) -> int:
     return 0
 
 
+def validate_command(args) -> int:
+    from . import device
+    from .run import write_json
+    from .validate import markdown_table, run_cases
+
+    out_dir = args.out or os.path.join("runs", "validate_quick" if args.quick else "validate")
+    require_fresh(out_dir, args.overwrite, marker="validation.json")
+    require_writable(out_dir)
+    if args.table:
+        require_writable(os.path.dirname(os.path.abspath(args.table)))
+    device.use(args.device, args.threads)
+    names = [n.strip() for n in args.scenes.split(",") if n.strip()] if args.scenes else None
+    if args.overwrite:
+        clear_run_directory(out_dir)
+    report = run_cases(names, args.quick, out_dir)
+    table = markdown_table(report)
+    write_json(os.path.join(out_dir, "validation.json"), report)
+    for path in [os.path.join(out_dir, "validation.md")] + ([args.table] if args.table else []):
+        with open(path, "w") as f:
+            f.write(table)
+    checks = [c for case in report["cases"] if case["validation"] for c in case["validation"]["checks"].values()]
+    failed = sum(not c["passed"] for c in checks) + sum(not case["validation"] for case in report["cases"])
+    print(f"validation: {len(report['cases'])} cases, {len(checks)} checks, "
+          f"{'all passed' if report['passed'] else f'{failed} FAILED'}; tables in {out_dir}")
+    return 0 if report["passed"] else 1
+
+
 def rank_device(device_name: str, threads: int | None, ranks) -> tuple[str, int | None]:
     """The device and CPU threads of this rank: in a distributed run each rank takes its share of the cores (at
     least one), and ``cuda`` the rank's GPU in turn (rank mod the GPUs)."""
@@ -166,22 +212,44 @@ def rank_device(device_name: str, threads: int | None, ranks) -> tuple[str, int 
 
 def print_summary(summary: dict, out_dir: str) -> None:
     rate = summary["throughput"]
-    done = (f"{summary['steps']} steps to t = {summary['time']:.4g} {summary.get('time_unit', 's')}"
-            if "steps" in summary else "solved")
-    print(f"{summary['scene']}: {done} in {summary['wall_s']:.1f} s"
+    done = f"{summary['steps']} steps to t = {_sim_time(summary)}" if "steps" in summary else "solved"
+    print(f"{summary['scene']}: {done} in {_times(summary)}"
           + (f", {rate['value']:,.0f} {rate['unit']}" if rate["value"] else "")
           + f" on {summary['device']} x{summary['threads']}")
-    checks = []
     for key, val in summary.get("analysis", {}).items():
         if isinstance(val, dict):
             for k2, v2 in val.items():
-                if isinstance(v2, (int, float)):
+                if isinstance(v2, (int, float)) and not isinstance(v2, bool):
                     print(f"  {key}.{k2} = {v2:.4g}")
-            checks += [(f"{key}.{k2}", c) for k2, c in val.get("checks", {}).items()]
-    for name, c in checks:          # validation.tolerance_check records, last so that they are seen
-        print(f"  {'PASS' if c['passed'] else 'FAIL'} {name} = {c['value']:.4g} (reference {c['reference']:.4g}, "
-              f"tolerance {c['tolerance']:.4g}; {c['source']})")
+    validation = summary.get("validation")
+    if validation:                  # last, so that they are seen
+        from .validation import check_lines
+
+        for line in check_lines(validation):
+            print(f"  {line}")
+        print(f"  validation: {'passed' if validation['passed'] else 'FAILED'} "
+              f"({sum(c['passed'] for c in validation['checks'].values())}/{len(validation['checks'])} checks)")
     print(f"outputs in {out_dir}")
+
+
+def _sim_time(summary: dict) -> str:
+    """The simulated time reached, in the progress bar's unit (``4.75 ns``, ``0.8 s``, ``25.13 /ω_pe``)."""
+    from .progress import time_scale
+
+    factor, unit = time_scale(summary.get("t_end", summary["time"]), summary.get("time_unit", "s"))
+    return f"{summary['time'] / factor:.4g} {unit}"
+
+
+def _times(summary: dict) -> str:
+    """``229.0 s (set-up 102.0 s, run 123.8 s)``: the whole wall time, then its parts (set-up: loading and building
+    the scene; run: stepping or solving and writing; analysis when it took a tenth of a second or more)."""
+    phases = summary.get("phases_s", {})
+    setup, run_s = phases.get("setup", 0.0), summary["wall_s"]
+    analysis = phases.get("analysis", 0.0)
+    total = summary.get("total_s", setup + run_s + analysis)
+    parts = [f"set-up {setup:.1f} s", f"run {run_s:.1f} s"] + ([f"analysis {analysis:.1f} s"] if analysis >= 0.1
+                                                                 else [])
+    return f"{total:.1f} s ({', '.join(parts)})"
 
 
 def read_meta(run_dir: str) -> dict:
@@ -213,9 +281,10 @@ def resume_overrides(pairs: list[str], previous: dict, module) -> dict:
     return changes
 
 
-def require_fresh(out_dir: str, overwrite: bool) -> None:
+def require_fresh(out_dir: str, overwrite: bool, marker: str = RUN_JSON) -> None:
     """Refuse, naming --out, a run directory that already holds files, unless ``overwrite`` is given and it is a
-    warpfree run directory (then it is cleared once the scene has built: :func:`clear_run_directory`)."""
+    warpfree directory (it holds ``marker``; then it is cleared once the scene has built:
+    :func:`clear_run_directory`)."""
     if not os.path.isdir(out_dir) or not os.listdir(out_dir):
         if os.path.exists(out_dir) and not os.path.isdir(out_dir):
             raise ParameterError("--out", f"{out_dir} is a file, not a directory")
@@ -223,9 +292,9 @@ def require_fresh(out_dir: str, overwrite: bool) -> None:
     if not overwrite:
         raise ParameterError("--out", f"{out_dir} already holds files (an earlier run?): give --overwrite to replace "
                                       "that run, --resume to continue it, or another --out")
-    if not os.path.isfile(os.path.join(out_dir, RUN_JSON)):
+    if not os.path.isfile(os.path.join(out_dir, marker)):
         raise ParameterError("--overwrite", f"{out_dir} holds files but is not a warpfree run directory (no "
-                                            f"{RUN_JSON}): nothing is removed; choose another --out")
+                                            f"{marker}): nothing is removed; choose another --out")
 
 
 def clear_run_directory(out_dir: str) -> None:
@@ -264,12 +333,18 @@ def main(argv: list[str] | None = None) -> int:
             return list_command()
         if args.command == "run":
             return run_command(args)
+        if args.command == "validate":
+            return validate_command(args)
     except ParameterError as err:
         _say(f"warpfree: error: {err}")
         return 2
     except RunError as err:
         _say(f"warpfree: run stopped: {err}")
         return 3
+    finally:
+        from .progress import enable
+
+        enable(False)  # a run's announcements end with it (main is also called in-process, by tests)
     parser.print_help()
     return 0
 

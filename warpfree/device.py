@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import importlib
 import os
+import sys
+import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
@@ -22,17 +24,59 @@ from contextlib import contextmanager
 import warp as wp
 
 from .errors import ParameterError, require_integer
+from .progress import announce
 
 _initialised = False
+#: what Warp's native library said about CUDA while it initialised (e.g. no driver found), kept for a run that asks
+#: for a GPU: a CPU run prints none of it
+_cuda_notes: list[str] = []
 
 
 def init_warp() -> None:
-    """Initialise Warp once, configured as :mod:`warpfree.kernels` configures it (quiet, no gradient kernels)."""
+    """Initialise Warp once, configured as :mod:`warpfree.kernels` configures it (quiet, no gradient kernels).
+
+    Warp's native library looks for the CUDA driver as it initialises and, on a machine without one, writes
+    ``Warp CUDA warning: Could not find or load the NVIDIA CUDA driver ...`` straight to file descriptor 2 (no Warp
+    setting silences it: ``wp.config.log_level`` governs only Warp's Python messages). Those ``Warp CUDA`` lines are
+    caught here and kept: a CPU run never needs CUDA, and :func:`resolve_device` puts them into the error of a run
+    that asks for ``cuda`` (or prints them when a GPU was found all the same). Anything else Warp writes there
+    passes through."""
     global _initialised
     if not _initialised:
         importlib.import_module("warpfree.kernels")  # Warp's configuration
-        wp.init()
+        said = _captured_stderr(wp.init)
         _initialised = True
+        notes = [line for line in said.splitlines() if line.startswith("Warp CUDA")]
+        _cuda_notes[:] = notes
+        rest = "".join(line + "\n" for line in said.splitlines() if line and line not in notes)
+        if rest:
+            sys.stderr.write(rest)
+            sys.stderr.flush()
+
+
+def _captured_stderr(function) -> str:
+    """Call ``function()`` with file descriptor 2 sent to a temporary file (native code writes there, past
+    ``sys.stderr``); return what was written. The descriptor is restored whatever happens."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with tempfile.TemporaryFile(mode="w+b") as sink:
+            os.dup2(sink.fileno(), 2)
+            try:
+                function()
+            finally:
+                sys.stderr.flush()
+                os.dup2(saved, 2)
+            sink.seek(0)
+            return sink.read().decode("utf-8", errors="replace")
+    finally:
+        os.close(saved)
+
+
+def cuda_notes() -> list[str]:
+    """What Warp said about CUDA when it initialised (empty when it found a driver and said nothing)."""
+    init_warp()
+    return list(_cuda_notes)
 
 
 def resolve_device(name: str | None = None) -> str:
@@ -43,11 +87,22 @@ def resolve_device(name: str | None = None) -> str:
     if not str(name).startswith("cuda"):
         raise ParameterError("device", f"must be 'cpu', 'cuda' or 'cuda:N', got {name!r}")
     if not wp.is_cuda_available():
-        raise ParameterError("device", f"{name!r} was asked for but no CUDA device is present; use 'cpu'")
+        why = f" (Warp: {'; '.join(_without_prefix(n) for n in _cuda_notes)})" if _cuda_notes else ""
+        raise ParameterError("device", f"{name!r} was asked for but no CUDA device is present{why}; use 'cpu'")
+    for note in _cuda_notes:  # a GPU run is told what Warp said about its driver
+        print(note, file=sys.stderr)
+    _cuda_notes.clear()
     try:
         return str(wp.get_device(name))
     except Exception as exc:  # unknown ordinal
         raise ParameterError("device", f"{name!r} is not a CUDA device here ({exc})") from None
+
+
+def _without_prefix(note: str) -> str:
+    """A Warp CUDA line without its ``Warp CUDA warning:`` / ``Warp CUDA error:`` label."""
+    head, sep, tail = note.partition(": ")
+    text = tail if sep and head.startswith("Warp CUDA") else note
+    return text.strip().rstrip(".")
 
 
 def gpu_count() -> int:
@@ -189,7 +244,8 @@ class Launcher:
         if kernel not in self._loaded:
             # Compile/load before threads race to do it (they would each compile the module, and a module that has
             # grown a kernel since it was loaded, made by a factory, is loaded again: keyed by kernel, not module).
-            wp.load_module(kernel.module, device=self.device)
+            with announce(f"Warp module {kernel.module.name} compiled (first launch)"):
+                wp.load_module(kernel.module, device=self.device)
             self._loaded.add(kernel)
         if self._capture is not None:  # recorded whole, on this thread, with plain launches (:meth:`capturing`)
             wp.launch(kernel, dim=n, inputs=[0, *inputs], device=self.device)

@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     import trimesh
 
 from .errors import ParameterError, require_integer, require_memory, require_positive
+from .progress import announced
 
 __all__ = [
     "lattice_box",
@@ -360,6 +361,7 @@ def _mesh_block(mesh, dx, origin, pad):
     return kmin, shape, tri
 
 
+@announced("mesh filled with particles")
 def fill_mesh(mesh: trimesh.Trimesh, dx, origin=None, clearance=0.0) -> np.ndarray:
     """Lattice points ``origin + (k + 0.5) dx`` strictly inside a watertight mesh (m). Returns (N, 3).
 
@@ -381,6 +383,7 @@ def fill_mesh(mesh: trimesh.Trimesh, dx, origin=None, clearance=0.0) -> np.ndarr
     return _lattice(origin, dx, kmin, shape)[inside.ravel()]
 
 
+@announced("wall layers laid around the mesh")
 def shell_lattice(mesh: trimesh.Trimesh, dx, layers, side, origin=None) -> np.ndarray:
     """Lattice points within ``layers * dx`` (m) of the surface of a watertight mesh, on one side.
 
@@ -439,6 +442,7 @@ def _maximal_disk_set(points: np.ndarray, radius: float, rng) -> np.ndarray:
     return state == 1
 
 
+@announced("mesh surface sampled")
 def sample_surface(mesh: trimesh.Trimesh, dx, seed=0) -> tuple[np.ndarray, np.ndarray]:
     """About ``area / dx^2`` points spread evenly on the mesh surface, and their unit face normals.
 

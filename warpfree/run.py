@@ -31,11 +31,13 @@ from .errors import ParameterError, RunError, reported_as
 from .io.writer import OutputError, OutputWriter
 from .parallel import world
 from .solver import OutputSet, PhaseTimes, Solver, StaticSolver
+from .validation import validation_block
 
 __all__ = ["OutputOptions", "RunDirectory", "Run", "StaticRun", "build_scene"]
 
-#: analysis: function(run, out_dir) -> dict merged into summary["analysis"]
-Analysis = Callable[["Run", str], dict]
+#: analysis: function(run, out_dir) -> dict merged into summary["analysis"]; out_dir is None for a run in memory
+#: (compute, draw nothing); a result's "checks" (validation.tolerance_check records) make summary["validation"]
+Analysis = Callable[["Run", "str | None"], dict]
 
 
 @dataclass
@@ -101,7 +103,8 @@ class Run(ABC):
     solver: a :class:`~warpfree.solver.Solver`.
     name: the scene's name (summary, frame titles, progress bar).
     params: the scene's parameters, recorded in the summary.
-    analyses: functions ``(run, out_dir) -> dict`` run at the end, merged into ``summary["analysis"]``.
+    analyses: functions ``(run, out_dir) -> dict`` run at the end, merged into ``summary["analysis"]`` (``out_dir`` None:
+        a run in memory, nothing drawn); their ``checks`` make ``summary["validation"]``.
     output: :class:`OutputOptions`.
     reported_as: internal name -> the scene's parameter(s) (:func:`~warpfree.errors.reported_as`), for bad input found
         only when the run starts (e.g. an MLS support too small for its basis, met when a static solve evaluates its
@@ -126,6 +129,7 @@ class Run(ABC):
         self._series: dict = {}
         self._bounds = None
         self._resumed_time: float | None = None
+        self._directory: RunDirectory | None = None
         #: the ranks of the run (one process, or ``mpiexec``'s): rank 0 writes the summary, the indices, the frames
         #: and the plots; every rank its own piece of each snapshot and its checkpoints
         self.world = world()
@@ -245,8 +249,9 @@ class Run(ABC):
         if resume and out_dir is None:
             raise ParameterError("resume", "needs the run directory")
         directory = RunDirectory(out_dir) if out_dir is not None else None
+        self._directory = directory
         self._writer = OutputWriter(background=self.output.background and directory is not None,
-                                    plots=self.output.frames or self.output.plots)
+                                    plots=directory is not None and (self.output.frames or self.output.plots))
         if self._writer.plots:
             self._writer.start()
         self._series, self._bounds = {}, None
@@ -270,17 +275,20 @@ class Run(ABC):
                 self._write_summary(directory, summary)
                 raise err from None
             summary = self.summary(time.perf_counter() - wall0)
-            if directory is not None:
-                analysis = {}
-                with self.phases("analysis"):
-                    for fn in (self.analyses if self.complete else ()):  # an interrupted run is analysed when resumed
-                        analysis.update(fn(self, directory.root) or {})
-                    try:
-                        self._writer.finish()  # the plots the analyses handed over (:meth:`plot`)
-                    except OutputError as exc:
-                        raise RunError(str(exc).splitlines()[0], self._current_step()) from None
-                summary["analysis"] = analysis
-                summary["phases_s"] = self._phases()
+            analysis = {}
+            with self.phases("analysis"):
+                for fn in (self.analyses if self.complete else ()):  # an interrupted run is analysed when resumed
+                    analysis.update(fn(self, directory.root if directory is not None else None) or {})
+                try:
+                    self._writer.finish()  # the plots the analyses handed over (:meth:`plot`)
+                except OutputError as exc:
+                    raise RunError(str(exc).splitlines()[0], self._current_step()) from None
+            summary["analysis"] = analysis
+            validation = validation_block(analysis)
+            if validation is not None:
+                summary["validation"] = validation
+            summary["phases_s"] = self._phases()
+            summary["total_s"] += self.phases.seconds.get("analysis", 0.0)
         finally:
             self._writer.close()
         self._write_summary(directory, summary)
@@ -290,8 +298,8 @@ class Run(ABC):
         """Have the output writer call ``function`` ("warpfree.<module>:<name>", e.g. a validation plot) with
         ``kwargs`` (NumPy arrays, numbers, strings), beside the run: its process has loaded Matplotlib while the
         run stepped (``OutputOptions.plots``). For a scene's analysis; the run waits for it before it ends. In a
-        distributed run rank 0 draws it."""
-        if self.world.is_root:
+        distributed run rank 0 draws it; a run in memory (no directory) draws nothing."""
+        if self.world.is_root and self._directory is not None:
             self._writer.submit([("call", {"function": function, "kwargs": kwargs})])
 
     @abstractmethod
@@ -326,6 +334,7 @@ class Run(ABC):
             "device": s.launcher.device,
             "threads": s.launcher.threads,
             "wall_s": wall_s,
+            "total_s": self.phases.seconds.get("setup", 0.0) + wall_s,  # set-up + run; + analysis when it is done
             "phases_s": self._phases(),
             "throughput": self._throughput(),
             "diagnostics": s.diagnostics(),
@@ -388,14 +397,23 @@ class StaticRun(Run):
                 "work_items": n}
 
 
-def build_scene(module, params: dict) -> Run:
-    """Call a scene's ``build(**params)``, timing it as the run's ``setup`` phase."""
-    t0 = time.perf_counter()
+def build_scene(module, params: dict, started: float | None = None) -> Run:
+    """Call a scene's ``build(**params)``, timing it as the run's ``setup`` phase: from ``started`` (a
+    ``time.perf_counter()`` reading: the command line passes its own start, so that loading the scene and starting
+    Warp count as set-up) or from the call. With progress on (:mod:`warpfree.progress`) the set-up's end is
+    announced with its time, whatever it is."""
+    from .progress import report, stage
+
+    t0 = time.perf_counter() if started is None else started
+    stage("set-up")
     run = module.build(**params)
     if not isinstance(run, Run):
         raise ParameterError("scene", f"build() must return a warpfree Run (TimeLoop or StaticRun), "
                                       f"got {type(run).__name__}")
-    run.phases.add("setup", time.perf_counter() - t0)
+    seconds = time.perf_counter() - t0
+    run.phases.add("setup", seconds)
+    report(f"done, {run.name} ready", seconds)
+    stage("run")
     return run
 
 

@@ -327,7 +327,7 @@ class TimeLoop(Run):
                 if directory is not None and self.checkpoint_every and self.step_count % self.checkpoint_every == 0:
                     self.save_checkpoint(directory)
                 if bar is not None:
-                    bar.update(self.time - bar.n)
+                    bar.update(self.time)
         finally:
             if bar is not None:
                 bar.close()
@@ -368,13 +368,36 @@ class TimeLoop(Run):
         return {"step": self.step_s, **super()._phases()}
 
 
-def _progress(total: float, start: float, enabled: bool, name: str, time_unit: str = "s"):
-    """The progress bar in simulated time, in the solver's time unit (PIC: /ω_pe)."""
-    if not enabled:
-        return None
-    from tqdm import tqdm
+def _progress(total: float, start: float, enabled: bool, name: str, time_unit: str = "s") -> "_Bar | None":
+    """The progress bar in simulated time, in the solver's time unit (seconds with an SI prefix: an EM run of
+    4.75e-9 s reads ns; PIC: /ω_pe)."""
+    return _Bar(total, start, name, time_unit) if enabled else None
 
-    return tqdm(total=total, initial=start, desc=name, unit=f"{time_unit}(sim)",
-                mininterval=0.5 if sys.stderr.isatty() else 10.0,
-                bar_format="{desc}: {percentage:3.0f}%|{bar}| t={n:.4f}/{total:.4f} " + time_unit
-                + " [{elapsed}<{remaining}]")
+
+class _Bar:
+    """A tqdm bar over simulated time ``t`` in ``[0, t_end]``, shown as ``t=<t>/<t_end> <unit>`` with the wall time
+    elapsed and left. The bar is set to the loop's time (clamped to the end), never advanced by differences: sums of
+    steps rounded past ``t_end`` made tqdm clamp its fraction (``TqdmWarning``) and show a negative time left."""
+
+    def __init__(self, t_end: float, start: float, name: str, time_unit: str):
+        from tqdm import tqdm
+
+        from .progress import time_scale
+
+        self.scale, unit = time_scale(t_end, time_unit)
+        self.total = t_end / self.scale
+        self.bar = tqdm(total=self.total, initial=self._shown(start), desc=name, unit=f"{unit}(sim)", miniters=0,
+                        mininterval=0.5 if sys.stderr.isatty() else 10.0,
+                        bar_format="{desc}: {percentage:3.0f}%|{bar}| t={n:.4g}/{total:.4g} " + unit
+                        + " [{elapsed}<{remaining}]")
+
+    def _shown(self, t: float) -> float:
+        return min(max(t / self.scale, 0.0), self.total)
+
+    def update(self, t: float) -> None:
+        """Show simulated time ``t`` (tqdm redraws at most every ``mininterval`` seconds)."""
+        self.bar.n = self._shown(t)
+        self.bar.update(0)
+
+    def close(self) -> None:
+        self.bar.close()

@@ -28,6 +28,7 @@ import warp as wp
 from warpfree.errors import ParameterError
 from warpfree.kernels import galerkin as gk
 from warpfree.neighbours import host_rows
+from warpfree.progress import announced
 from warpfree.sparse import LoadBuffer, TripletBuffer, load_vector as _sum_loads, to_csr
 
 from .shapes import ShapeData, ShapeModel
@@ -92,6 +93,7 @@ def node_rows(model: ShapeModel, shape: ShapeData) -> NodeRows:
     return shape._node_rows
 
 
+@announced("conduction matrix assembled")
 def conduction_matrix(model: ShapeModel, shape: ShapeData, weight, test_dphi: wp.array | None = None,
                       gather: bool = True) -> sp.csr_matrix:
     """(N, N) K from Gauss points ``shape`` with ``weight`` = w_g |J_g| k_g (conductivity or permittivity);
@@ -113,6 +115,7 @@ def conduction_matrix(model: ShapeModel, shape: ShapeData, weight, test_dphi: wp
     return to_csr(slots, (model.node_count, model.node_count))
 
 
+@announced("stiffness matrix assembled")
 def elastic_matrix(model: ShapeModel, shape: ShapeData, weight, material,
                    test_dphi: wp.array | None = None, gather: bool = True) -> sp.csr_matrix:
     """(2N, 2N) K from Gauss points ``shape``: ``weight`` w_g |J_g|, ``material`` (n, 3, 3) D per point (Voigt,

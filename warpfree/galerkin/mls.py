@@ -30,6 +30,7 @@ from warpfree.device import Launcher, current_launcher
 from warpfree.errors import ParameterError, require_integer, require_positive
 from warpfree.kernels import mls as mk
 from warpfree.neighbours import NeighbourGrid, empty_rows, lay_out_rows
+from warpfree.progress import announced, group_digits
 from warpfree.space import Space
 
 from .shapes import ShapeData, ShapeModel, material_array, points2d, vec3_points
@@ -102,6 +103,7 @@ class MLSModel(ShapeModel):
     side of at least twice the widest support).
     """
 
+    @announced(lambda self, nodes, *a, **k: f"MLS model made ({group_digits(len(nodes))} nodes)")
     def __init__(self, nodes, settings: MLSSettings | None = None, node_material=None,
                  launcher: Launcher | None = None, space: Space | None = None):
         self.settings = settings or MLSSettings()
@@ -215,6 +217,7 @@ class MLSModel(ShapeModel):
         L.launch(kernel, n, args + [1, rows], once=True)
         return p, points64, rows, counts, total
 
+    @announced(lambda self, points, *a, **k: f"MLS shape functions at {group_digits(len(points))} points")
     def shape_at(self, points, material=None, name: str = "point", staged: bool | None = None) -> ShapeData:
         """Shape functions and gradients at ``points`` (n, 2); ``material`` (n,) ints (default -1: sees every
         node). ``staged``: the shape functions in four kernels (``kernels/mls.py: staged_shape_functions``, the

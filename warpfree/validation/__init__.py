@@ -9,7 +9,7 @@ from importlib import resources
 
 import numpy as np
 
-__all__ = ["read_csv", "tolerance_check"]
+__all__ = ["read_csv", "tolerance_check", "validation_block", "check_lines"]
 
 
 def read_csv(case: str, filename: str) -> tuple[list[str], np.ndarray]:
@@ -46,10 +46,36 @@ def read_csv(case: str, filename: str) -> tuple[list[str], np.ndarray]:
     return header, data
 
 
-def tolerance_check(value: float, tolerance: float, source: str, reference: float = 0.0) -> dict:
+def tolerance_check(value: float, tolerance: float, source: str, reference: float = 0.0, unit: str = "",
+                    basis: str = "") -> dict:
     """A validated quantity as ``summary.json`` reports it: its ``value``, the ``reference`` it is compared with, the
-    ``tolerance`` on |value - reference| (the quantity's own units, or a fraction for relative errors), where the
-    tolerance comes from (``source``), and ``passed``."""
+    ``tolerance`` on |value - reference| (in ``unit``, the quantity's own units; "" for a fraction, as for relative
+    errors), ``source``: where the reference and its accuracy come from (a paper, a thesis figure, an exact
+    solution), ``basis``: why the tolerance is what it is, and ``passed``. A value that is not a finite number fails."""
     value, reference, tolerance = float(value), float(reference), float(tolerance)
-    return {"value": value, "reference": reference, "tolerance": tolerance, "source": source,
-            "passed": bool(abs(value - reference) <= tolerance)}
+    passed = bool(np.isfinite(value) and abs(value - reference) <= tolerance)
+    return {"value": value, "reference": reference, "tolerance": tolerance, "unit": unit, "source": source,
+            "basis": basis, "passed": passed}
+
+
+def validation_block(analysis: dict) -> dict | None:
+    """``summary["validation"]``: every ``checks`` record (:func:`tolerance_check`) the analyses returned, named
+    ``<analysis>.<quantity>``, and ``passed``: all of them passed. None when the analyses checked nothing."""
+    checks = {}
+    for key, result in analysis.items():
+        if isinstance(result, dict):
+            for name, record in (result.get("checks") or {}).items():
+                checks[f"{key}.{name}"] = record
+    if not checks:
+        return None
+    return {"passed": all(c["passed"] for c in checks.values()), "checks": checks}
+
+
+def check_lines(validation: dict) -> list[str]:
+    """One line per check of a validation block: PASS/FAIL, the quantity, value, reference, tolerance and source."""
+    lines = []
+    for name, c in validation["checks"].items():
+        unit = f" {c['unit']}" if c.get("unit") else ""
+        lines.append(f"{'PASS' if c['passed'] else 'FAIL'} {name} = {c['value']:.4g}{unit} (reference "
+                     f"{c['reference']:.4g}, tolerance {c['tolerance']:.3g}{unit}; {c['source']})")
+    return lines

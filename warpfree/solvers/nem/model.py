@@ -51,6 +51,7 @@ from warpfree.device import Launcher, current_launcher
 from warpfree.errors import ParameterError
 from warpfree.kernels import nem as nk
 from warpfree.neighbours import empty_rows, lay_out_rows
+from warpfree.progress import announced, group_digits
 from warpfree.galerkin.nodal_integration import SmoothingCells, triangle_smoothing_cells
 from warpfree.galerkin.quadrature import QuadraturePoints, triangle_cells
 from warpfree.galerkin.shapes import ShapeData, ShapeModel, material_array, points2d
@@ -116,6 +117,7 @@ class NEMModel(ShapeModel):
     threads (default ``warpfree.device.current_launcher()``).
     """
 
+    @announced(lambda self, nodes, *a, **k: f"natural-neighbour model made ({group_digits(len(nodes))} nodes)")
     def __init__(self, nodes, domain=None, launcher: Launcher | None = None):
         self.settings = NEMSettings()
         self.launcher = launcher or current_launcher()

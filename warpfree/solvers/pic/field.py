@@ -47,6 +47,7 @@ from warpfree.errors import ParameterError, require_finite
 from warpfree.galerkin.assembly import conduction_matrix
 from warpfree.galerkin.mls import MLSModel
 from warpfree.galerkin.quadrature import rectangle_cells
+from warpfree.progress import announced
 from warpfree.sparse import FactorisedSystem, PrescribedValues
 
 __all__ = ["PlasmaPoisson", "ANTISYMMETRY_TOLERANCE", "wall_corrected_test"]
@@ -63,6 +64,7 @@ class PlasmaPoisson:
     upper) when y is not periodic (the model's nodes must then include both wall rows).
     """
 
+    @announced("field solve made: MLS shape functions, Poisson matrix factorised")
     def __init__(self, model: MLSModel, cells: tuple[int, int] | None = None, order: int = 4,
                  walls: tuple[float, float] | None = None):
         space = model.space

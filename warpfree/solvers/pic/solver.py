@@ -37,6 +37,7 @@ from warpfree.graph import StepGraph
 from warpfree.kernels import pic as pk
 from warpfree.parallel import Partition, world as ranks_of_run
 from warpfree.parallel.halo import host_view
+from warpfree.progress import announced
 from warpfree.solver import HostTable, OutputSet, StepRule, TimeDependentSolver
 
 from .coupling import GATHERS, NodeCoupling
@@ -85,6 +86,7 @@ class PICSolver(TimeDependentSolver):
     work_unit = "particle pushes"
     time_unit = "/ω_pe"
 
+    @announced("PIC solver made: particles loaded and coupled to the nodes")
     def __init__(self, field: PlasmaPoisson, loads: list[ParticleLoad], dt: float,
                  background_density: float | None = None, modes=((1, 0),), gather: str = "momentum",
                  magnetic_field: float = 0.0, particle_walls="reflect", injections: list[Injection] = (),

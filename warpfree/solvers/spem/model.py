@@ -29,6 +29,7 @@ from warpfree.errors import ParameterError, require_bool, require_integer, requi
 from warpfree.kernels import spem as K
 from warpfree.neighbours import NeighbourGrid, NeighbourList, host_rows
 from warpfree.particles import ParticleSet
+from warpfree.progress import announced, group_digits
 from warpfree.space import Space
 
 from .conservative import ConservativePair, energy_conserving_pair, pattern_reach
@@ -122,6 +123,8 @@ class SPEMModel:
         jittered layouts, a set-up that grows fast with the layout; :mod:`.conservative`).
     """
 
+    @announced(lambda self, layout, *a, **k: f"EM model made: operators and volumes ({group_digits(layout.n_e)} E, "
+               f"{group_digits(layout.n_h)} H particles)")
     def __init__(self, layout: StaggeredLayout, scheme: str = "fpm", support: float = 1.1, eps_r: Material = 1.0,
                  mu_r: Material = 1.0, pml: PML | None = None, interior=None, pec: bool = True,
                  conservative: bool | None = None, pair_order: int = 1, launcher: Launcher | None = None):

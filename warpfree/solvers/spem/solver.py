@@ -28,6 +28,7 @@ from warpfree.kernels import spem as K
 from warpfree.graph import StepGraph
 from warpfree.parallel import world as ranks_of_run
 from warpfree.particles import ParticleSet
+from warpfree.progress import announced
 from warpfree.solver import OutputSet, State, StepRule, TimeDependentSolver
 
 from .layouts import HX, HY
@@ -148,6 +149,7 @@ class SPEMSolver(TimeDependentSolver):
     distributes = True
     work_unit = "particle-steps"
 
+    @announced("EM solver made")
     def __init__(self, model: SPEMModel, sources: list[Source] | None = None, ez=None, hx=None, hy=None,
                  launcher: Launcher | None = None, kronecker: bool = False, distribution: str = "blocks",
                  courant: float = 0.95):

@@ -21,6 +21,7 @@ import numpy as np
 import warp as wp
 
 from warpfree.device import Launcher, current_launcher
+from warpfree.progress import announced, group_digits
 from warpfree.errors import ParameterError, require_positive
 from warpfree.kernels.smoothing import kernel_id, kernel_profile, normalisation, support_factor
 from warpfree.kernels.wcsph import FluidConstants, FluidTerms
@@ -184,6 +185,8 @@ class WCSPHModel:
     kg): ρ0 × volume per particle. ``constants`` and ``terms`` are what the kernels take.
     """
 
+    @announced(lambda self, fluid, boundary, *a, **k: f"fluid model made ({group_digits(len(fluid))} fluid, "
+               f"{group_digits(len(boundary))} wall particles)")
     def __init__(self, fluid, boundary, params: FluidParams, obstacle_boundary=None,
                  boundary_volume: float | None = None, fluid_volume: float | None = None, containers=(),
                  obstacles=(), launcher: Launcher | None = None):

@@ -24,6 +24,7 @@ from warpfree.errors import ParameterError, require_positive
 from warpfree.geometry import ccw_polygon, is_mesh
 from warpfree.neighbours import MovingNeighbours, empty_rows
 from warpfree.particles import to_vec3
+from warpfree.progress import announced, group_digits
 from warpfree.reduce import Reduction
 from .solids import Solids
 from warpfree.space import Space
@@ -127,6 +128,7 @@ def _stiffness(kernel: str, dim: int, h_factor: float, dx: float) -> float:
     return -(1.0 / h_factor) ** dim * SIGMA[kernel][dim - 1] * f2 / (h * h)
 
 
+@announced(lambda positions, *a, **k: f"fluid layout relaxed ({group_digits(len(positions))} particles)")
 def relax_particles(positions, dx: float, region, walls=None, containers=(), obstacles=(), kernel: str = "wendland_c2",
                     h_factor: float = 1.3, beta: float = 0.1, tolerance: float = 0.01, max_iterations: int = 2000,
                     jitter: float = JITTER, seed: int = 0, launcher: Launcher | None = None) -> Relaxation:

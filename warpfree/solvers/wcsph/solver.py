@@ -22,6 +22,7 @@ from warpfree.errors import ParameterError, RunError, require_memory, require_po
 from warpfree.kernels import wcsph as K
 from warpfree.neighbours import MovingNeighbours, NeighbourGrid, NeighbourList, empty_rows
 from warpfree.particles import ParticleSet, to_vec3
+from warpfree.progress import announced, group_digits
 from warpfree.clock import DeviceClock
 from warpfree.graph import StepGraph
 from warpfree.kernels import clock as ck
@@ -73,6 +74,8 @@ class WCSPHSolver(TimeDependentSolver):
     distributes = True
     work_unit = "particle-steps"
 
+    @announced(lambda self, model, *a, **k: f"fluid solver made ({group_digits(model.nf)} fluid, "
+               f"{group_digits(model.nb)} wall particles)")
     def __init__(self, model: WCSPHModel, density=None, velocity=None, launcher: Launcher | None = None):
         if not isinstance(model, WCSPHModel):
             raise ParameterError("model", f"a WCSPHSolver takes a WCSPHModel, got {type(model).__name__}")
@@ -252,6 +255,7 @@ class WCSPHSolver(TimeDependentSolver):
                 self.spread.fluid.refresh(self.state.acceleration, self.state.density_rate)
         self._launch_report()
 
+    @announced(lambda self, duration, *a, **k: f"water settled before t = 0 ({duration:.3g} s of damped steps)")
     def settle(self, duration: float, damping: float) -> dict:
         """Let the fluid come to rest in its own discretisation before t = 0: ``duration`` seconds of steps with
         every velocity damped as v ← v e^(-γΔt) (γ = ``damping``, 1/s), then velocities set to zero and the rates
