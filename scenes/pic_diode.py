@@ -27,8 +27,8 @@ from warpfree.errors import reported_as, require_integer, require_positive
 from warpfree.run import OutputOptions
 from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.solvers.pic import Injection, PICSolver, PlasmaPoisson, Species
-from warpfree.solvers.pic.scene_tools import (POTENTIAL_FRAMES, lattice_nodes, plot_history, plot_profile, walled_box,
-                                              write_history)
+from warpfree.solvers.pic.scene_tools import (POTENTIAL_FRAMES, lattice_nodes, plot_history, plot_phase_space,
+                                              plot_profile, walled_box, write_history)
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import tolerance_check
 from warpfree.validation.pic_diode import beam_through_limit, child_langmuir_flux, steady_potential
@@ -117,7 +117,7 @@ def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5
             plot_profile(os.path.join(out_dir, "profile.png"), y, mean, ref, voltage, POTENTIAL_TOLERANCE,
                          f"± {POTENTIAL_TOLERANCE:g} (the tolerance at 32 node spacings)",
                          f"diode at Γ = {injected_fraction:g} Γ_CL: mean potential against the steady beam")
-            _phase_space(os.path.join(out_dir, "phase_space.png"), s)
+            _phase_space(os.path.join(out_dir, "phase_space.png"), s, y, ref, v0)
         return {"diode": result}
 
     return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, name="pic_diode",
@@ -145,11 +145,12 @@ def diode_checks(result: dict) -> dict:
     return checks
 
 
-def _phase_space(path, solver):
-    """phase_space.png: the electrons' (y, v_y) at the end of the run."""
-    from warpfree.io.frames import plot_series
-
+def _phase_space(path, solver, y, steady, v0: float):
+    """phase_space.png: the electrons' (y, v_y) at the end of the run, and below the space-charge limit the steady
+    beam's speed sqrt(v0² + 2 φ(y)) (energy conservation, e = m_e = 1) along the steady potential ``steady``."""
     values = solver.particle_values()
     p, v = values["position"], values["velocity"]
-    plot_series(path, None, {}, reference={"electrons": (p[:, 1], v[:, 1])}, xlabel="y (normalised length)",
-                ylabel="v_y (normalised speed)", title=f"phase space at t = {solver.t:.3g}")
+    theory = None if steady is None else (y, np.sqrt(v0 ** 2 + 2.0 * np.asarray(steady)),
+                                          "steady beam: v = sqrt(v0² + 2φ(y))")
+    plot_phase_space(path, {"electrons": (p[:, 1], v[:, 1])}, "y (normalised length, gap d = 1)",
+                     "v_y (normalised speed)", f"phase space at t = {solver.t:.3g} (normalised time)", theory)

@@ -134,9 +134,10 @@ def two_stream_checks(result: dict) -> dict:
 
 
 def _phase_space(path, solver):
-    from warpfree.io.frames import plot_series
+    """phase_space.png: both beams' (x, v_x) at the end of the run (past saturation: no linear theory there)."""
+    from warpfree.solvers.pic.scene_tools import plot_phase_space
 
     values = solver.particle_values()
     x, vx, s = values["position"][:, 0], values["velocity"][:, 0], values["species"]
-    plot_series(path, None, {}, reference={f"beam {'+-'[b]}": (x[s == b], vx[s == b]) for b in (0, 1)},
-                xlabel="x (λ_D)", ylabel="v_x (λ_D ω_pe)", title=f"phase space at t = {solver.t:.3g} / ω_pe")
+    plot_phase_space(path, {f"beam {'+-'[b]}": (x[s == b], vx[s == b]) for b in (0, 1)}, "x (λ_D)",
+                     "v_x (λ_D ω_pe)", f"phase space at t = {solver.t:.3g} / ω_pe")

@@ -185,7 +185,7 @@ def plot_profiles(path: str, series: dict, y_bins, force: float, nu: float, widt
                   n: int, tolerance: float) -> None:
     """Left: bin means (markers) against the series (lines) at the outputs. Right: binned errors against t, with the
     check's tolerance (at the anchor times)."""
-    from warpfree.io.validation_plots import new_figure, save_figure
+    from warpfree.io.validation_plots import draw_bound, new_figure, save_figure
 
     t = np.asarray(series["time"])
     bins = len(y_bins)
@@ -209,7 +209,7 @@ def plot_profiles(path: str, series: dict, y_bins, force: float, nu: float, widt
     a1.grid(alpha=0.3)
     a2.semilogy(t[1:], series["profile_error_max"][1:], "o-", ms=3, label="max |bin error| / u_c, series with ν")
     a2.semilogy(t[1:], series["profile_error_rms"][1:], "s-", ms=3, label="rms bin error / u_c, series with ν")
-    a2.axhline(tolerance, color="C2", ls="--", label=f"tolerance {tolerance:.3g} (max at the anchor times)")
+    draw_bound(a2, tolerance, f"tolerance {tolerance:.3g} (max at the anchor times)")
     for tau in ANCHORS:
         if tau * scale <= t[-1] * (1 + 1e-9):
             a2.axvline(tau * scale, color="0.7", ls=":", lw=0.8)

@@ -135,23 +135,38 @@ def wave_checks(res: dict) -> dict:
 
 
 def plot_wave(path: str, series: dict, res: dict, length: float, expected: float, label: str) -> None:
-    """x_cm - L/2 against t: the run, the fit and linear theory."""
-    from warpfree.io.validation_plots import new_figure, save_figure
+    """Above: x_cm - L/2 against t, the run, its fitted damped sine and linear theory. Below: the run minus its fit,
+    over the fitted amplitude, with its rms (checked against 5 %), and every check in ``res["checks"]``."""
+    from warpfree.io.validation_plots import (COMPUTED, REFERENCE, annotate_checks, comparison_axes, draw_bound,
+                                              save_figure)
 
     t = np.asarray(series["time"])
     xc = np.asarray(series["centre_of_mass_x"]) - 0.5 * length
-    tt = np.linspace(0.0, max(t.max(), 1e-12), 400)
     f = res["fit"]
-    fig = new_figure(8.0, 4.0)
-    ax = fig.subplots()
-    ax.plot(tt, -expected * np.sin(res["omega_linear"] * tt), "k-", lw=1.2, label="linear theory")
-    ax.plot(t, xc, "o", ms=3, color="C0", label="warpfree WCSPH")
-    ax.plot(tt, f["offset"] - 0.5 * length + f["amplitude"] * np.exp(-f["beta"] * tt)
-            * np.sin(f["omega"] * tt + f["phase"]), "--", color="C1", lw=1, label="fit")
-    ax.set_xlabel("t (s)")
-    ax.set_ylabel("x_cm − L/2 (m)")
-    ax.set_title(f"Standing wave ({label}): frequency error {100 * res['frequency_error']:+.2f} %, "
-                 f"decay {res['decay_rate']:.3g} 1/s", fontsize=8)
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
+
+    def fitted(time):
+        return f["offset"] - 0.5 * length + f["amplitude"] * np.exp(-f["beta"] * time) * np.sin(f["omega"] * time
+                                                                                                  + f["phase"])
+
+    tt = np.linspace(0.0, max(t.max(), 1e-12), 400)
+    fig, top, bottom = comparison_axes(8.0, 6.0, title=f"Standing wave ({label}) against linear theory:\nfrequency "
+                                                       f"error {100 * res['frequency_error']:+.2f} %, decay "
+                                                       f"{res['decay_rate']:.3g} 1/s")
+    top.plot(tt, -expected * np.sin(res["omega_linear"] * tt), "-", color=REFERENCE, lw=1.2,
+             label="linear theory, −(2AL/(π²d)) sin(ωt)")
+    top.plot(t, xc, "o", ms=3, color=COMPUTED, label="warpfree WCSPH")
+    top.plot(tt, fitted(tt), "--", color="C1", lw=1, label="damped sine fitted to the run")
+    top.set_ylabel("x_cm − L/2 (m)")
+    top.margins(y=0.3)  # room for the legend above the crests
+    top.legend(fontsize=7, loc="upper right")
+    residual = (xc - fitted(t)) / f["amplitude"]
+    bottom.plot(t, residual, "o-", ms=2.5, lw=0.8, color=COMPUTED, label="(run − fit) / fitted amplitude")
+    bottom.axhline(res["fit_residual"], color=COMPUTED, ls="--", lw=1.0,
+                   label=f"its rms = {100 * res['fit_residual']:.2f} %")
+    draw_bound(bottom, RESIDUAL_TOLERANCE, f"tolerance on the rms: {100 * RESIDUAL_TOLERANCE:g} %")
+    bottom.axhline(0.0, color="0.5", lw=0.6)
+    bottom.set_xlabel("t (s)")
+    bottom.set_ylabel("residual / amplitude")
+    bottom.legend(fontsize=7, loc="upper right")
+    annotate_checks(bottom, res["checks"])
     save_figure(fig, path)

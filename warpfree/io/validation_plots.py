@@ -13,7 +13,7 @@ import os
 import numpy as np
 
 __all__ = ["COMPUTED", "REFERENCE", "TOLERANCE", "new_figure", "comparison_axes", "draw_tolerance", "draw_bound",
-           "save_figure", "plot_against_reference", "plot_series_check"]
+           "annotate_checks", "save_figure", "plot_against_reference", "plot_series_check"]
 
 #: the colours of the three roles a validation figure draws
 COMPUTED, REFERENCE, TOLERANCE = "C0", "k", "C2"
@@ -65,6 +65,27 @@ def draw_tolerance(ax, tolerance, x=None, centre=0.0, label: str = "tolerance", 
 def draw_bound(ax, bound: float, label: str, color: str = TOLERANCE) -> None:
     """A one-sided tolerance: a dotted line at ``bound`` on an axis of magnitudes (|error|, often logarithmic)."""
     ax.axhline(bound, color=color, ls=":", lw=1.3, label=label)
+
+
+def annotate_checks(ax, checks: dict, loc: str = "below") -> None:
+    """One line per check of ``checks`` (name -> :func:`warpfree.validation.tolerance_check` record): PASS/FAIL,
+    value, reference, tolerance; in a box under ``ax``, below its x label (``loc="below"``), or in one of its corners
+    (``"lower left"``, ``"upper right"``, ...)."""
+    lines = []
+    for name, c in checks.items():
+        unit = f" {c['unit']}" if c.get("unit") else ""
+        reference = f" − {c['reference']:.4g}" if c["reference"] else ""
+        lines.append(f"{'PASS' if c['passed'] else 'FAIL'}  {name}: |{c['value']:.4g}{reference}| ≤ "
+                     f"{c['tolerance']:.3g}{unit}")
+    box = {"boxstyle": "round", "facecolor": "white", "alpha": 0.85, "edgecolor": "0.7"}
+    if loc == "below":
+        ax.annotate("\n".join(lines), xy=(0.0, 0.0), xycoords="axes fraction", xytext=(0, -36),
+                    textcoords="offset points", ha="left", va="top", fontsize=7, family="monospace", bbox=box)
+        return
+    vertical, horizontal = loc.split()
+    ax.text(0.02 if horizontal == "left" else 0.98, 0.04 if vertical == "lower" else 0.96, "\n".join(lines),
+            transform=ax.transAxes, ha=horizontal, va="bottom" if vertical == "lower" else "top", fontsize=7,
+            family="monospace", bbox=box)
 
 
 def save_figure(fig, path) -> str:

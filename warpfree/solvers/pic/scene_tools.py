@@ -14,7 +14,7 @@ from warpfree.io.validation_plots import comparison_axes, draw_tolerance, save_f
 from warpfree.space import Space
 
 __all__ = ["POTENTIAL_FRAMES", "ENERGY_DRIFT_TARGET", "periodic_box", "walled_box", "lattice_nodes", "write_history",
-           "plot_history", "plot_energy", "plot_oscillation", "plot_growth", "plot_profile", "relative_drift", "momentum_change"]
+           "plot_history", "plot_energy", "plot_phase_space", "plot_oscillation", "plot_growth", "plot_profile", "relative_drift", "momentum_change"]
 
 
 #: memory per node of a PIC field solve, bytes: the EFG model's shape rows, the factorised Poisson matrix and the
@@ -109,7 +109,7 @@ def plot_energy(path: str, history: dict[str, list[float]], tolerance: float | N
     for key in ("kinetic_energy", "field_energy", "total_energy"):
         top.plot(t, np.asarray(history[key]), lw=1.5, label=key.replace("_", " "))
     top.set_ylabel("energy (normalised)")
-    top.legend(fontsize=9, framealpha=0.85)
+    top.legend(fontsize=8, framealpha=0.85, ncol=3, loc="upper center")
     if below is None:
         total = np.asarray(history["total_energy"], np.float64)
         values = (total - total[0]) / total[0]
@@ -207,6 +207,25 @@ def plot_profile(path: str, y, computed, reference, scale: float, tolerance: flo
     top.legend(fontsize=8, framealpha=0.85)
     bottom.set_xlabel(xlabel)
     bottom.set_ylabel("error / V")
+    return save_figure(fig, path)
+
+
+def plot_phase_space(path: str, groups: dict, xlabel: str, ylabel: str, title: str, theory: tuple | None = None) -> str:
+    """Every particle as a point (position, velocity), one colour per group (label -> (positions, velocities)), and
+    ``theory`` (positions, velocities, label) as a black line where there is one."""
+    from warpfree.io.validation_plots import REFERENCE, new_figure
+
+    fig = new_figure(7.0, 4.6)
+    ax = fig.subplots()
+    for k, (label, (x, v)) in enumerate(groups.items()):
+        ax.plot(x, v, "o", ms=2.5, mfc="none", mew=0.7, color=f"C{k}", label=f"{label} ({np.size(x)} particles)")
+    if theory is not None:
+        ax.plot(theory[0], theory[1], "-", color=REFERENCE, lw=1.2, label=theory[2])
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, framealpha=0.85)
     return save_figure(fig, path)
 
 
