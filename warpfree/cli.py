@@ -41,7 +41,8 @@ results as one process; each rank writes its piece of every snapshot (a .pvtu jo
 VALIDATE_HELP = """Run every validation case (a shipped scene with a reference: its checks compare computed
 quantities with exact solutions, experiments or published results, each with a tolerance and its source) at its
 default size, or with --quick at a short one. Prints each check as PASS or FAIL and writes validation.json and
-validation.md into --out. Exit code 0 when every check passed, 1 when one failed."""
+validation.md into --out; --against FILE compares the table with one made before. Exit code 0 when every check
+passed (and the tables agree), 1 when one failed (or they differ)."""
 
 #: parameters a resumed run may change: they move the end, not the model
 RESUMABLE = ("t_end",)
@@ -81,6 +82,10 @@ def build_parser() -> argparse.ArgumentParser:
                                                    "(default: runs/validate or runs/validate_quick)")
     check.add_argument("--overwrite", action="store_true", help="replace an earlier validation in --out")
     check.add_argument("--table", default=None, metavar="FILE", help="also write the Markdown table to FILE")
+    check.add_argument("--against", default=None, metavar="FILE",
+                       help="compare with a table made before (e.g. the documentation's): exit code 1 when a case, "
+                            "quantity, reference, tolerance or result differs or a value moved by more than 1 %% of "
+                            "max(|value|, tolerance)")
     check.add_argument("--threads", type=int, default=None, help="CPU threads (default: all cores)")
     check.add_argument("--device", default="cpu", help="cpu (default), cuda or cuda:N")
     return parser
@@ -170,13 +175,21 @@ def run_command(args) -> int:
 def validate_command(args) -> int:
     from . import device
     from .run import write_json
-    from .validate import markdown_table, run_cases
+    from .validate import markdown_table, read_table, run_cases, table_differences
 
     out_dir = args.out or os.path.join("runs", "validate_quick" if args.quick else "validate")
     require_fresh(out_dir, args.overwrite, marker="validation.json")
     require_writable(out_dir)
     if args.table:
         require_writable(os.path.dirname(os.path.abspath(args.table)))
+    earlier = None
+    if args.against:
+        try:
+            with open(args.against, encoding="utf-8") as f:
+                earlier = f.read()
+            read_table(earlier)
+        except (OSError, ValueError) as err:
+            raise ParameterError("--against", f"cannot read a validation table from {args.against}: {err}") from None
     device.use(args.device, args.threads)
     names = [n.strip() for n in args.scenes.split(",") if n.strip()] if args.scenes else None
     if args.overwrite:
@@ -191,7 +204,12 @@ def validate_command(args) -> int:
     failed = sum(not c["passed"] for c in checks) + sum(not case["validation"] for case in report["cases"])
     print(f"validation: {len(report['cases'])} cases, {len(checks)} checks, "
           f"{'all passed' if report['passed'] else f'{failed} FAILED'}; tables in {out_dir}")
-    return 0 if report["passed"] else 1
+    differences = table_differences(earlier, report) if earlier is not None else []
+    if earlier is not None:
+        for line in differences:
+            print(f"  DIFFERS {line}")
+        print(f"against {args.against}: " + (f"{len(differences)} differences" if differences else "the same table"))
+    return 0 if report["passed"] and not differences else 1
 
 
 def rank_device(device_name: str, threads: int | None, ranks) -> tuple[str, int | None]:

@@ -7,12 +7,18 @@ defaults (``--quick``: at its ``QUICK`` settings) in this process, one after the
 writes ``validation.json`` (the machine, each case's settings, wall time and validation block) and ``validation.md``
 (one table row per check) in its directory. Exit code 0 when every check passed, 1 when one failed or a case
 stopped, 2 on bad input.
+
+``--against FILE`` compares the run with a table made before (the documentation's, or another machine's): the same
+cases and quantities with the same references, tolerances and results, and each value within
+:data:`AGREEMENT` of the larger of the two values and its tolerance (round-off differs between CPUs and thread
+counts; a value near its tolerance may differ but must keep its result).
 """
 
 from __future__ import annotations
 
 import datetime
 import os
+import re
 import platform
 import time
 
@@ -20,7 +26,10 @@ from .errors import ParameterError, RunError
 from .scene_loader import load_scene, scene_parameters, shipped_scenes
 from .validation import check_lines
 
-__all__ = ["validation_cases", "run_cases", "markdown_table"]
+__all__ = ["AGREEMENT", "validation_cases", "run_cases", "markdown_table", "read_table", "table_differences"]
+
+#: how closely a value must agree with a table made before: a fraction of max(|value|, |earlier value|, tolerance)
+AGREEMENT = 0.01
 
 #: the outputs a validation run switches off where a scene has them: the checks need neither
 SILENT = {"frames": False, "vtk": False}
@@ -96,10 +105,70 @@ def markdown_table(report: dict) -> str:
             "| :-- | :-- | --: | --: | --: | :-: | :-- |"]
     for case in report["cases"]:
         if not case["validation"]:
-            rows.append(f"| {case['scene']} | (stopped) | | | | FAIL | {case.get('error', '')} |")
+            rows.append(f"| {case['scene']} | (stopped) | | | | FAIL | {_cell(case.get('error', ''))} |")
             continue
         for quantity, c in case["validation"]["checks"].items():
             unit = f" {c['unit']}" if c.get("unit") else ""
             rows.append(f"| {case['scene']} | {quantity} | {c['value']:.4g}{unit} | {c['reference']:.4g}{unit} | "
-                        f"{c['tolerance']:.3g}{unit} | {'pass' if c['passed'] else 'FAIL'} | {c['source']} |")
+                        f"{c['tolerance']:.3g}{unit} | {'pass' if c['passed'] else 'FAIL'} | {_cell(c['source'])} |")
     return "\n".join(rows) + "\n"
+
+
+def _cell(text: str) -> str:
+    """Text made safe for a Markdown table cell: its bars escaped, on one line."""
+    return " ".join(str(text).split()).replace("|", "\\|")
+
+
+#: the columns of :func:`markdown_table`'s rows
+COLUMNS = ("case", "quantity", "value", "reference", "tolerance", "result", "source")
+
+
+def _number(cell: str) -> float:
+    """The number a table cell starts with (``3.5e-05 V`` -> 3.5e-05)."""
+    return float(cell.split()[0])
+
+
+def read_table(text: str) -> dict[tuple[str, str], dict]:
+    """The rows of a table :func:`markdown_table` wrote: (case, quantity) -> its cells (value, reference and
+    tolerance as numbers; a stopped case's row has quantity ``(stopped)``). Raises ValueError on a malformed row."""
+    rows = {}
+    for line in text.splitlines():
+        cells = [c.strip() for c in re.split(r"(?<!\\)\|", line.strip()[1:-1])]
+        if not line.startswith("|") or cells[0] in ("case", ":--"):
+            continue
+        if len(cells) < len(COLUMNS):
+            raise ValueError(f"a validation table row needs {len(COLUMNS)} cells: {line!r}")
+        row = dict(zip(COLUMNS, cells))
+        if row["quantity"] != "(stopped)":
+            for key in ("value", "reference", "tolerance"):
+                row[key] = _number(row[key])
+        rows[(row["case"], row["quantity"])] = row
+    return rows
+
+
+def table_differences(earlier: str, report: dict) -> list[str]:
+    """How the run in ``report`` differs from the table ``earlier`` (Markdown text): a line per case or quantity
+    missing from one of them, per changed reference, tolerance or result, and per value that moved by more than
+    :data:`AGREEMENT` of max(|value|, |earlier value|, tolerance). Empty when they agree."""
+    before, now = read_table(earlier), read_table(markdown_table(report))
+    ran = {case["scene"] for case in report["cases"]}
+    differences = [f"{case} {quantity}: in the earlier table, not in this run" for case, quantity in before
+                   if case in ran and (case, quantity) not in now]
+    for key, row in now.items():
+        name = f"{key[0]} {key[1]}"
+        old = before.get(key)
+        if old is None:
+            differences.append(f"{name}: in this run, not in the earlier table")
+            continue
+        if row["quantity"] == "(stopped)":
+            continue
+        if row["result"] != old["result"]:
+            differences.append(f"{name}: {row['result']} here, {old['result']} in the earlier table")
+        for column in ("reference", "tolerance"):
+            if row[column] != old[column]:
+                differences.append(f"{name}: {column} {row[column]:.4g} here, {old[column]:.4g} in the earlier table")
+        scale = max(abs(row["value"]), abs(old["value"]), row["tolerance"])
+        if abs(row["value"] - old["value"]) > AGREEMENT * scale:
+            differences.append(f"{name}: value {row['value']:.4g} here, {old['value']:.4g} in the earlier table "
+                               f"(they may differ by {AGREEMENT * scale:.3g})")
+    return differences
