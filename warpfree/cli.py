@@ -51,6 +51,7 @@ RUN_JSON = "run.json"
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The command line's parser: ``list``, ``run`` and ``validate`` with their options."""
     parser = argparse.ArgumentParser(prog="warpfree", description=DESCRIPTION,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"warpfree {__version__}")
@@ -92,6 +93,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def list_command() -> int:
+    """``warpfree list``: each shipped scene's name and the first line of its docstring."""
     scenes = shipped_scenes()
     width = max(len(name) for name in scenes)
     for name, path in scenes.items():
@@ -101,6 +103,8 @@ def list_command() -> int:
 
 
 def run_command(args) -> int:
+    """``warpfree run``: load the scene, build it with the ``--set`` overrides, run it into ``--out`` (or resume one),
+    print its summary; the exit code."""
     started = time.perf_counter()  # the run's set-up starts here: loading the scene and Warp, building it
     from . import device, progress
     from .run import build_scene
@@ -173,6 +177,8 @@ def run_command(args) -> int:
 
 
 def validate_command(args) -> int:
+    """``warpfree validate``: run the validation cases, write and print their table, compare it with ``--against``; the
+    exit code."""
     from . import device
     from .run import write_json
     from .validate import markdown_table, read_table, run_cases, table_differences
@@ -229,6 +235,8 @@ def rank_device(device_name: str, threads: int | None, ranks) -> tuple[str, int 
 
 
 def print_summary(summary: dict, out_dir: str) -> None:
+    """The lines a run ends with: steps and the whole time with its parts, throughput, the analyses' numbers, each check
+    as PASS or FAIL last."""
     rate = summary["throughput"]
     done = f"{summary['steps']} steps to t = {_sim_time(summary)}" if "steps" in summary else "solved"
     print(f"{summary['scene']}: {done} in {_times(summary)}"
@@ -344,6 +352,8 @@ def _write_meta(out_dir: str, meta: dict) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line with ``argv`` (default ``sys.argv``); the exit code: 0 done, 1 a validation failed, 2 bad
+    input, 3 a run stopped."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

@@ -92,10 +92,12 @@ class DeviceClock:
 
     @property
     def time(self) -> float:
+        """The simulated time t the clock holds (s, or the solver's time unit), read from its report."""
         return float(self.report()[K.TIME])
 
     @property
     def step(self) -> float:
+        """The time step Δt the clock chose last, read from its report."""
         return float(self.report()[K.STEP])
 
     def problem(self, unit: str = "s") -> str | None:

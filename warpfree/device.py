@@ -185,6 +185,7 @@ class Launcher:
 
     @property
     def is_cpu(self) -> bool:
+        """True when this launcher's device is the CPU."""
         return self.device == "cpu"
 
     def chunks(self, n: int, count: int | None = None) -> list[tuple[int, int]]:
@@ -313,10 +314,12 @@ class Launcher:
                 self._capture = None
 
     def synchronize(self) -> None:
+        """Wait until the device has finished every launch (nothing to wait for on the CPU)."""
         if not self.is_cpu:
             wp.synchronize_device(self.device)
 
     def close(self) -> None:
+        """Stop the thread pool of a CPU launcher (idempotent)."""
         if self._pool is not None:
             self._pool.shutdown(wait=True)
             self._pool = None

@@ -27,9 +27,11 @@ class StepGraph:
 
     @property
     def graphs(self) -> int:
+        """How many of the parts are recorded Warp graphs (the others are host calls)."""
         return sum(1 for p in self.parts if not callable(p))
 
     def replay(self) -> None:
+        """Replay the step: each recorded graph launched, each host call made, in order."""
         for part in self.parts:
             if callable(part):
                 part()

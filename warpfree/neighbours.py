@@ -74,6 +74,7 @@ class NeighbourGrid:
 
     @property
     def id(self):
+        """The Warp hash grid's id, as kernels take it."""
         return self.grid.id
 
     def build(self, positions: wp.array) -> None:
@@ -132,6 +133,7 @@ class NeighbourGrid:
 
     @property
     def n_images(self) -> int:
+        """How many periodic image points the grid holds beyond its sources."""
         return 0 if self.points is None else self.points.shape[0] - self.n_sources
 
     def fill(self, query_points: wp.array, exclude_self: bool, capacity: int,
@@ -182,6 +184,7 @@ class NeighbourList:
         return self.rows.index.numpy()[: self.n_pairs]
 
     def counts(self) -> np.ndarray:
+        """Neighbours per query point (host copy)."""
         return self.rows.count.numpy()[: self.n]
 
 
@@ -229,6 +232,7 @@ class NeighbourTable:
             self.grows += 1
 
     def counts(self) -> np.ndarray:
+        """Neighbours per row (host copy)."""
         return self.rows.count.numpy()[: max(self.n, 0)]
 
     def row(self, i: int) -> np.ndarray:
@@ -298,6 +302,7 @@ class MovingNeighbours:
         return table
 
     def table(self, name: str) -> NeighbourTable:
+        """The neighbour table called ``name``."""
         return self.tables[name][0]
 
     def needs_rebuild(self, moved_bound: float) -> bool:

@@ -85,6 +85,7 @@ class ParticleSet:
 
     @property
     def position(self) -> wp.array:
+        """The positions (N, vec3, m)."""
         return self.fields[POSITION]
 
     def add(self, name: str, values=None, dtype=wp.float32) -> wp.array:

@@ -37,6 +37,7 @@ def enable(on: bool = True) -> None:
 
 
 def enabled() -> bool:
+    """True when announcements are on."""
     return _state["on"]
 
 

@@ -368,6 +368,13 @@ class Run(ABC):
         if directory is not None and self.world.is_root:
             write_json(directory.summary, summary)
 
+    # -- results in Python ------------------------------------------------------------------------
+    def fields(self) -> dict[str, OutputSet]:
+        """The solver's output sets at this moment, by name (after :meth:`run`: the final state): each set's
+        ``points`` (N, 3) and ``fields`` (name -> array), NumPy copies of what a VTU snapshot holds. In a distributed
+        run, this rank's own part of each set (``ids``: the rows' indices in the whole set)."""
+        return {s.name: s for s in self.solver.output_sets()}
+
 
 class StaticRun(Run):
     """A one-off solve through the shell: the solver's ``solve()`` (its phases timed), then one output."""

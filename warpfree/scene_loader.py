@@ -96,6 +96,7 @@ class SceneParameter:
 
     @property
     def type_text(self) -> str:
+        """The parameter's type as ``warpfree run --list`` prints it (``float``, ``tuple[float, ...]``, ``untyped``)."""
         if self.kind is None:
             text = "untyped"
         elif self.kind is tuple:

@@ -54,6 +54,7 @@ class Space:
 
     @property
     def is_periodic(self) -> bool:
+        """True when any axis is periodic."""
         return any(self.periodic)
 
     @property
@@ -101,6 +102,7 @@ class Space:
         return d
 
     def describe(self) -> dict:
+        """The space for ``summary.json``: dimension, periodic axes, bounds (None when unbounded)."""
         return {"dim": self.dim, "periodic": list(self.periodic),
                 "lower": self.lower.tolist() if self.bounded else None,
                 "upper": self.upper.tolist() if self.bounded else None}

@@ -74,6 +74,7 @@ class TripletBuffer:
         return self.rows.shape[0]
 
     def numpy(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Host copies of the rows, columns and values."""
         return self.rows.numpy(), self.cols.numpy(), self.values.numpy()
 
 
@@ -102,6 +103,7 @@ class LoadBuffer:
         return self.rows.shape[0]
 
     def numpy(self) -> tuple[np.ndarray, np.ndarray]:
+        """Host copies of the rows and values."""
         return self.rows.numpy(), self.values.numpy()
 
 

@@ -37,6 +37,8 @@ __all__ = ["conduction_matrix", "elastic_matrix", "load_vector", "NodeRows", "no
 
 
 def slot_starts(slots_per_point: np.ndarray, device: str) -> tuple[wp.array, int]:
+    """The first triplet slot of each point (exclusive prefix sum of ``slots_per_point``) as an int64 Warp array on
+    ``device``, and the slot total."""
     per = np.asarray(slots_per_point, dtype=np.int64)
     starts = np.zeros(per.size, dtype=np.int64)
     np.cumsum(per[:-1], out=starts[1:])
@@ -48,6 +50,7 @@ def slot_starts(slots_per_point: np.ndarray, device: str) -> tuple[wp.array, int
 
 
 def per_point(values, n: int, name: str, width: int | None = None) -> np.ndarray:
+    """``values`` as float64 of shape (n,) (or (n, width)), or ParameterError naming ``name``."""
     v = np.asarray(values, dtype=np.float64)
     shape = (n,) if width is None else (n, width)
     if v.shape != shape:
@@ -83,6 +86,7 @@ class NodeRows:
 
     @property
     def nnz(self) -> int:
+        """The number of stored node pairs (entries of the matrix pattern)."""
         return int(self.indices.size)
 
 

@@ -75,9 +75,11 @@ class MLSSettings:
 
     @property
     def terms(self) -> int:
+        """The number of basis terms m (linear 3, quadratic 6 in 2D)."""
         return BASES[self.basis]
 
     def params(self) -> mk.MLSParams:
+        """The settings as the kernels read them (``kernels/mls.py: MLSParams``)."""
         p = mk.MLSParams()
         p.terms = self.terms
         p.weight = WEIGHTS[self.weight]
@@ -265,6 +267,7 @@ class MLSModel(ShapeModel):
                                             f"d_max (now {self.settings.d_max}) or move nodes")
 
     def describe(self) -> dict:
+        """The model for ``summary.json``: node count, basis, weight, d_max, support shape and radii."""
         s = self.settings
         return {"nodes": self.node_count, "basis": s.basis, "weight": s.weight, "d_max": s.d_max,
                 "support": s.support, "rank": s.rank, "support_radius_min": float(self.support_np[:, 0].min()),

@@ -41,6 +41,7 @@ class ShapeData:
 
     @property
     def n(self) -> int:
+        """The number of evaluation points."""
         return self.points.shape[0]
 
     def kernel_rows(self) -> gk.ShapeRows:

@@ -51,6 +51,7 @@ class Decomposition:
 
     @property
     def size(self) -> int:
+        """The number of ranks (subdomains)."""
         return self.lower.shape[0]
 
     # -- making one -------------------------------------------------------------------------------------
@@ -140,6 +141,8 @@ class Decomposition:
         return float(finite.min()) if finite.size else math.inf
 
     def describe(self) -> dict:
+        """The decomposition for ``summary.json``: method, ranks, cell size, each rank's box (None for an unbounded
+        side)."""
         return {"method": self.method, "ranks": self.size, "cell": self.cell,
                 "lower": np.where(np.isfinite(self.lower), self.lower, None).tolist(),
                 "upper": np.where(np.isfinite(self.upper), self.upper, None).tolist()}
@@ -151,6 +154,7 @@ class Decomposition:
 
     @classmethod
     def from_dict(cls, d: dict) -> "Decomposition":
+        """A decomposition from its saved form (a checkpoint's manifest)."""
         return cls(np.array(d["lower"], float), np.array(d["upper"], float), np.array(d["period"], float),
                    int(d["dim"]), str(d["method"]), float(d["cell"]))
 

@@ -71,10 +71,12 @@ class Partition:
 
     @property
     def n_owned(self) -> int:
+        """The number of items this rank owns."""
         return self.owned_index.size
 
     @property
     def n_ghosts(self) -> int:
+        """The number of ghost items this rank holds for its neighbours' support."""
         return self.n - self.n_owned
 
     # -- making one -----------------------------------------------------------------------------------------
@@ -214,6 +216,7 @@ class Partition:
         return np.array(v[self.owned_index])
 
     def describe(self) -> dict:
+        """The partition for ``summary.json``: items held, owned, ghosts and the neighbouring ranks."""
         return {"held": self.n, "owned": self.n_owned, "ghosts": self.n_ghosts,
                 "neighbours": sorted(set(self.send) | set(self.receive))}
 

@@ -219,6 +219,8 @@ class PETScSystem:
         return u
 
     def describe(self) -> dict:
+        """The last solve for ``summary.json``: preconditioner, unknowns, iterations, relative residual, tolerance, rows
+        per rank."""
         return {"library": "PETSc", "preconditioner": self.preconditioner, "unknowns": self.n_free,
                 "iterations": self.iterations, "relative_residual": self.residual, "rtol": self.rtol,
                 "rows_per_rank": self.rows_per_rank}

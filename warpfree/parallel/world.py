@@ -46,10 +46,12 @@ class World:
 
     @property
     def distributed(self) -> bool:
+        """True when the run has more than one rank."""
         return self.size > 1
 
     @property
     def is_root(self) -> bool:
+        """True on rank 0 (it writes the summary, the indices, frames and plots)."""
         return self.rank == 0
 
     def __repr__(self) -> str:
@@ -57,6 +59,7 @@ class World:
 
     # -- collectives ---------------------------------------------------------------------------------
     def barrier(self) -> None:
+        """Wait until every rank has arrived (nothing in one process)."""
         if self.comm is not None:
             self.comm.Barrier()
 
@@ -167,6 +170,7 @@ class Messages:
             self.requests.append(comm.Send_init(buffer, dest=dest, tag=self.TAG))
 
     def start_and_wait(self) -> None:
+        """Start every persistent request of the exchange and wait for all of them."""
         if not self.requests:
             return
         from mpi4py import MPI
@@ -175,6 +179,7 @@ class Messages:
         MPI.Request.Waitall(self.requests)
 
     def free(self) -> None:
+        """Free the persistent requests."""
         for request in self.requests:
             request.Free()
         self.requests = []

@@ -99,17 +99,21 @@ class HeatSolver(TimeDependentSolver):
             self.launcher.launch(K.euler_update, self.model.particles.n, [float(dt), self.rate, self.state.temperature])
 
     def stable_dt(self) -> float:
+        """The largest explicit step, fixed at set-up (s): the diffusion limit of the particle spacing."""
         return self.dt_max
 
     @property
     def dim(self) -> int:
+        """The space's dimension."""
         return self.model.dim
 
     @property
     def work_items(self) -> int:
+        """Particles (the unit of the throughput)."""
         return self.model.particles.n
 
     def output_sets(self) -> list[OutputSet]:
+        """The particles with their temperature (K), the field frames colour."""
         p = self.model.particles
         return [OutputSet("particles", p.numpy("position"), {"temperature": p.numpy("temperature")},
                           frame_field="temperature")]
@@ -121,6 +125,7 @@ class HeatSolver(TimeDependentSolver):
                 "temperature_max": float(t.max())}
 
     def describe(self) -> dict:
+        """The model for ``summary.json``: particles, spacing, h, diffusivity, kernel, space, neighbour pairs, step."""
         m = self.model
         return {"n_particles": m.particles.n, "dx": m.dx, "h": m.h, "alpha": m.alpha, "kernel": m.kernel,
                 "space": m.space.describe(), "neighbour_pairs": m.neighbours.n_pairs, "dt_max": self.dt_max,

@@ -183,6 +183,8 @@ class EFGSolver(StaticSolver):
         raise NotImplementedError
 
     def body_load(self, shape: ShapeData) -> np.ndarray:
+        """The body-force part of the load vector from the shape functions at the Gauss points ``shape`` (zeros: no body
+        force; the subclasses add theirs)."""
         return np.zeros(self.components * self.model.node_count)
 
     def interface_stiffness(self) -> sp.csr_matrix:
@@ -192,10 +194,12 @@ class EFGSolver(StaticSolver):
     # -- the solve ---------------------------------------------------------------------------------------------
     @property
     def dim(self) -> int:
+        """2: the EFG solvers work in the plane."""
         return 2
 
     @property
     def work_items(self) -> int:
+        """Gauss points (the unit of the throughput)."""
         return int(self.cells.position.shape[0])
 
     def solve(self) -> None:
@@ -471,6 +475,8 @@ class EFGSolver(StaticSolver):
         return None if np.all(m < 0) else m
 
     def describe(self) -> dict:
+        """The solve for ``summary.json``: the shape model, Gauss points, method, integration, unknowns, multipliers and
+        the linear solver."""
         return {**self.model.describe(), "gauss_points": self.work_items, "method": self.method,
                 "integration": self.integration,
                 "unknowns": int(self.components * self.model.node_count),
@@ -530,6 +536,7 @@ class PoissonSolver(EFGSolver):
         return assembly.conduction_matrix(self.model, shape, self._points.weight * k, test_dphi)
 
     def body_load(self, shape: ShapeData) -> np.ndarray:
+        """The source's load ∫ φ_I s dΩ at the Gauss points (zeros without a source)."""
         if self.source is None:
             return np.zeros(self.model.node_count)
         s = np.asarray(self.source(self._points.position), dtype=np.float64).reshape(-1)
@@ -572,6 +579,7 @@ class ElasticitySolver(EFGSolver):
         return assembly.elastic_matrix(self.model, shape, self._points.weight, d, test_dphi)
 
     def body_load(self, shape: ShapeData) -> np.ndarray:
+        """The body force's load ∫ φ_I b dΩ at the Gauss points (zeros without one), two entries per node."""
         if self.body is None:
             return np.zeros(2 * self.model.node_count)
         b = np.asarray(self.body(self._points.position), dtype=np.float64).reshape(-1, 2)
@@ -616,4 +624,5 @@ class ElasticitySolver(EFGSolver):
                                        {"parameter": _points3(self.nodal.reshape(-1, 2))})])
 
     def describe(self) -> dict:
+        """The solve for ``summary.json`` with the material: Young's modulus, Poisson's ratio, the plane condition."""
         return {**super().describe(), "young": self.young, "poisson": self.poisson, "plane": self.plane}

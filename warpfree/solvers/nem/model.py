@@ -283,6 +283,7 @@ class NEMModel(ShapeModel):
         return triangle_smoothing_cells(self.nodes_np, self.triangles, self.adjacent, order)
 
     def describe(self) -> dict:
+        """The model for ``summary.json``: nodes, triangles, domain and node spacing."""
         s = self.settings
         return {"nodes": self.node_count, "basis": s.basis, "weight": s.weight, "triangles": len(self.triangles),
                 "domain": "convex hull" if self.domain is None else f"polygon of {len(self.domain)} vertices",

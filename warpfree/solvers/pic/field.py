@@ -183,10 +183,13 @@ class PlasmaPoisson:
         return np.asarray((self.gauss_shape.T @ (self.gauss.weight[:, None] * phase)).T) / self.area
 
     def wavevectors(self, modes) -> np.ndarray:
+        """The wavevectors k = 2π m / L (1/λ_D) of Fourier modes ``m`` (n, 2) of the box."""
         m = np.asarray(modes, dtype=np.float64).reshape(-1, 2)
         return 2.0 * math.pi * m / self.length
 
     def describe(self) -> dict:
+        """The field solve for ``summary.json``: wall potentials, background cells, Gauss points, matrix entries,
+        factorisation time."""
         return {"walls": self.wall_potentials.tolist() if self.walled else None, "cells": list(self.cells),
                 "gauss_points": int(self.gauss.weight.size),
                 "stiffness_nnz": int(self.stiffness.nnz), "factorise_s": self.system.timings["factorise"]}

@@ -69,6 +69,7 @@ class Injection:
 
     @property
     def warm(self) -> bool:
+        """True when the source injects a thermal (half-Maxwellian) flux, False for a cold beam."""
         return self.species.temperature > 0.0
 
     @property

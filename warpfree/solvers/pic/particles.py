@@ -63,6 +63,7 @@ class PICState(State):
 
     @property
     def capacity(self) -> int:
+        """The particle slots allocated (the live count is at most this)."""
         return self.position.shape[0]
 
     def resize(self, capacity: int) -> None:
@@ -160,6 +161,7 @@ class Particles:
             self.on_resize(capacity)
 
     def sync_position32(self) -> None:
+        """Copy the float64 positions into the float32 vec3 array the hash grid is built over."""
         p = self.state.position.numpy()
         p32 = np.zeros((p.shape[0], 3), dtype=np.float32)
         p32[:, :2] = p

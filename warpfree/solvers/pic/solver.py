@@ -256,6 +256,8 @@ class PICSolver(TimeDependentSolver):
                           stacklevel=3)
 
     def step(self, dt: float) -> None:
+        """One leapfrog step of the solver's own Δt: push (gather, Boris), then deposit, field solve and the step's
+        report; a different ``dt`` is refused (it would break the staggering)."""
         if abs(dt - self.dt) > 1e-9 * self.dt:
             raise ParameterError("dt", f"the leapfrog keeps v at half steps of its own Δt = {self.dt:.6g}; a step of "
                                        f"{dt:.6g} would break the staggering (make output times multiples of Δt)")
@@ -395,10 +397,12 @@ class PICSolver(TimeDependentSolver):
 
     @property
     def dim(self) -> int:
+        """2: the PIC solver works in the plane."""
         return 2
 
     @property
     def work_items(self) -> int:
+        """Live particles (the unit of the throughput: particle pushes)."""
         return self.n
 
     def problem(self) -> str | None:
@@ -460,6 +464,8 @@ class PICSolver(TimeDependentSolver):
         self.after_load()
 
     def after_load(self) -> None:
+        """After a checkpoint is restored: the per-particle buffers sized to it, the float32 positions and the particle
+        order rebuilt."""
         pa = self.particles
         pa.allocate(self.state.capacity)
         self.coupling.allocate(self.state.capacity)
@@ -470,6 +476,7 @@ class PICSolver(TimeDependentSolver):
         self.diagnostics_record.after_solve()
 
     def diagnostics(self) -> dict[str, float]:
+        """The last row of the history: energies, charge, momentum, mode amplitudes (normalised units)."""
         if not len(self.state.history):
             return {}
         return {k: v[-1] for k, v in self.history.items() if k != "time"}
@@ -499,6 +506,7 @@ class PICSolver(TimeDependentSolver):
                           ids=node_rows if distributed else None)]
 
     def describe(self) -> dict:
+        """The run for ``summary.json``: species, injections, field solve, step and the distributed layout."""
         species = [{"name": ld.species.name, "count": ld.count, "weight": ld.weight, "charge": ld.species.charge,
                     "mass": ld.species.mass, "density": ld.species.density, "temperature": ld.species.temperature}
                    for ld in self.loads]

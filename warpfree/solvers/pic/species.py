@@ -70,6 +70,7 @@ class ParticleLoad:
 
     @property
     def count(self) -> int:
+        """The number of macro-particles loaded."""
         return int(self.position.shape[0])
 
 

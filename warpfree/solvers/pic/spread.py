@@ -76,6 +76,7 @@ class PlasmaSpread:
                                                    "this scene in one process, or with reflecting walls")
 
     def describe(self) -> dict:
+        """The distributed layout for ``summary.json``: particles owned and ghost, and nodes, per rank; imbalance."""
         counts = np.concatenate(self.world.allgather(np.array(
             [self.particles.n_owned, self.particles.n_ghosts, self.my_nodes.size], dtype=np.int64)))
         counts = counts.reshape(self.world.size, 3)

@@ -76,6 +76,8 @@ def pattern_reach(support: np.ndarray, spacing: np.ndarray, order: int = 1) -> n
 
 
 class ConservativePair(NamedTuple):
+    """The energy-conserving E/H operator pair: its per-axis matrices, the largest change from the FPM operators and the
+    constraints' residual."""
     e_operator: list  # per axis, CSR (n_e, n_h), 1/m
     h_operator: list  # per axis, CSR (n_h, n_e), 1/m
     largest_change: float  # largest |entry change| from FPM, in 1/spacing

@@ -60,10 +60,12 @@ class StaggeredLayout:
 
     @property
     def n_e(self) -> int:
+        """The number of E particles."""
         return self.e_position.shape[0]
 
     @property
     def n_h(self) -> int:
+        """The number of H particles."""
         return self.h_position.shape[0]
 
     def h_subsets(self) -> list[np.ndarray]:
@@ -76,9 +78,11 @@ class StaggeredLayout:
         return [np.flatnonzero(self.h_carries == HY), np.flatnonzero(self.h_carries == HX)][:self.dim]
 
     def e_cell_volume(self) -> np.ndarray:
+        """Each E particle's volume (m^dim), its spacing to the power dim."""
         return self.e_spacing ** self.dim
 
     def h_cell_volume(self) -> np.ndarray:
+        """Each H particle's volume (m^dim), its spacing to the power dim."""
         return self.h_spacing ** self.dim
 
     def quadrature_volumes(self, e_position: np.ndarray | None = None,

@@ -67,6 +67,7 @@ class PML:
         return -math.log(self.reflection) * (self.order + 1) * EPS0 * C0 / (2.0 * self.thickness)
 
     def check(self, spacing: float) -> None:
+        """Refuse a layer thinner than two particle spacings or a reflection outside (0, 1), naming ``pml.*``."""
         require_positive("pml.thickness", self.thickness)
         if self.thickness < 2.0 * spacing:
             raise ParameterError("pml.thickness", f"{self.thickness:.4g} m is thinner than two particle spacings "
@@ -440,6 +441,8 @@ class SPEMModel:
         return float(eigsh(gram, k=1, which="LA", tol=1e-6, v0=start, return_eigenvectors=False)[0]) * (1.0 + 1e-5)
 
     def describe(self) -> dict:
+        """The model for ``summary.json``: particle counts, spacing, scheme, support, pairs and neighbour counts,
+        materials and PML."""
         lay = self.layout
         d = {"n_electric": lay.n_e, "n_magnetic": lay.n_h, "spacing": lay.spacing, "scheme": self.scheme,
              "support_spacings": self.support, "pairs_e_h": self.e_rows.n_pairs, "pairs_h_e": self.h_rows.n_pairs,

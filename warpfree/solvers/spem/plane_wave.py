@@ -48,9 +48,11 @@ class PlaneWave:
     mu_r: float = 1.0
 
     def speed(self) -> float:
+        """The wave's speed in its medium, c0 / sqrt(ε_r μ_r) (m/s)."""
         return C0 / math.sqrt(self.eps_r * self.mu_r)
 
     def unit_direction(self, dim: int) -> np.ndarray:
+        """The propagation direction as a unit 3-vector (its first ``dim`` components given), or ParameterError."""
         d = np.zeros(3)
         d[:dim] = np.asarray(self.direction, float)[:dim]
         norm = float(np.linalg.norm(d))

@@ -316,6 +316,7 @@ class SPEMSolver(TimeDependentSolver):
                 self.spread.magnetic.refresh(st.hx, st.hy)
 
     def stable_dt(self) -> float:
+        """The stable step of the operators' spectral radius, fixed at set-up (s)."""
         return self._dt_max
 
     def step_rule(self) -> StepRule:
@@ -328,15 +329,18 @@ class SPEMSolver(TimeDependentSolver):
         return self.clock.time
 
     def problem(self) -> str | None:
+        """None: a SPEM step has nothing to refuse (the step is fixed below its limit at set-up)."""
         return None
 
     # -- outputs ---------------------------------------------------------------------------------
     @property
     def dim(self) -> int:
+        """The dimension of the layout (1 or 2)."""
         return self.model.dim
 
     @property
     def work_items(self) -> int:
+        """E and H particles (the unit of the throughput)."""
         return self.model.layout.n_e + self.model.layout.n_h
 
     #: the state's fields on each set (the clock is every process's alike)
@@ -415,11 +419,13 @@ class SPEMSolver(TimeDependentSolver):
         return {"electric_energy": float(we), "magnetic_energy": float(wm)}
 
     def diagnostics(self) -> dict[str, float]:
+        """The field energy's parts (J/m in 2D) and the largest |Ez| (V/m)."""
         d = self.energy()
         d["ez_max"] = float(np.abs(self.electric.numpy("ez")).max())
         return d
 
     def describe(self) -> dict:
+        """The run for ``summary.json``: the model, the largest stable step, the sources and the distributed layout."""
         d = self.model.describe()
         d.update(dt_max=self._dt_max, distribution=self.distribution, sources=[{"particles": int(s.index.size), "kind": s.source.kind,
                                                 "frequency": s.source.waveform.frequency} for s in self.sources])

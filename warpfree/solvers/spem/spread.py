@@ -98,6 +98,7 @@ class FieldSpread:
         return wave
 
     def describe(self) -> dict:
+        """The distributed layout for ``summary.json``: E and H particles owned and ghost per rank."""
         counts = np.concatenate(self.world.allgather(np.array(
             [self.electric.n_owned, self.electric.n_ghosts, self.magnetic.n_owned, self.magnetic.n_ghosts],
             dtype=np.int64))).reshape(self.world.size, 4)

@@ -94,6 +94,7 @@ class FluidParams:
 
     @property
     def h(self) -> float:
+        """The smoothing length h = h_factor dx (m)."""
         return self.h_factor * self.dx
 
     @property
@@ -103,6 +104,7 @@ class FluidParams:
 
     @property
     def support(self) -> float:
+        """The kernel's support radius (m): its support factor times h."""
         return support_factor(self.kernel) * self.h
 
     @property
@@ -111,6 +113,7 @@ class FluidParams:
         return self.shifting_speed or 0.1 * self.c0
 
     def validate(self) -> None:
+        """Refuse a bad parameter by name (dimension, spacing, kernel, EOS, viscosities, shifting, ...)."""
         if self.dim not in (2, 3):
             raise ParameterError("dim", f"must be 2 or 3, got {self.dim!r}")
         require_positive("dx", self.dx)
@@ -270,6 +273,7 @@ class WCSPHModel:
         return self.params.skin * self.params.support
 
     def describe(self) -> dict:
+        """The model for ``summary.json``: its parameters with h, support, B and the particle counts."""
         P = self.params
         d = asdict(P)
         d.update({"h": P.h, "support": P.support, "B": P.b, "viscosity_factor": self.viscosity_factor,

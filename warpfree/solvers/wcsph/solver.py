@@ -524,6 +524,7 @@ class WCSPHSolver(TimeDependentSolver):
     # -- outputs, diagnostics ------------------------------------------------------------------------
     @property
     def dim(self) -> int:
+        """The dimension (2 or 3)."""
         return self.model.dim
 
     @property
@@ -569,6 +570,8 @@ class WCSPHSolver(TimeDependentSolver):
         return sets
 
     def output_fields(self) -> dict[str, list[str]]:
+        """The fields each output set writes: the fluid's velocity (m/s), density (kg/m³), pressure (Pa) and speed
+        (m/s); the walls' and obstacles' density and pressure."""
         fields = {"fluid": ["velocity", "density", "pressure", "speed"], "boundary": ["density", "pressure"]}
         if self.model.nb > self.model.n_container_walls:
             fields["obstacle"] = ["density", "pressure"]
@@ -604,6 +607,7 @@ class WCSPHSolver(TimeDependentSolver):
                 "density_max": float(rho.max())}
 
     def describe(self) -> dict:
+        """The run for ``summary.json``: the model, the neighbour capacity and rebuilds, the distributed layout."""
         d = self.model.describe()
         d.update({"max_neighbours": self.max_neighbours, "list_builds": self.moving_neighbours.builds})
         if self.spread is not None:

@@ -122,6 +122,7 @@ class FluidSpread:
         self.walls = Partition.of_all(self.world, self.decomposition, self.depth, self.wall_points)
 
     def describe(self) -> dict:
+        """The distributed layout for ``summary.json``: fluid and wall particles owned and ghost per rank, imbalance."""
         counts = np.concatenate(self.world.allgather(np.array(
             [self.fluid.n_owned, self.fluid.n_ghosts, self.walls.n_owned, self.walls.n_ghosts], dtype=np.int64)))
         counts = counts.reshape(self.world.size, 4)

@@ -18,10 +18,12 @@ OUTER = np.array([[1.0, 2.0], [0.0, 2.0], [0.0, 0.0], [2.0, 0.0], [2.0, 1.0]])
 
 
 def exact(p):
+    """The manufactured solution u = sin(1.3 x + 0.4) exp(0.7 y) at points ``p`` (n, 2)."""
     return np.sin(1.3 * p[:, 0] + 0.4) * np.exp(0.7 * p[:, 1])
 
 
 def exact_gradient(p):
+    """∇u of :func:`exact` at points ``p`` (n, 2): (n, 2)."""
     return np.stack([1.3 * np.cos(1.3 * p[:, 0] + 0.4) * np.exp(0.7 * p[:, 1]), 0.7 * exact(p)], axis=1)
 
 
