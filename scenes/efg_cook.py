@@ -1,4 +1,6 @@
-"""Cook's membrane by EFG (seed 003 §5.2, Table 5.2): the top-corner deflection against a fine-mesh FEM reference.
+"""Cook's membrane by EFG: the top-corner deflection against a fine-mesh FEM reference.
+
+Seed 003 §5.2, Table 5.2.
 
 The tapered panel (0, 0), (48, 44), (48, 60), (0, 44), unit thickness, clamped on x = 0 (Lagrange multipliers at
 the edge's nodes), a total vertical shear F = 1 spread uniformly over the right edge x = 48, the other edges

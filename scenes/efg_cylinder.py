@@ -1,4 +1,6 @@
-"""Thick cylinder under internal pressure by EFG (seed 003 §5.3, Table 5.3): u_r against the plane-strain Lamé solution.
+"""Thick cylinder under internal pressure by EFG: u_r against the plane-strain Lamé solution.
+
+Seed 003 §5.3, Table 5.3.
 
 A quarter of the ring a <= r <= b (a = 10, b = 25) with symmetry conditions (u_y = 0 on y = 0, u_x = 0 on x = 0,
 Lagrange multipliers), pressure p = 100 on r = a, r = b free; G0 = 8000, ν = 0.3, E = 2 G0 (1 + ν), plane strain.

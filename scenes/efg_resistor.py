@@ -1,4 +1,6 @@
-"""Two-material resistor by EFG (seed 002 §6.2): potential, field and interface conditions against a fine FEM reference.
+"""Two-material resistor by EFG: potential, field and interface conditions against a fine FEM reference.
+
+Seed 002 §6.2.
 
 An inverted-T conductor (``warpfree/validation/efg_resistor``; the thesis's geometry is lost with its figure): a
 lower bar [0, 3] x [0, 1] mm of aluminium (σ1 = 3.57e7 S/m) and an upper bar [1, 2] x [1, 2] mm of copper (σ2 =

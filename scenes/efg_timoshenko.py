@@ -1,4 +1,6 @@
-"""Timoshenko cantilever by EFG (seed 003 §5.1, Table 5.1): tip deflection and energy-norm error against the exact beam.
+"""Timoshenko cantilever by EFG: tip deflection and energy-norm error against the exact beam.
+
+Seed 003 §5.1, Table 5.1.
 
 Beam 0 <= x <= L, -D/2 <= y <= D/2 (E = 3e7, ν = 0.3, D = 12, L = 48, P = 1000, plane stress, unit thickness); the
 exact displacements (seed 003 eqs 5.1a/b, ``warpfree/validation/efg_timoshenko``) are imposed on x = 0 with Lagrange

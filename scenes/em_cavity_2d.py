@@ -1,4 +1,6 @@
-"""2D pulse in a circular cavity (seed 000 §4.3): SPEM against the exact Bessel series (4.5).
+"""2D pulse in a circular dielectric cavity: SPEM against the exact Bessel series.
+
+Seed 000 §4.3, the series (4.5).
 
 A disk of radius r0 = 0.1 m centred at (0.1, 0.1) m, εr = 10, perfectly conducting wall (a ring of E particles
 held at Ez = 0), Ez(r, 0) = 1 - r²/r0², H = 0. Writes ``cavity.png`` (Ez along the radial line x = 0.1 m against

@@ -1,4 +1,6 @@
-"""1D wave from a sine source in the middle of a line (seed 000 §4.2): SPEM against the exact wave.
+"""1D wave from a sine source in the middle of a line: SPEM against the exact wave.
+
+Seed 000 §4.2.
 
 Ω = [0, π] m, perfectly conducting ends (E particles held at 0), a hard source Ez = sin(2π f t), f = 1.8 GHz,
 on the E particle nearest the centre, compared at t = 4.75 ns with sin(ω(t - |x - x_s|/c)) on x in (0.5, 1.5)

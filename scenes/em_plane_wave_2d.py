@@ -1,4 +1,6 @@
-"""Plane wave in free space with a PML on all sides (seed 000 §4.5, the case the thesis could not make work).
+"""Plane wave in free space, absorbed by a PML on all sides: SPEM against the incident wave (total/scattered field).
+
+Seed 000 §4.5, the case the thesis could not make work.
 
 A 3.6 GHz plane wave travelling along +y through a 0.5 m square of vacuum, surrounded by a PML. The thesis forced
 Ez on a line of E particles next to the PML and got stripes: lines of particles with the right amplitude

@@ -1,4 +1,6 @@
-"""Parallel-plate waveguide with a PML (seed 000 §4.4): SPEM against the exact TM1 signalling solution.
+"""Parallel-plate waveguide with a PML: SPEM against the exact TM1 signalling solution.
+
+Seed 000 §4.4.
 
 Plates (PEC, held E particles) at x = 0 and x = a = 0.5 m, the wave driven from y = 0 and absorbed by a PML of
 0.1 m beyond y = 0.4 m (backed by PEC). The source imposes Ez = E0 sin(πx/a) s(t) on the E particles of the line

@@ -1,4 +1,6 @@
-"""Thermal plasma in a periodic box (seed 002 §6.1/6.3): energy conservation with both species moving.
+"""Thermal plasma in a periodic box: energy conservation with electrons and protons moving.
+
+Seed 002 §6.1/6.3.
 
 Normalised units: electrons (charge -1, mass 1, density 1, temperature 1: ω_pe = 1, λ_D = 1) and protons (charge
 +1, mass ``mass_ratio``, density 1, temperature ``ion_temperature``: seed 002 §6.3 has electrons at 10⁴ K and
