@@ -88,4 +88,6 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
                       params=params, probes={"front": front_position}, analyses=[front_analysis],
                       dt=dt, checkpoint_every=checkpoint_every,
                       output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field, plots=True,
-                                           frame_bounds=((-0.1 * a, length + 0.1 * a), (-0.1 * a, top + 0.1 * a))))
+                                           frame_bounds=((-0.1 * a, length + 0.1 * a), (-0.1 * a, top + 0.1 * a)),
+                                           frame_range={"speed": (0.0, float(np.sqrt(2.0 * g * height))),
+                                                        "pressure": (0.0, rho0 * g * height)}))

@@ -106,4 +106,6 @@ def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
     return TimeLoop(solver, t_end=t_end, output_interval=output_interval, name="dam_break_3d", params=params,
                       probes=probes, analyses=[obstacle_analysis], dt=dt, checkpoint_every=checkpoint_every,
                       output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field, frame_bounds=b,
-                                           meshes=surface))
+                                           meshes=surface,
+                                           frame_range={"speed": (0.0, float(np.sqrt(2.0 * g * column_height))),
+                                                        "pressure": (0.0, rho0 * g * column_height)}))

@@ -31,7 +31,7 @@ from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.io.validation_plots import plot_against_reference
 from warpfree.solvers.efg.plots import plot_deformed
 from warpfree.galerkin.quadrature import polyline_points, quadrilateral_cells, structured_quadrilateral
-from warpfree.solvers.efg.solver import ElasticitySolver
+from warpfree.solvers.efg.solver import ELASTICITY_UNITS, ElasticitySolver
 from warpfree.validation import efg_cook as cook, tolerance_check
 
 LAYOUTS = ("regular", "random")
@@ -137,7 +137,9 @@ def build(cells: int = 32, layout: str = "regular", seed: int = 0, d_max: float 
         return result
 
     return StaticRun(solver, name="efg_cook", params=params, analyses=[accuracy],
-                     output=OutputOptions(vtk=vtk, frames=frames), reported_as=NAMES)
+                     output=OutputOptions(vtk=vtk, frames=frames,  # lengths and stresses in Table 5.2's units
+                                          units=dict.fromkeys(ELASTICITY_UNITS, "consistent units")),
+                     reported_as=NAMES)
 
 
 def _plot_convergence(path, study):

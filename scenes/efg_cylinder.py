@@ -27,7 +27,7 @@ from warpfree.galerkin.node_layouts import annulus_nodes
 from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.solvers.efg.plots import plot_deformed
 from warpfree.galerkin.quadrature import annulus_cells, arc_points, cell_order, polyline_points
-from warpfree.solvers.efg.solver import ElasticitySolver
+from warpfree.solvers.efg.solver import ELASTICITY_UNITS, ElasticitySolver
 from warpfree.solvers.nem import NEMModel
 from warpfree.validation import efg_cylinder as ring, tolerance_check
 
@@ -161,7 +161,9 @@ def build(cells_r: int = 16, cells_t: int = 16, layout: str = "regular", seed: i
         return {"cylinder": result}
 
     return StaticRun(solver, name="efg_cylinder", params=params, analyses=[accuracy],
-                     output=OutputOptions(vtk=vtk, frames=frames), reported_as=NAMES)
+                     output=OutputOptions(vtk=vtk, frames=frames,  # lengths and stresses in Table 5.3's units
+                                          units=dict.fromkeys(ELASTICITY_UNITS, "consistent units")),
+                     reported_as=NAMES)
 
 
 def _plot_radial(path, solver, label: str):

@@ -24,7 +24,7 @@ from warpfree.galerkin.quadrature import QuadraturePoints, cell_order, rectangle
 from warpfree.run import OutputOptions, StaticRun
 from warpfree.solvers.efg.boundary import Essential, Natural
 from warpfree.io.validation_plots import plot_against_reference
-from warpfree.solvers.efg.solver import PoissonSolver
+from warpfree.solvers.efg.solver import POISSON_UNITS, PoissonSolver
 from warpfree.validation import tolerance_check
 from warpfree.validation.efg_l_shape import OUTER, SQUARES, exact, exact_gradient, source
 
@@ -120,7 +120,9 @@ def build(n: int = 16, basis: str = "linear", d_max: float = 2.0, gauss: int | N
         return {"l_shape": result}
 
     return StaticRun(solver, name="efg_l_shape", params=params, analyses=[accuracy],
-                     output=OutputOptions(vtk=vtk, frames=frames), reported_as=NAMES)
+                     output=OutputOptions(vtk=vtk, frames=frames,  # the manufactured case is unit-free
+                                          units=dict.fromkeys(POISSON_UNITS, "1")),
+                     reported_as=NAMES)
 
 
 def _plot_convergence(path, ns, errors, rates, basis: str):

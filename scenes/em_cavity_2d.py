@@ -111,7 +111,8 @@ def build(radius: float = 0.1, eps_r: float = 10.0, cells_per_radius: int = 20, 
 
     run = TimeLoop(solver, t_end=t_end, output_interval=output_interval, name="em_cavity_2d", params=params,
                     probes={"mean_error": mean_error, "line_error": line_error}, analyses=[cavity_analysis],
-                    output=OutputOptions(vtk=vtk, frames=frames, frame_bounds=((0.0, 2 * radius), (0.0, 2 * radius))))
+                    output=OutputOptions(vtk=vtk, frames=frames, frame_bounds=((0.0, 2 * radius), (0.0, 2 * radius)),
+                                         frame_range={"ez": (-1.0, 1.0)}))  # the initial pulse's peak, 1 V/m
     dt = run.step_size  # the constant step the loop chose: the analyses' E lags H by half of it
     return run
 

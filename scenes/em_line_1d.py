@@ -86,7 +86,8 @@ def build(frequency: float = 1.8e9, length: float = math.pi, particles_per_wavel
 
     run = TimeLoop(solver, t_end=t_end, output_interval=output_interval, name="em_line_1d", params=params,
                     analyses=[line_analysis],
-                    output=OutputOptions(vtk=vtk, frames=frames, frame_bounds=((0.0, length),)))
+                    output=OutputOptions(vtk=vtk, frames=frames, frame_bounds=((0.0, length),),
+                                         frame_range={"ez": (-1.0, 1.0)}))  # the source's amplitude, 1 V/m
     dt = run.step_size  # the constant step the loop chose: the analyses' E lags H by half of it
     return run
 

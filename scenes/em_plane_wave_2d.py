@@ -163,7 +163,8 @@ def build(size: float = 0.5, frequency: float = 3.6e9, amplitude: float = 1.0, p
                     params=params, probes={"mean_error": mean_error, "leakage": leakage},
                     analyses=[plane_wave_analysis],
                     output=OutputOptions(vtk=vtk, frames=frames, frame_bounds=((-pml_thickness, size + pml_thickness),
-                                                                                (-pml_thickness, size + pml_thickness))))
+                                                                                (-pml_thickness, size + pml_thickness)),
+                                         frame_range={"ez": (-amplitude, amplitude)}))
     dt = run.step_size  # the constant step the loop chose: the analyses' E lags H by half of it
     return run
 

@@ -107,7 +107,8 @@ def build(width: float = 0.5, length: float = 0.4, pml_thickness: float = 0.1, f
     run = TimeLoop(solver, t_end=t_end, output_interval=output_interval, name="em_waveguide_2d", params=params,
                     analyses=[waveguide_analysis],
                     output=OutputOptions(vtk=vtk, frames=frames,
-                                         frame_bounds=((0.0, width), (0.0, length + pml_thickness))))
+                                         frame_bounds=((0.0, width), (0.0, length + pml_thickness)),
+                                         frame_range={"ez": (-abs(amplitude), abs(amplitude))} if amplitude else None))
     dt = run.step_size  # the constant step the loop chose: the analyses' E lags H by half of it
     return run
 

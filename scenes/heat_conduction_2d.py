@@ -66,7 +66,8 @@ def build(n: int = 40, length: float = 1.0, alpha: float = 0.01, mode: int = 1, 
 
     return TimeLoop(solver, t_end=t_end, output_interval=output_interval, name="heat_conduction_2d", params=params,
                     probes={"amplitude": sine_amplitude}, analyses=[decay_analysis],
-                    output=OutputOptions(vtk=vtk, frames=frames, frame_bounds=((0, length), (0, length))))
+                    output=OutputOptions(vtk=vtk, frames=frames, frame_bounds=((0, length), (0, length)),
+                                         frame_range={"temperature": (300.0 - abs(amplitude), 300.0 + abs(amplitude))}))
 
 
 SOURCE = "the exact decay T0 + A exp(-α k² t) sin(kx) of the heat equation; warpfree/validation/heat_conduction_2d/README.md"

@@ -122,8 +122,13 @@ def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5
 
     return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, name="pic_diode",
                     params=params, analyses=[diode_analysis],
-                    output=OutputOptions(vtk=vtk, frames=frames, frame_field="speed", extra_frames=POTENTIAL_FRAMES,
-                                         frame_bounds=((0.0, width), (0.0, gap))))
+                    output=OutputOptions(vtk=vtk, frames=frames, frame_field="velocity_y",
+                                         extra_frames=POTENTIAL_FRAMES,
+                                         frame_bounds=((0.0, width), (0.0, gap)),
+                                         # the beam's speed across the gap: v0 at the cathode, sqrt(v0² + 2V) at the
+                                         # anode; the potential between the electrodes' 0 and V
+                                         frame_range={"velocity_y": (0.0, float(np.sqrt(v0 ** 2 + 2.0 * voltage))),
+                                                      "potential": (0.0, voltage)}))
 
 
 def diode_checks(result: dict) -> dict:

@@ -97,8 +97,12 @@ def build(wavenumber: float = 0.5, length_y: float = 4.0, node_spacing: float = 
 
     return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, name="pic_plasma_oscillation",
                     params=params, analyses=[oscillation_analysis],
-                    output=OutputOptions(vtk=vtk, frames=frames, frame_field="speed", extra_frames=POTENTIAL_FRAMES,
-                                         frame_bounds=((0.0, length), (0.0, length_y))))
+                    output=OutputOptions(vtk=vtk, frames=frames, frame_field="velocity_x",
+                                         extra_frames=POTENTIAL_FRAMES,
+                                         frame_bounds=((0.0, length), (0.0, length_y)),
+                                         # the cold oscillation's amplitudes: v δ ω_p, φ δ/k (n = 1, ω_p = 1)
+                                         frame_range={"velocity_x": (-amplitude, amplitude),
+                                                      "potential": (-amplitude / k, amplitude / k)}))
 
 
 def oscillation_checks(result: dict) -> dict:

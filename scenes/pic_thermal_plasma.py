@@ -99,8 +99,11 @@ def build(box: tuple = (64.0, 128.0), node_spacing: float = 1.0, d_max: float = 
 
     return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, name="pic_thermal_plasma",
                     params=params, analyses=[energy_analysis],
-                    output=OutputOptions(vtk=vtk, frames=frames, extra_frames=POTENTIAL_FRAMES,
-                                         frame_bounds=((0.0, lx), (0.0, ly))))
+                    output=OutputOptions(vtk=vtk, frames=frames, frame_field="velocity_x",
+                                         extra_frames=POTENTIAL_FRAMES,
+                                         frame_bounds=((0.0, lx), (0.0, ly)),
+                                         # ±3 electron thermal speeds; the potential in k T_e/e (1)
+                                         frame_range={"velocity_x": (-3.0, 3.0), "potential": (-1.0, 1.0)}))
 
 
 def thermal_checks(result: dict) -> dict:

@@ -115,8 +115,13 @@ def build(beam_speed: float = 1.0, length_y: float = 4.0, node_spacing: float = 
 
     return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, name="pic_two_stream",
                     params=params, analyses=[growth_analysis],
-                    output=OutputOptions(vtk=vtk, frames=frames, extra_frames=POTENTIAL_FRAMES,
-                                         frame_bounds=((0.0, length), (0.0, length_y))))
+                    output=OutputOptions(vtk=vtk, frames=frames, frame_field="velocity_x",
+                                         extra_frames=POTENTIAL_FRAMES,
+                                         frame_bounds=((0.0, length), (0.0, length_y)),
+                                         # the beams at ±v0 spread to about ±2 v0 once trapped; the potential saturates
+                                         # near m v0²/e
+                                         frame_range={"velocity_x": (-2.0 * v0, 2.0 * v0),
+                                                      "potential": (-v0 ** 2, v0 ** 2)}))
 
 
 def two_stream_checks(result: dict) -> dict:

@@ -147,7 +147,8 @@ def build(n: int = 40, width: float = 1.0e-3, channel_length: float = 1.0e-3, nu
                     probes=probes, analyses=[profile_analysis], checkpoint_every=checkpoint_every,
                     output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field,
                                          frame_bounds=((0.0, channel_length),
-                                                       (-wall_layers * dx, width + wall_layers * dx))))
+                                                       (-wall_layers * dx, width + wall_layers * dx)),
+                                         frame_range={"speed": (0.0, u_c)}))
 
 
 def profile_tolerance(n: int) -> float:

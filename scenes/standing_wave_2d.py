@@ -92,7 +92,11 @@ def build(length: float = 1.0, depth: float = 0.5, amplitude: float = 0.01, dx: 
                     name="standing_wave_2d", params=params, probes={"centre_of_mass_x": centre_of_mass_x},
                     analyses=[wave_analysis], checkpoint_every=checkpoint_every,
                     output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field,
-                                         frame_bounds=((-0.05 * length, 1.05 * length), (-0.05 * depth, 1.5 * depth))))
+                                         frame_bounds=((-0.05 * length, 1.05 * length), (-0.05 * depth, 1.5 * depth)),
+                                         # linear theory's largest speed, A ω coth(k d) at the surface (k = π/L)
+                                         frame_range={"speed": (0.0, amplitude * omega / math.tanh(math.pi * depth
+                                                                                                    / length)),
+                                                      "pressure": (0.0, rho0 * g * (depth + amplitude))}))
 
 
 def standing_wave_errors(time, centre_x, omega: float, expected_amplitude: float) -> dict:

@@ -96,7 +96,9 @@ def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float
                       checkpoint_every=checkpoint_every,
                       output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field,
                                            frame_bounds=((lo[0] - 0.1 * width, hi[0] + 0.1 * width),
-                                                         (lo[1] - 0.1 * depth, hi[1] + 0.1 * depth))))
+                                                         (lo[1] - 0.1 * depth, hi[1] + 0.1 * depth)),
+                                           frame_range={"pressure": (0.0, rho0 * g * depth),
+                                                        "speed": (0.0, float(np.sqrt(2.0 * g * depth)))}))
 
 
 def surface_level_spread(x: np.ndarray, water: np.ndarray, dx: float) -> float:

@@ -124,7 +124,9 @@ def build(n: int = 50, length: float = 1.0, u0: float = 1.0, reynolds: float = 1
                             "velocity_l2_error": velocity_l2_error},
                     analyses=[decay_analysis], checkpoint_every=checkpoint_every,
                     output=OutputOptions(vtk=vtk, frames=frames, frame_field=frame_field,
-                                         frame_bounds=((0.0, length), (0.0, length))))
+                                         frame_bounds=((0.0, length), (0.0, length)),
+                                         frame_range={"speed": (0.0, u0),
+                                                      "pressure": (-0.5 * rho0 * u0 ** 2, 0.5 * rho0 * u0 ** 2)}))
 
 
 def _kinetic_energy(solver, mass: np.ndarray) -> float:

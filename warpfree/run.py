@@ -17,6 +17,7 @@ The CLI maps :class:`~warpfree.errors.ParameterError` to exit code 2 and RunErro
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import time
@@ -28,6 +29,7 @@ from typing import ClassVar
 import numpy as np
 
 from .errors import ParameterError, RunError, reported_as
+from .io.frames import DIMENSIONLESS
 from .io.writer import OutputError, OutputWriter
 from .parallel import world
 from .solver import OutputSet, PhaseTimes, Solver, StaticSolver
@@ -45,12 +47,18 @@ class OutputOptions:
     """What a run writes besides ``summary.json``.
 
     frame_set / frame_field: the set and field frames colour (default: the first output set with a
-    ``frame_field``, and that field); frame_bounds: the plotted extent, ``((xmin, xmax), (ymin, ymax)[, (zmin,
-    zmax)])`` (default: the bounding box of the first output, 5% margin); meshes: write the solver's
-    ``output_meshes()`` (e.g. free surfaces) as PLY; background: write in a worker process beside the run;
-    plots: the scene's analyses draw plots through :meth:`Run.plot` (the writer loads Matplotlib while the run
-    steps, as it does for frames); extra_frames: more frame series, each a (set, field) pair drawn alone into
-    ``frames/<set>_<field>_NNNNN.png`` (a PIC scene's potential on its nodes beside its particles).
+    ``frame_field``, and that field); a field is a scalar field of the set or a component of a vector field,
+    ``<field>_x``, ``_y`` or ``_z`` (``velocity_x``); frame_bounds: the plotted extent, ``((xmin, xmax), (ymin,
+    ymax)[, (zmin, zmax)])`` (default: the bounding box of the first output, 5% margin); frame_range: the colour
+    range (1D: the y range) of each field frames colour by, ``{field: (vmin, vmax)}`` in the field's unit, from the
+    scene's physical scale (ρ0 g H for a hydrostatic pressure, a source's amplitude): one range for the whole series;
+    a field without one takes its range from the first frame whose values spread (:func:`warpfree.io.frames.
+    colour_range`); meshes: write the solver's ``output_meshes()`` (e.g. free surfaces) as PLY; background: write in a
+    worker process beside the run; plots: the scene's analyses draw plots through :meth:`Run.plot` (the writer loads
+    Matplotlib while the run steps, as it does for frames); extra_frames: more frame series, each a (set, field)
+    pair drawn alone into ``frames/<set>_<field>_NNNNN.png`` (a PIC scene's potential on its nodes beside its
+    particles); units: the unit of each quantity by name (``{"position": "consistent units", ...}``), over the
+    solver's (``OutputSet.units``), for a scene whose inputs are not in the solver's units.
     """
 
     vtk: bool = True
@@ -58,10 +66,12 @@ class OutputOptions:
     frame_set: str | None = None
     frame_field: str | None = None
     frame_bounds: tuple | None = None
+    frame_range: dict | None = None
     meshes: bool = False
     background: bool = True
     plots: bool = False
     extra_frames: tuple = ()
+    units: dict | None = None
 
 
 class RunDirectory:
@@ -128,6 +138,7 @@ class Run(ABC):
         self._writer: OutputWriter | None = None
         self._series: dict = {}
         self._bounds = None
+        self._frame_scales: dict[str, dict] = {}  # per frame series: its fixed colour range and disc spacing
         self._resumed_time: float | None = None
         self._directory: RunDirectory | None = None
         #: the ranks of the run (one process, or ``mpiexec``'s): rank 0 writes the summary, the indices, the frames
@@ -139,26 +150,33 @@ class Run(ABC):
 
     # -- outputs --------------------------------------------------------------------------------
     def _frame_choice(self) -> tuple[str | None, str | None]:
-        """The set and field frames show; bad names are refused before the run starts."""
+        """The set and field frames show; bad names, ranges and units are refused before the run starts."""
+        ranges = _checked_frame_range(self.output.frame_range)
+        _checked_units(self.output.units)
         if not self.output.frames:
             return None, None
-        fields = self.solver.output_fields()
+        sets = {s.name: s for s in self.solver.output_sets()}
         name = self.output.frame_set
         if name is None:
-            name = next((s.name for s in self.solver.output_sets() if s.frame_field), None)
+            name = next((s.name for s in sets.values() if s.frame_field), None)
             if name is None:
                 raise ParameterError("frame_set", "the solver marks no set to draw; name one or switch frames off")
-        if name not in fields:
-            raise ParameterError("frame_set", f"must be one of {sorted(fields)}, got {name!r}")
+        if name not in sets:
+            raise ParameterError("frame_set", f"must be one of {sorted(sets)}, got {name!r}")
         field = self.output.frame_field
         if field is None:
-            field = next(s.frame_field for s in self.solver.output_sets() if s.name == name)
-        if field not in fields[name]:
-            raise ParameterError("frame_field", f"must be one of {sorted(fields[name])} for the set {name!r}, "
+            field = sets[name].frame_field
+        if field not in drawable_fields(sets[name]):
+            raise ParameterError("frame_field", f"must be one of {drawable_fields(sets[name])} for the set {name!r}, "
                                                 f"got {field!r}")
+        drawable = {k: drawable_fields(s) for k, s in sets.items()}
         for extra in self.output.extra_frames:
-            if len(extra) != 2 or extra[0] not in fields or extra[1] not in fields[extra[0]]:
-                raise ParameterError("extra_frames", f"each must be a (set, field) pair of {fields}, got {extra!r}")
+            if len(extra) != 2 or extra[0] not in sets or extra[1] not in drawable[extra[0]]:
+                raise ParameterError("extra_frames", f"each must be a (set, field) pair of {drawable}, got {extra!r}")
+        every = sorted({f for names in drawable.values() for f in names})
+        for key in ranges:
+            if key not in every:
+                raise ParameterError("frame_range", f"names a field frames can colour by, one of {every}; got {key!r}")
         return name, field
 
     def write_outputs(self, directory: RunDirectory, index: int, step: int, time_s: float, title: str) -> None:
@@ -194,7 +212,7 @@ class Run(ABC):
                 self._series[s.name] = VtuSeries(directory.root, s.name, resume_after_time=self._resumed_time)
             series = self._series[s.name]
             path, entries = series.record(step, time_s)
-            jobs.append(("vtu", {"path": str(path), "points": s.points, "fields": s.fields}))
+            jobs.append(("vtu", {"path": str(path), "points": s.points, "fields": s.fields, "units": self.units(s)}))
             jobs.append(("pvd", {"path": str(series.pvd_path), "entries": entries}))
         return jobs
 
@@ -208,40 +226,78 @@ class Run(ABC):
         jobs = []
         rank = self.world.rank
         for s in sets:
-            if s.name not in self._series:
-                self._series[s.name] = VtuSeries(directory.root, s.name, resume_after_time=self._resumed_time,
-                                                 extension="pvtu")
+            counts = np.concatenate(self.world.allgather(np.array([len(s.points)], dtype=np.int64)))
+            if not counts.sum():  # no point on any rank: no piece, no index (a series starts at its first point)
+                continue
+            if s.name not in self._series:  # only rank 0 writes the index, so only its series resumes one
+                self._series[s.name] = VtuSeries(directory.root, s.name, extension="pvtu",
+                                                 resume_after_time=self._resumed_time if self.world.is_root else None)
             series = self._series[s.name]
             fields = dict(s.fields)
             fields["global_id"] = np.asarray(s.ids, dtype=np.int64)
-            counts = np.concatenate(self.world.allgather(np.array([len(s.points)], dtype=np.int64)))
+            units = {**self.units(s), "global_id": DIMENSIONLESS}
             if counts[rank]:
-                jobs.append(("vtu", {"path": str(series.piece_for(step, rank)), "points": s.points, "fields": fields}))
-            if self.world.is_root and counts.sum():
+                jobs.append(("vtu", {"path": str(series.piece_for(step, rank)), "points": s.points, "fields": fields,
+                                     "units": units}))
+            if self.world.is_root:
                 path, entries = series.record(step, time_s)
                 pieces = [series.piece_for(step, r).name for r in range(self.world.size) if counts[r]]
                 jobs.append(("pvtu", {"path": str(path), "pieces": pieces, "points": s.points[:0],
-                                      "fields": {k: np.asarray(v)[:0] for k, v in fields.items()}}))
+                                      "fields": {k: np.asarray(v)[:0] for k, v in fields.items()}, "units": units}))
                 jobs.append(("pvd", {"path": str(series.pvd_path), "entries": entries}))
         return jobs
 
     def _frame_job(self, directory: RunDirectory, sets: list[OutputSet], index: int, title: str,
                    set_name: str | None = None, field: str | None = None):
-        """The main frame (the chosen set, the others as context), or with ``set_name`` and ``field`` an extra
-        series' frame (that set alone)."""
+        """The main frame (the chosen set, the others as context unless they are no ``backdrop``), or with
+        ``set_name`` and ``field`` an extra series' frame (that set alone); in its series' colour range and disc
+        size (:meth:`_series_scale`), labelled with the units."""
         extra = set_name is not None
         set_name, field = (set_name, field) if extra else (self._frame_set, self._frame_field)
         shown = next(s for s in sets if s.name == set_name)
-        others = [s.points for s in sets if s.name != set_name and not s.solid and len(s.points) and not extra]
-        solids = [s.points for s in sets if s.name != set_name and s.solid and len(s.points) and not extra]
+        context = [] if extra else [s for s in sets if s.name != set_name and s.backdrop and len(s.points)]
+        others = [s.points for s in context if not s.solid]
+        solids = [s.points for s in context if s.solid]
         dim = self.solver.dim
         if self._bounds is None:
             self._bounds = self.output.frame_bounds or _bounding_box(sets, dim)
-        path = directory.frame(index, f"{set_name}_{field}") if extra else directory.frame(index)
-        return ("frame", {"path": path, "points": shown.points,
-                          "values": shown.fields[field], "dim": dim, "field_name": field,
+        series = f"{set_name}_{field}" if extra else "frame"
+        path = directory.frame(index, series)
+        values = field_values(shown, field)
+        vmin, vmax, spacing = self._series_scale(series, field, shown.points[:, :dim], values)
+        units = self.units(shown)
+        return ("frame", {"path": path, "points": shown.points, "values": values, "dim": dim, "field_name": field,
+                          "field_unit": field_unit(shown, field, units),
+                          "length_unit": units.get("position"), "vmin": vmin, "vmax": vmax, "spacing": spacing,
                           "bounds": self._bounds, "boundary_points": np.vstack(others) if others else None,
                           "solid_points": np.vstack(solids) if solids else None, "title": title})
+
+    def _series_scale(self, series: str, field: str, points: np.ndarray, values: np.ndarray
+                      ) -> tuple[float, float, float | None]:
+        """(vmin, vmax, disc spacing) of a frame of ``series``: the colour range the scene's ``frame_range`` gives the
+        field, else the one its first frame with a spread fixes (:func:`~warpfree.io.frames.colour_range`; a frame at
+        rest before it is drawn about its value), and the particle spacing the first frame with two particles or more
+        fixes (its median nearest-neighbour distance; None before: the frame estimates its own)."""
+        from .io.frames import colour_range, estimate_spacing
+
+        scale = self._frame_scales.setdefault(series, {})
+        if "range" in scale:
+            vmin, vmax = scale["range"]
+        else:
+            (vmin, vmax), fixed = colour_range(values, (self.output.frame_range or {}).get(field))
+            if fixed:
+                scale["range"] = (vmin, vmax)
+        if "spacing" not in scale and len(points) >= 2 and points.shape[1] > 1:
+            spacing = estimate_spacing(points)
+            if np.isfinite(spacing) and spacing > 0:
+                scale["spacing"] = spacing
+        return vmin, vmax, scale.get("spacing")
+
+    def units(self, output_set: OutputSet) -> dict[str, str]:
+        """The unit of each quantity of ``output_set`` (its points, ``position``, and its fields): the solver's, with
+        the scene's ``OutputOptions.units`` over them."""
+        units = {**output_set.units, **(self.output.units or {})}
+        return {k: v for k, v in units.items() if k == "position" or k in output_set.fields}
 
     # -- the run --------------------------------------------------------------------------------
     def run(self, out_dir: str | None = None, resume: bool = False, progress: bool = True) -> dict:
@@ -254,7 +310,7 @@ class Run(ABC):
                                     plots=directory is not None and (self.output.frames or self.output.plots))
         if self._writer.plots:
             self._writer.start()
-        self._series, self._bounds = {}, None
+        self._series, self._bounds, self._frame_scales = {}, None, {}
         wall0 = time.perf_counter()
         try:
             try:
@@ -338,6 +394,7 @@ class Run(ABC):
             "phases_s": self._phases(),
             "throughput": self._throughput(),
             "diagnostics": s.diagnostics(),
+            "units": self._units_summary(),
             "status": "error" if error else "ok",
         }
         out.update(self._summary_fields(error))
@@ -347,6 +404,13 @@ class Run(ABC):
             out["error"] = error
         self.last_summary = out
         return out
+
+    def _units_summary(self) -> dict:
+        """``summary["units"]``: the unit of the run's time (time-dependent runs) and, per output set, of each quantity
+        its VTU files hold (``position``: the points)."""
+        units = {"outputs": {s.name: self.units(s) for s in self.solver.output_sets()}}
+        time_unit = getattr(self.solver, "time_unit", None)
+        return {"time": time_unit, **units} if time_unit is not None else units
 
     def _ranks_summary(self, phases: dict[str, float]) -> dict:
         """A distributed run: the ranks' count and each rank's phase times (rank order), and their imbalance in the
@@ -438,8 +502,77 @@ def gather_sets(world_, sets: list[OutputSet]) -> list[OutputSet] | None:
         order = np.argsort(ids, kind="stable")
         points = np.concatenate([p[j][1] for p in parts])[order]
         fields = {k: np.concatenate([p[j][2][k] for p in parts])[order] for k in s.fields}
-        whole.append(OutputSet(s.name, points, fields, s.frame_field, s.solid))
+        whole.append(dataclasses.replace(s, points=points, fields=fields, ids=None))
     return whole
+
+
+#: the components a frame may colour by, by suffix: ``velocity_x`` is column 0 of the vector field ``velocity``
+_COMPONENTS = ("_x", "_y", "_z")
+
+
+def _component(output_set: OutputSet, name: str) -> tuple[str, int] | None:
+    """(vector field, column) that ``name`` (``<field>_x``, ``_y`` or ``_z``) names in ``output_set``, or None."""
+    base, suffix = name[:-2], name[-2:]
+    if name in output_set.fields or suffix not in _COMPONENTS or base not in output_set.fields:
+        return None
+    values = np.asarray(output_set.fields[base])
+    column = _COMPONENTS.index(suffix)
+    return (base, column) if values.ndim == 2 and column < values.shape[1] else None
+
+
+def drawable_fields(output_set: OutputSet) -> list[str]:
+    """The names a frame of ``output_set`` may colour by: its scalar fields and its vector fields' components
+    (``velocity_x``, ``velocity_y``)."""
+    names = []
+    for name, values in output_set.fields.items():
+        shape = np.shape(values)
+        if len(shape) == 1:
+            names.append(name)
+        elif len(shape) == 2 and shape[1] <= 3:
+            names += [name + suffix for suffix in _COMPONENTS[:shape[1]] if name + suffix not in output_set.fields]
+    return sorted(names)
+
+
+def field_values(output_set: OutputSet, name: str) -> np.ndarray:
+    """The (N,) values frames colour ``output_set`` by for ``name`` (a scalar field or a vector's component)."""
+    component = _component(output_set, name)
+    if component is not None:
+        return np.asarray(output_set.fields[component[0]])[:, component[1]]
+    return np.asarray(output_set.fields[name])
+
+
+def field_unit(output_set: OutputSet, name: str, units: dict[str, str]) -> str | None:
+    """The unit of the field or component ``name`` of ``output_set`` (a component has its vector's)."""
+    component = _component(output_set, name)
+    return units.get(name, units.get(component[0]) if component is not None else None)
+
+
+def _checked_frame_range(frame_range) -> dict[str, tuple[float, float]]:
+    """``OutputOptions.frame_range`` as {field: (vmin, vmax)}, each pair finite with vmax > vmin (else ParameterError
+    naming ``frame_range``)."""
+    if frame_range is None:
+        return {}
+    if not isinstance(frame_range, dict):
+        raise ParameterError("frame_range", f"must be a dict {{field: (vmin, vmax)}}, got {frame_range!r}")
+    checked = {}
+    for key, pair in frame_range.items():
+        try:
+            vmin, vmax = (float(v) for v in pair)
+        except (TypeError, ValueError):
+            raise ParameterError("frame_range", f"{key!r}: must be a pair (vmin, vmax) of numbers, got {pair!r}") \
+                from None
+        if not (np.isfinite(vmin) and np.isfinite(vmax)) or vmax <= vmin:
+            raise ParameterError("frame_range", f"{key!r}: must be finite with vmax > vmin, got ({vmin!r}, {vmax!r})")
+        checked[str(key)] = (vmin, vmax)
+    return checked
+
+
+def _checked_units(units) -> None:
+    """``OutputOptions.units``: None or {quantity: unit}, both strings (else ParameterError naming ``units``)."""
+    if units is None:
+        return
+    if not isinstance(units, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in units.items()):
+        raise ParameterError("units", f"must be a dict {{quantity: unit}} of strings, got {units!r}")
 
 
 def _bounding_box(sets: list[OutputSet], dim: int) -> tuple:

@@ -130,11 +130,15 @@ class State:
 class OutputSet:
     """One particle (or node) set to write: (N, 3) ``points`` and per-point ``fields`` (NumPy copies).
 
-    ``frame_field`` names the field frames colour this set by; ``None`` draws it as context: faint grey
-    (container walls), or, with ``solid``, opaque in a colour of its own and hiding what is behind it
-    (an obstacle). The first set with a ``frame_field`` is the one frames show by default. ``ids``: in a distributed
-    run, the rows are this rank's own part of the set and ``ids`` their indices in the whole set (None: the whole
-    set, in order).
+    ``frame_field`` names the field frames colour this set by; ``None`` draws it as context in the frames of another
+    set: faint grey (container walls), or, with ``solid``, opaque in a colour of its own and hiding what is behind it
+    (an obstacle); ``backdrop=False`` leaves it out of other sets' frames (a field solve's nodes). The first set with a
+    ``frame_field`` is the one frames show by default. ``ids``: in a distributed run, the rows are this rank's own part
+    of the set and ``ids`` their indices in the whole set (None: the whole set, in order).
+
+    ``units``: the unit of each quantity, by name: ``"position"`` (the points) and each field (``"Pa"``, ``"m/s"``;
+    ``"1"`` for a dimensionless one; a normalised unit such as ``"λ_D"``): frames label their axes and colour bars with
+    them, VTU files and ``summary.json`` record them. A quantity without an entry is written without a unit.
     """
 
     name: str
@@ -143,6 +147,8 @@ class OutputSet:
     frame_field: str | None = None
     solid: bool = False
     ids: np.ndarray | None = None
+    units: dict[str, str] = field(default_factory=dict)
+    backdrop: bool = True
 
 
 class PhaseTimes:

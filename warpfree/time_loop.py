@@ -152,8 +152,15 @@ class TimeLoop(Run):
             if directory is not None:
                 self._good = (self._loop_scalars(), self.solver.state.numpy(), self._series_lengths())
         if directory is not None:
-            self.write_outputs(directory, index, self.step_count, self.time,
-                               f"{self.name}  t = {self.time:.4g} {self.solver.time_unit}")
+            self.write_outputs(directory, index, self.step_count, self.time, self.frame_title())
+
+    def frame_title(self) -> str:
+        """The title of the frames written now: the scene and the time in the solver's time unit, with the SI prefix
+        the progress bar shows it in (an EM run's ns: ``t = 0.82 ns``)."""
+        from .progress import time_scale
+
+        factor, unit = time_scale(self.t_end, self.solver.time_unit)
+        return f"{self.name}  t = {self.time / factor:.4g} {unit}"
 
     def _loop_scalars(self) -> dict:
         return {"time": self.time, "step": self.step_count, "n_outputs": self.n_outputs}

@@ -14,8 +14,9 @@ from warpfree import device
 from warpfree.errors import ParameterError, RunError
 from warpfree.geometry import jittered_lattice
 from warpfree.io import checkpoint
-from warpfree.io.vtk import read_pvd
+from warpfree.io.vtk import read_pvd, read_units
 from warpfree.run import OutputOptions, StaticRun
+from warpfree.solver import OutputSet, State, TimeDependentSolver
 from warpfree.solvers.heat import HeatModel, HeatSolver
 from warpfree.space import Space
 from warpfree.time_loop import TimeLoop
@@ -74,10 +75,12 @@ def heat_run(tmp_dim=2, n=16, t_end=0.4, **output):
                     checkpoint_every=5)
 
 
-def test_background_writer_writes_the_same_files_as_inline(tmp_path):
-    """VTU, PVD and PNG files are byte for byte the same whether a worker process writes them or the run does."""
-    heat_run(background=True).run(str(tmp_path / "bg"), progress=False)
-    heat_run(background=False).run(str(tmp_path / "inline"), progress=False)
+@pytest.mark.parametrize("dim", [2, 1])
+def test_background_writer_writes_the_same_files_as_inline(tmp_path, dim):
+    """VTU, PVD and PNG files are byte for byte the same whether a worker process writes them or the run does (2D:
+    the frames' template and particle image; 1D: the curve over the saved background)."""
+    heat_run(tmp_dim=dim, background=True).run(str(tmp_path / "bg"), progress=False)
+    heat_run(tmp_dim=dim, background=False).run(str(tmp_path / "inline"), progress=False)
     files = sorted(p.relative_to(tmp_path / "bg") for p in (tmp_path / "bg").rglob("*")
                    if p.is_file() and p.suffix in (".vtu", ".pvd", ".png"))
     assert len([f for f in files if f.suffix == ".png"]) == 5 and len([f for f in files if f.suffix == ".vtu"]) == 5
@@ -166,3 +169,114 @@ def test_static_scene_through_the_cli(tmp_path, capsys):
     assert main(["run", str(scene), "--out", str(tmp_path / "again"), "--checkpoint-every", "5",
                  "--no-progress"]) == 2
     assert "--checkpoint-every" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------------ frame series, units, options
+
+class RampSolver(TimeDependentSolver):
+    """A field at rest at t = 0 that then grows: ``level`` = 0 on every particle at first, ``x * step`` after; a
+    vector ``flow`` (x component ``step``); and a set without points. For the frame series' ranges and units."""
+
+    name = "ramp"
+    work_unit = "particle-steps"
+
+    def __init__(self, n: int = 64):
+        super().__init__(None, device.current_launcher())
+        g = (np.arange(8) + 0.5) / 8
+        self.points = np.zeros((n, 3))
+        self.points[:, :2] = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)[:n]
+        self.state = State()
+        self.state.steps = 0
+
+    dim = 2
+    work_items = 64
+
+    def output_sets(self):
+        k = self.state.steps
+        level = self.points[:, 0] * k
+        flow = np.stack([np.full(len(self.points), float(k)), -self.points[:, 1]], axis=1)
+        return [OutputSet("cells", self.points, {"level": level, "flow": flow}, frame_field="level",
+                          units={"position": "m", "level": "K", "flow": "m/s"}),
+                OutputSet("empty", np.zeros((0, 3)), {"level": np.zeros(0)}, units={"position": "m"})]
+
+    def describe(self):
+        return {}
+
+    def step(self, dt):
+        self.state.steps += 1
+
+    def stable_dt(self):
+        return 0.1
+
+
+def ramp_run(**output):
+    device.use("cpu", 2)
+    return TimeLoop(RampSolver(), t_end=0.4, output_interval=0.1, name="ramp",
+                    output=OutputOptions(background=False, **output))
+
+
+def frame_ranges(run, directory):
+    """Run, recording every frame job's (series, vmin, vmax)."""
+    jobs = []
+    original = run._frame_job
+
+    def recorded(*args, **kwargs):
+        job = original(*args, **kwargs)
+        jobs.append((os.path.basename(job[1]["path"]).rsplit("_", 1)[0], job[1]["vmin"], job[1]["vmax"]))
+        return job
+
+    run._frame_job = recorded
+    run.run(str(directory), progress=False)
+    return jobs
+
+
+def test_a_series_keeps_the_range_of_its_first_frame_with_a_spread(tmp_path):
+    """The field at rest at t = 0 (no scale given) is drawn about its value (never a degenerate range) and fixes
+    nothing; the next frame's spread fixes the range for the rest of the series, though the field keeps growing."""
+    jobs = frame_ranges(ramp_run(), tmp_path)
+    assert [j[0] for j in jobs] == ["frame"] * 5
+    assert jobs[0][1:] == (-1.0, 1.0)
+    first_spread = (float(RampSolver().points[:, 0].min()), float(RampSolver().points[:, 0].max()))
+    assert all(j[1:] == pytest.approx(first_spread) for j in jobs[1:])
+
+
+def test_a_scale_fixes_every_frame_of_a_series_and_components_are_drawn(tmp_path):
+    jobs = frame_ranges(ramp_run(frame_range={"level": (0.0, 4.0), "flow_x": (-1.0, 5.0)},
+                                 extra_frames=(("cells", "flow_x"),)), tmp_path)
+    assert {j for j in jobs if j[0] == "frame"} == {("frame", 0.0, 4.0)}
+    assert {j for j in jobs if j[0] != "frame"} == {("cells_flow_x", -1.0, 5.0)}
+    assert len(list((tmp_path / "frames").glob("cells_flow_x_*.png"))) == 5
+
+
+def test_outputs_carry_units_and_a_set_without_points_writes_no_series(tmp_path):
+    summary = ramp_run().run(str(tmp_path), progress=False)
+    assert summary["units"] == {"time": "s", "outputs": {"cells": {"position": "m", "level": "K", "flow": "m/s"},
+                                                         "empty": {"position": "m"}}}
+    assert not (tmp_path / "empty.pvd").exists() and not list((tmp_path / "vtk").glob("empty_*"))
+    assert read_units(tmp_path / read_pvd(tmp_path / "cells.pvd")[-1][1]) == {"position": "m", "level": "K",
+                                                                              "flow": "m/s"}
+    # the scene's units over the solver's
+    summary = ramp_run(units={"level": "consistent units"}).run(str(tmp_path / "over"), progress=False)
+    assert summary["units"]["outputs"]["cells"]["level"] == "consistent units"
+
+
+def test_heat_run_records_its_units(tmp_path):
+    summary = heat_run().run(str(tmp_path), progress=False)
+    assert summary["units"] == {"time": "s", "outputs": {"particles": {"position": "m", "temperature": "K"}}}
+
+
+@pytest.mark.parametrize("output,match", [
+    ({"frame_range": {"level": (1.0, 1.0)}}, "frame_range"),
+    ({"frame_range": {"level": (2.0, 1.0)}}, "frame_range"),
+    ({"frame_range": {"level": (0.0, float("inf"))}}, "frame_range"),
+    ({"frame_range": {"level": 3.0}}, "frame_range"),
+    ({"frame_range": {"pressure": (0.0, 1.0)}}, "frame_range"),
+    ({"frame_range": [(0.0, 1.0)]}, "frame_range"),
+    ({"frame_field": "flow"}, "frame_field"),     # a vector: name a component
+    ({"frame_field": "flow_z"}, "frame_field"),   # a component it has not
+    ({"extra_frames": (("cells", "flow"),)}, "extra_frames"),
+    ({"units": {"level": 3}}, "units"),
+])
+def test_bad_frame_ranges_fields_and_units_name_the_option(output, match):
+    with pytest.raises(ParameterError, match=match):
+        ramp_run(**output)

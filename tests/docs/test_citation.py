@@ -36,7 +36,8 @@ def test_citation_is_a_valid_cff_record_of_this_version():
 
 def test_license_is_the_mit_license_pyproject_names():
     pyproject = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
-    assert re.search(r'^license = \{ text = "MIT" \}$', pyproject, re.M)
+    assert re.search(r'^license = "MIT"$', pyproject, re.M) and re.search(r'^license-files = \["LICENSE"\]$', pyproject,
+                                                                            re.M)
     text = (ROOT / "LICENSE").read_text(encoding="utf-8")
     assert text.startswith("MIT License") and "Copyright (c) 2026 the warpfree developers" in text
     assert re.search(r"Permission is hereby granted, free of charge", text)

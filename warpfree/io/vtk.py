@@ -7,18 +7,25 @@ Layout of one series called ``name`` under ``out_dir``::
 
 Every file is written to a temporary name and moved into place with :func:`os.replace`, and the PVD is
 rewritten in full after each snapshot, so both are valid at any moment (a run killed mid-write leaves
-the previous index intact). Times are stored with ``repr(float)`` and read back exactly.
+the previous index intact). Times are stored with ``repr(float)`` and read back exactly. A VTU holds at least one
+point (one without any is not readable), so a set without points makes no series.
+
+Units: each point-data array (and the points) may carry its unit as an XML attribute of its ``DataArray``,
+``units="Pa"`` (non-ASCII characters as character references: ``units="&#955;_D"``). VTK (ParaView) and meshio read
+the files as before and leave the attribute aside; :func:`read_units` reads it back.
 
 Resume: ``VtuSeries(out_dir, name, resume_after_time=t)`` reads the existing index, keeps the entries with
 ``time <= t`` and appends after them; entries later than ``t`` (written after the checkpoint the run
-resumes from) are dropped from the index. Their VTU files are left on disk; re-written steps overwrite
-them.
+resumes from) are dropped from the index (and an index left with none is removed: an empty collection is no
+series). Their VTU files are left on disk; re-written steps overwrite them.
 """
 
 from __future__ import annotations
 
+import html
 import math
 import os
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -26,7 +33,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["VtuSeries", "read_pvd", "read_snapshot", "write_pvd", "write_pvtu", "write_vtu", "vtk_type"]
+__all__ = ["VtuSeries", "read_pvd", "read_snapshot", "read_units", "write_pvd", "write_pvtu", "write_vtu", "vtk_type"]
 
 
 def _atomic_target(path: Path) -> Path:
@@ -94,20 +101,71 @@ def _check_step(step) -> int:
     return step
 
 
-def write_vtu(path: str | os.PathLike, points: np.ndarray, fields: dict[str, np.ndarray] | None = None) -> Path:
-    """One VTU file of vertex cells (atomically): ``points`` (N, 3) (or (N, 1), (N, 2), padded with zeros);
-    every entry of ``fields`` becomes point data: (N,) scalars, (N, 3) vectors ((N, 2) are padded), (N, k)."""
+def _unit_attribute(unit: str) -> bytes:
+    return b' units="' + html.escape(str(unit), quote=True).encode("ascii", "xmlcharrefreplace") + b'"'
+
+
+#: a data array's opening tag up to its name, in the XML meshio writes
+_DATA_ARRAY = re.compile(rb'<P?DataArray [^>]*?Name="([^"]*)"')
+
+
+def _with_units(xml: bytes, sections: dict[bytes, dict[str, str]]) -> bytes:
+    """``xml`` with a ``units`` attribute on the data arrays named in ``sections`` ({section tag: {array name: unit}},
+    e.g. ``{b"PointData": {"pressure": "Pa"}}``), each looked for between its section's opening and closing tags."""
+    edits = []
+    for tag, units in sections.items():
+        start, end = xml.find(b"<" + tag), xml.find(b"</" + tag + b">")
+        if start < 0 or end < 0 or not units:
+            continue
+        for match in _DATA_ARRAY.finditer(xml, start, end):
+            unit = units.get(html.unescape(match.group(1).decode("ascii")))
+            if unit is not None:
+                edits.append((match.end(), _unit_attribute(unit)))
+    out, at = [], 0
+    for position, text in sorted(edits):
+        out += [xml[at:position], text]
+        at = position
+    return b"".join(out + [xml[at:]])
+
+
+def write_vtu(path: str | os.PathLike, points: np.ndarray, fields: dict[str, np.ndarray] | None = None,
+              units: dict[str, str] | None = None) -> Path:
+    """One VTU file of vertex cells (atomically): ``points`` (N, 3) (or (N, 1), (N, 2), padded with zeros; N >= 1);
+    every entry of ``fields`` becomes point data: (N,) scalars, (N, 3) vectors ((N, 2) are padded), (N, k).
+    ``units``: the unit of each field by name, and of the points as ``"position"``, recorded in the file (see the
+    module's docstring)."""
     import meshio
 
     path = Path(path)
     pts = _as_points(points)
     n = pts.shape[0]
+    if n == 0:
+        raise ParameterError("points", "a VTU needs at least one point (a file without any is not readable)")
     point_data = {str(k): _as_field(str(k), v, n) for k, v in (fields or {}).items()}
-    cells = [("vertex", np.arange(n, dtype=np.int64).reshape(-1, 1))] if n > 0 else []
+    cells = [("vertex", np.arange(n, dtype=np.int64).reshape(-1, 1))]
     tmp = _atomic_target(path)
     meshio.write(str(tmp), meshio.Mesh(pts, cells, point_data=point_data), file_format="vtu")
+    if units:
+        sections = {b"Points": {"Points": units["position"]} if "position" in units else {},
+                    b"PointData": {k: units[k] for k in point_data if k in units}}
+        tmp.write_bytes(_with_units(tmp.read_bytes(), sections))
     os.replace(tmp, path)
     return path
+
+
+def read_units(path: str | os.PathLike) -> dict[str, str]:
+    """The units a VTU or PVTU file records (:func:`write_vtu`): {field: unit}, and ``"position"`` for the points."""
+    root = ET.parse(Path(path)).getroot()
+    units = {}
+    for points in (*root.iter("Points"), *root.iter("PPoints")):
+        for array in points:
+            if "units" in array.attrib:
+                units["position"] = array.attrib["units"]
+    for data in (*root.iter("PointData"), *root.iter("PPointData")):
+        for array in data:
+            if "units" in array.attrib:
+                units[array.attrib["Name"]] = array.attrib["units"]
+    return units
 
 
 #: NumPy dtype -> VTK XML type name
@@ -121,20 +179,27 @@ def vtk_type(values) -> tuple[str, int]:
     return _VTK_TYPES[v.dtype.name], 1 if v.ndim == 1 else v.shape[1]
 
 
-def write_pvtu(path: str | os.PathLike, pieces: list[str], points, fields: dict[str, np.ndarray]) -> None:
+def write_pvtu(path: str | os.PathLike, pieces: list[str], points, fields: dict[str, np.ndarray],
+               units: dict[str, str] | None = None) -> None:
     """A parallel VTU index (atomically): the VTU ``pieces`` (paths relative to ``path``'s folder) of one snapshot,
     each written by :func:`write_vtu` with point fields like ``fields`` (any rows of them: their types and widths are
-    declared) and points like ``points``. ParaView opens it, or the PVD that lists it, as one dataset."""
+    declared) and points like ``points``; ``units`` as :func:`write_vtu` records them. ParaView opens it, or the PVD
+    that lists it, as one dataset."""
     path = Path(path)
+    units = units or {}
+
+    def unit(name: str) -> str:
+        return _unit_attribute(units[name]).decode("ascii") if name in units else ""
+
     point_type = _VTK_TYPES[_as_points(points).dtype.name]
     lines = ['<?xml version="1.0"?>',
              '<VTKFile type="PUnstructuredGrid" version="0.1" byte_order="LittleEndian">',
              '  <PUnstructuredGrid GhostLevel="0">', "    <PPointData>"]
     for name, values in fields.items():
         kind, components = vtk_type(values)
-        lines.append(f'      <PDataArray type="{kind}" Name="{name}" NumberOfComponents="{components}"/>')
+        lines.append(f'      <PDataArray type="{kind}" Name="{name}" NumberOfComponents="{components}"{unit(name)}/>')
     lines += ["    </PPointData>", "    <PPoints>",
-              f'      <PDataArray type="{point_type}" NumberOfComponents="3"/>', "    </PPoints>"]
+              f'      <PDataArray type="{point_type}" NumberOfComponents="3"{unit("position")}/>', "    </PPoints>"]
     lines += [f'    <Piece Source="{piece}"/>' for piece in pieces]
     lines += ["  </PUnstructuredGrid>", "</VTKFile>", ""]
     tmp = _atomic_target(path)
@@ -189,7 +254,10 @@ class VtuSeries:
                 raise ParameterError("resume_after_time", "must be a number, got nan")
             if self.pvd_path.exists():
                 self._entries = [(t, f) for t, f in read_pvd(self.pvd_path) if t <= t_max]
-            write_pvd(self.pvd_path, self._entries)
+                if self._entries:
+                    write_pvd(self.pvd_path, self._entries)
+                else:  # every entry came after the checkpoint: no series yet
+                    self.pvd_path.unlink()
 
     @property
     def entries(self) -> list[tuple[float, str]]:
@@ -219,10 +287,10 @@ class VtuSeries:
         self._entries.append((time, rel))
         return path, list(self._entries)
 
-    def write(self, step: int, time: float, points: np.ndarray, fields: dict[str, np.ndarray] | None = None
-              ) -> Path:
+    def write(self, step: int, time: float, points: np.ndarray, fields: dict[str, np.ndarray] | None = None,
+              units: dict[str, str] | None = None) -> Path:
         """Write snapshot ``step`` at simulation time ``time`` (s) now and update the index; returns the VTU path."""
-        path = write_vtu(self.path_for(_check_step(step)), points, fields)  # bad fields: nothing indexed
+        path = write_vtu(self.path_for(_check_step(step)), points, fields, units)  # bad fields: nothing indexed
         _, entries = self.record(step, time)
         write_pvd(self.pvd_path, entries)
         return path

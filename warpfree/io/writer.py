@@ -33,16 +33,16 @@ class OutputError(RuntimeError):
 
 # -- the jobs (run in the worker, or inline) ---------------------------------------------------------
 
-def _job_vtu(path, points, fields):
+def _job_vtu(path, points, fields, units=None):
     from .vtk import write_vtu
 
-    write_vtu(path, points, fields)
+    write_vtu(path, points, fields, units)
 
 
-def _job_pvtu(path, pieces, points, fields):
+def _job_pvtu(path, pieces, points, fields, units=None):
     from .vtk import write_pvtu
 
-    write_pvtu(path, pieces, points, fields)
+    write_pvtu(path, pieces, points, fields, units)
 
 
 def _job_pvd(path, entries):
@@ -76,7 +76,7 @@ def _job_call(function, kwargs):
 JOBS = {"vtu": _job_vtu, "pvtu": _job_pvtu, "pvd": _job_pvd, "frame": _job_frame, "mesh": _job_mesh, "call": _job_call}
 
 #: what the worker imports while it waits, when told that plots or frames will come (Matplotlib: 0.4-0.6 s)
-PLOT_MODULES = ("matplotlib.figure", "matplotlib.backends.backend_agg")
+PLOT_MODULES = ("matplotlib.figure", "matplotlib.backends.backend_agg", "PIL.ImageDraw", "PIL.ImageFont")
 
 
 def run_batch(batch: list[tuple[str, dict]]) -> str | None:

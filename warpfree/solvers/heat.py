@@ -116,7 +116,7 @@ class HeatSolver(TimeDependentSolver):
         """The particles with their temperature (K), the field frames colour."""
         p = self.model.particles
         return [OutputSet("particles", p.numpy("position"), {"temperature": p.numpy("temperature")},
-                          frame_field="temperature")]
+                          frame_field="temperature", units={"position": "m", "temperature": "K"})]
 
     def diagnostics(self) -> dict[str, float]:
         """Heat content Σ V_j T_j (K·m^dim; conserved by the symmetric operator) and the extremes of T."""

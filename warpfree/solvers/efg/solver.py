@@ -22,6 +22,7 @@ float64 throughout (``kernels/mls.py``, ``kernels/galerkin.py``, ``kernels/efg.p
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from typing import ClassVar
 
@@ -54,6 +55,16 @@ LINEAR_SOLVERS = ("auto", "superlu", "petsc")
 INTEGRATIONS = ("consistent", "gauss", "scni")
 #: relative tolerance of the check that the boundary pieces enclose the cells (∮ x·n dΓ = 2 · area)
 CLOSURE_RTOL = 1e-6
+
+#: the units of a Poisson solve's outputs, SI as for conduction (-∇·(σ∇V) = 0, σ in S/m): the potential (and the nodal
+#: parameters) in V, the field -∇V in V/m, the current density -σ∇V in A/m²; a scene in other units says so in its
+#: ``OutputOptions.units``
+POISSON_UNITS = {"position": "m", "potential": "V", "field_x": "V/m", "field_y": "V/m", "flux_x": "A/m²",
+                 "flux_y": "A/m²", "parameter": "V"}
+#: the units of an elasticity solve's outputs (SI: lengths in m, E in Pa): the displacement (and the nodal parameters)
+#: in m, the stresses in Pa
+ELASTICITY_UNITS = {"position": "m", "displacement": "m", "stress_xx": "Pa", "stress_yy": "Pa", "stress_xy": "Pa",
+                    "von_mises": "Pa", "parameter": "m"}
 #: winding number below which a node counts as outside the domain (a boundary node at an interior angle θ has
 #: θ/2π: 0.25 at a right corner, 0.12 at Cook's sharpest corner)
 OUTSIDE_WINDING = 0.02
@@ -271,8 +282,8 @@ class EFGSolver(StaticSolver):
         for s in sets:
             rows = self._mine if s.name == "gauss_points" else (np.arange(len(s.points)) if self.world.is_root
                                                                  else np.zeros(0, np.int64))
-            out.append(OutputSet(s.name, s.points[rows], {k: v[rows] for k, v in s.fields.items()}, s.frame_field,
-                                 s.solid, ids=rows))
+            out.append(dataclasses.replace(s, points=s.points[rows], fields={k: v[rows] for k, v in s.fields.items()},
+                                           ids=rows))
         return out
 
     def _total(self, values: np.ndarray) -> np.ndarray:
@@ -543,14 +554,17 @@ class PoissonSolver(EFGSolver):
         return assembly.load_vector(self.model, shape, (s * self._points.weight)[:, None])
 
     def output_sets(self) -> list[OutputSet]:
-        """Gauss points (potential, field -∇u, flux -k∇u; zeros before the solve) and nodes (parameters)."""
+        """Gauss points (potential, field -∇u, flux -k∇u; zeros before the solve) and nodes (parameters), in the units
+        of :data:`POISSON_UNITS`."""
         n = self.work_items
         u, g = self.gauss_field() if self.shape is not None else (np.zeros((n, 1)), np.zeros((n, 1, 2)))
         flux = -self.point_conductivity()[:, None] * g[:, 0, :]
         return self._pieces([OutputSet("gauss_points", _points3(self.cells.position),
                                        {"potential": u[:, 0], "field_x": -g[:, 0, 0], "field_y": -g[:, 0, 1],
-                                        "flux_x": flux[:, 0], "flux_y": flux[:, 1]}, frame_field="potential"),
-                             OutputSet("nodes", _points3(self.model.nodes_np), {"parameter": self.nodal.copy()})])
+                                        "flux_x": flux[:, 0], "flux_y": flux[:, 1]}, frame_field="potential",
+                                       units=POISSON_UNITS),
+                             OutputSet("nodes", _points3(self.model.nodes_np), {"parameter": self.nodal.copy()},
+                                       units=POISSON_UNITS, backdrop=False)])
 
 
 def _points3(p: np.ndarray) -> np.ndarray:
@@ -612,16 +626,19 @@ class ElasticitySolver(EFGSolver):
         return 0.5 * float(np.sum(self.cells.weight * np.einsum("ni,ij,nj->n", eps, self.D, eps)))
 
     def output_sets(self) -> list[OutputSet]:
-        """Gauss points (displacement, stresses, von Mises; zeros before the solve) and nodes (parameters)."""
+        """Gauss points (displacement, stresses, von Mises; zeros before the solve) and nodes (parameters), in the units
+        of :data:`ELASTICITY_UNITS`."""
         n = self.work_items
         u, g = self.gauss_field() if self.shape is not None else (np.zeros((n, 2)), np.zeros((n, 2, 2)))
         sig = self.strain_from(g) @ self.D.T
         vm = von_mises(sig)
         return self._pieces([OutputSet("gauss_points", _points3(self.cells.position),
                                        {"displacement": _points3(u), "stress_xx": sig[:, 0], "stress_yy": sig[:, 1],
-                                        "stress_xy": sig[:, 2], "von_mises": vm}, frame_field="von_mises"),
+                                        "stress_xy": sig[:, 2], "von_mises": vm}, frame_field="von_mises",
+                                       units=ELASTICITY_UNITS),
                              OutputSet("nodes", _points3(self.model.nodes_np),
-                                       {"parameter": _points3(self.nodal.reshape(-1, 2))})])
+                                       {"parameter": _points3(self.nodal.reshape(-1, 2))}, units=ELASTICITY_UNITS,
+                                       backdrop=False)])
 
     def describe(self) -> dict:
         """The solve for ``summary.json`` with the material: Young's modulus, Poisson's ratio, the plane condition."""

@@ -56,6 +56,11 @@ HEATING_DT = 0.2
 HEATING_SPACING = 2.0
 #: what a wall does with a particle that reaches it
 PARTICLE_WALLS = ("reflect", "absorb")
+#: the units of the output sets' quantities, normalised (:mod:`.species`: ω_pe = λ_D = 1, charge in e, mass in m_e,
+#: density in n_ref): velocities in λ_D ω_pe, the field in m_e λ_D ω_pe²/e, the potential in m_e λ_D² ω_pe²/e, a node's
+#: deposited charge in e n_ref λ_D² (per unit depth); the species index and the particle id are numbers
+UNITS = {"position": "λ_D", "velocity": "λ_D ω_pe", "speed": "λ_D ω_pe", "e_field": "m_e λ_D ω_pe²/e",
+         "species": "1", "particle_id": "1", "potential": "m_e λ_D² ω_pe²/e", "charge": "e n_ref λ_D²"}
 
 
 class PICSolver(TimeDependentSolver):
@@ -499,11 +504,11 @@ class PICSolver(TimeDependentSolver):
         distributed = self.spread is not None
         return [OutputSet("particles", pts, {"velocity": v, "e_field": e, "species": s.astype(np.float64),
                                              "particle_id": ids.astype(np.float64),
-                                             "speed": np.linalg.norm(v, axis=1)}, frame_field="species",
-                          ids=ids if distributed else None),
+                                             "speed": np.linalg.norm(v, axis=1)}, frame_field="speed",
+                          ids=ids if distributed else None, units=UNITS),
                 OutputSet("nodes", nodes, {"potential": self.potential.copy()[node_rows],
                                            "charge": self.charge.numpy().copy()[node_rows]},
-                          ids=node_rows if distributed else None)]
+                          ids=node_rows if distributed else None, units=UNITS, backdrop=False)]
 
     def describe(self) -> dict:
         """The run for ``summary.json``: species, injections, field solve, step and the distributed layout."""

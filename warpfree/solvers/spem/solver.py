@@ -38,6 +38,9 @@ from .plane_wave import DevicePlaneWave, PlaneWave
 
 __all__ = ["Waveform", "GaussianPulse", "Source", "SPEMState", "SPEMSolver"]
 
+#: the units of the output sets' quantities (SI): E_z on the E particles, H_x, H_y on the H particles
+UNITS = {"position": "m", "ez": "V/m", "hx": "A/m", "hy": "A/m"}
+
 
 @dataclass
 class Waveform:
@@ -377,14 +380,15 @@ class SPEMSolver(TimeDependentSolver):
         (``OutputSet.ids``: their indices in the whole set)."""
         e, h = self.electric, self.magnetic
         if self.spread is None:
-            return [OutputSet("electric", e.numpy("position"), {"ez": e.numpy("ez")}, frame_field="ez"),
-                    OutputSet("magnetic", h.numpy("position"), {"hx": h.numpy("hx"), "hy": h.numpy("hy")})]
+            return [OutputSet("electric", e.numpy("position"), {"ez": e.numpy("ez")}, frame_field="ez", units=UNITS),
+                    OutputSet("magnetic", h.numpy("position"), {"hx": h.numpy("hx"), "hy": h.numpy("hy")},
+                              units=UNITS)]
         ep, hp = self.spread.electric, self.spread.magnetic
         return [OutputSet("electric", ep.owned_values(e.position), {"ez": ep.owned_values(e["ez"])},
-                          frame_field="ez", ids=ep.ids[ep.owned_index]),
+                          frame_field="ez", ids=ep.ids[ep.owned_index], units=UNITS),
                 OutputSet("magnetic", hp.owned_values(h.position), {"hx": hp.owned_values(h["hx"]),
                                                                     "hy": hp.owned_values(h["hy"])},
-                          ids=hp.ids[hp.owned_index])]
+                          ids=hp.ids[hp.owned_index], units=UNITS)]
 
     def use_step(self, dt: float) -> None:
         """The run's constant step (told by the time loop before its first record): the step :meth:`energy`'s

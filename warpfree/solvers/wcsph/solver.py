@@ -39,6 +39,9 @@ __all__ = ["WCSPHSolver", "WCSPHState"]
 #: 3D; a lattice with h = 1.3 dx and support 2h has 20 and 80). Below this, h is too small for dx.
 MIN_NEIGHBOURS = {1: 4, 2: 20, 3: 56}
 
+#: the units of the output sets' quantities (SI)
+UNITS = {"position": "m", "velocity": "m/s", "speed": "m/s", "density": "kg/m³", "pressure": "Pa"}
+
 
 class WCSPHState(State):
     """What changes in time (the checkpoint): combined fluid + wall arrays and the fluid's rates.
@@ -559,14 +562,14 @@ class WCSPHSolver(TimeDependentSolver):
         distributed = self.spread is not None
         (b_rows, b_ids), (o_rows, o_ids) = self._own_walls()
         sets = [OutputSet("fluid", self.fluid.numpy_held("position")[rows], fluid, frame_field="speed",
-                          ids=ids if distributed else None),
+                          ids=ids if distributed else None, units=UNITS),
                 OutputSet("boundary", self.boundary.numpy_held("position")[b_rows],
                           {k: self.boundary.numpy_held(k)[b_rows] for k in ("density", "pressure")},
-                          ids=b_ids if distributed else None)]
+                          ids=b_ids if distributed else None, units=UNITS)]
         if self.model.nb > self.model.n_container_walls:
             sets.append(OutputSet("obstacle", self.obstacle.numpy_held("position")[o_rows],
                                   {k: self.obstacle.numpy_held(k)[o_rows] for k in ("density", "pressure")}, solid=True,
-                                  ids=o_ids if distributed else None))
+                                  ids=o_ids if distributed else None, units=UNITS))
         return sets
 
     def output_fields(self) -> dict[str, list[str]]:
