@@ -18,7 +18,6 @@ they ask.
 from __future__ import annotations
 
 import functools
-import math
 import sys
 import time
 from contextlib import contextmanager
@@ -112,17 +111,10 @@ def group_digits(n: int) -> str:
     return f"{int(n):,}".replace(",", " ")
 
 
-#: SI prefixes a time in seconds is shown with: factor, symbol
-_PREFIXES = ((1.0, "s"), (1e-3, "ms"), (1e-6, "µs"), (1e-9, "ns"), (1e-12, "ps"), (1e-15, "fs"))
-
-
 def time_scale(t_end: float, unit: str) -> tuple[float, str]:
     """The factor and unit a simulated time is shown in: seconds get the largest SI prefix that puts ``t_end`` at
     0.01 or more (a 4.75e-9 s EM run reads 4.75 ns, not 0.0000 s; a 0.8 s dam break stays in s); any other unit
     (PIC's 1/ω_pe) is shown as it is."""
-    if unit != "s" or not (math.isfinite(t_end) and t_end > 0):
-        return 1.0, unit
-    for factor, symbol in _PREFIXES:
-        if t_end >= 0.01 * factor * (1 - 1e-12):
-            return factor, symbol
-    return _PREFIXES[-1]
+    from .units import display_scale
+
+    return display_scale(t_end, unit, "s", 0.01)

@@ -32,14 +32,24 @@ def test_commands_are_the_defaults_but_for_the_longest_scenes(tool):
     assert "box=16,32" in tool.command_for("pic_thermal_plasma")
 
 
-def test_pictures_are_the_plots_and_the_last_frame_of_each_series(tool, tmp_path):
-    for name in ("front.png", "frames/frame_00000.png", "frames/frame_00001.png",
-                 "frames/nodes_potential_00000.png", "frames/nodes_potential_00001.png"):
+def test_pictures_are_the_plots_and_the_liveliest_frame_of_each_series(tool, tmp_path):
+    """A series' frame that varies most is shown: a one-colour frame (a field at rest) is passed over for one with
+    more colours, and of equal frames the latest is taken."""
+    from PIL import Image
+
+    uniform = np.full((40, 60, 3), 90, dtype=np.uint8)
+    striped = uniform.copy()
+    striped[:, ::4] = 250
+    striped[::3, 1::4] = (20, 200, 60)
+    pictures = {"front.png": uniform, "frames/frame_00000.png": uniform, "frames/frame_00001.png": striped,
+                "frames/frame_00002.png": uniform, "frames/nodes_potential_00000.png": striped,
+                "frames/nodes_potential_00001.png": striped}
+    for name, pixels in pictures.items():
         (tmp_path / name).parent.mkdir(exist_ok=True)
-        (tmp_path / name).write_bytes(b"")
+        Image.fromarray(pixels).save(tmp_path / name)
     chosen = [(label, path.relative_to(tmp_path).as_posix()) for label, path in tool.pictures_of(tmp_path)]
-    assert chosen == [("front", "front.png"), ("last frame", "frames/frame_00001.png"),
-                      ("nodes_potential (last frame)", "frames/nodes_potential_00001.png")]
+    assert chosen == [("front", "front.png"), ("frame 1", "frames/frame_00001.png"),
+                      ("nodes_potential, frame 1", "frames/nodes_potential_00001.png")]
 
 
 def test_shrink_limits_the_width_and_the_colours(tool, tmp_path):

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ParameterError
+from ..units import display_scale
 
 __all__ = ["render_frame", "plot_series", "estimate_spacing", "quantity_label", "length_scale", "colour_range",
            "write_png", "DIMENSIONLESS"]
@@ -58,19 +59,10 @@ def quantity_label(name: str, unit: str | None) -> str:
     return f"{name} ({'dimensionless' if unit == DIMENSIONLESS else unit})"
 
 
-#: SI prefixes a length in metres is shown with, largest first: (factor, unit)
-_LENGTH_PREFIXES = ((1.0, "m"), (1e-3, "mm"), (1e-6, "µm"), (1e-9, "nm"))
-
-
 def length_scale(extent: float, unit: str | None) -> tuple[float, str | None]:
     """(factor, unit) axes show lengths in: metres get the largest SI prefix that puts the plotted ``extent`` (m) at
     0.05 or more of it (a 3 mm resistor reads 0 to 3 mm, a 0.2 m cavity stays in m); any other unit is shown as is."""
-    if unit != "m" or not (math.isfinite(extent) and extent > 0):
-        return 1.0, unit
-    for factor, symbol in _LENGTH_PREFIXES:
-        if extent >= 0.05 * factor * (1 - 1e-12):
-            return factor, symbol
-    return _LENGTH_PREFIXES[-1]
+    return display_scale(extent, unit, "m", 0.05)
 
 
 def colour_range(values, scale=None) -> tuple[tuple[float, float], bool]:

@@ -77,15 +77,16 @@ def plot_history(out_dir: str, history: dict[str, list[float]], solver=None, ene
     ``energy_tolerance``, or the series ``below`` names) and, with ``solver``, potential.png (the nodal potential at
     the end, nodes coloured)."""
     from warpfree.io.frames import render_frame
+    from warpfree.solvers.pic.solver import UNITS
 
     paths = [plot_energy(os.path.join(out_dir, "energy.png"), history, energy_tolerance, tolerance_label, below)]
     if solver is not None:
         model = solver.model
         lo, length = model.space.lower[:2], model.space.length[:2]
         paths.append(str(render_frame(os.path.join(out_dir, "potential.png"), model.nodes_np, solver.potential, 2,
-                                      "potential (normalised)",
-                                      ((lo[0], lo[0] + length[0]), (lo[1], lo[1] + length[1])),
-                                      title=f"potential at t = {solver.t:.4g} / ω_pe")))
+                                      "potential", ((lo[0], lo[0] + length[0]), (lo[1], lo[1] + length[1])),
+                                      title="potential at the nodes", time=solver.t, time_unit=solver.time_unit,
+                                      field_unit=UNITS["potential"], length_unit=UNITS["position"])))
     return paths
 
 
