@@ -181,13 +181,14 @@ def validate_command(args) -> int:
     exit code."""
     from . import device
     from .run import write_json
-    from .validate import markdown_table, read_table, run_cases, table_differences
+    from .validate import markdown_table, read_table, run_cases, selected_cases, table_differences
 
-    out_dir = args.out or os.path.join("runs", "validate_quick" if args.quick else "validate")
-    require_fresh(out_dir, args.overwrite, marker="validation.json")
-    require_writable(out_dir)
-    if args.table:
-        require_writable(os.path.dirname(os.path.abspath(args.table)))
+    names = None
+    if args.scenes is not None:
+        names = [n.strip() for n in args.scenes.split(",") if n.strip()]
+        if not names:
+            raise ParameterError("--scenes", f"names no case, got {args.scenes!r}")
+    selected_cases(names)  # unknown names refused before anything is made
     earlier = None
     if args.against:
         try:
@@ -197,7 +198,11 @@ def validate_command(args) -> int:
         except (OSError, ValueError) as err:
             raise ParameterError("--against", f"cannot read a validation table from {args.against}: {err}") from None
     device.use(args.device, args.threads)
-    names = [n.strip() for n in args.scenes.split(",") if n.strip()] if args.scenes else None
+    out_dir = args.out or os.path.join("runs", "validate_quick" if args.quick else "validate")
+    require_fresh(out_dir, args.overwrite, marker="validation.json")
+    require_writable(out_dir)
+    if args.table:
+        require_writable(os.path.dirname(os.path.abspath(args.table)), "--table")
     if args.overwrite:
         clear_run_directory(out_dir)
     report = run_cases(names, args.quick, out_dir)
@@ -332,8 +337,8 @@ def clear_run_directory(out_dir: str) -> None:
             os.remove(entry.path)
 
 
-def require_writable(out_dir: str) -> None:
-    """Refuse, naming --out, a run directory that cannot be created or written, before anything runs."""
+def require_writable(out_dir: str, option: str = "--out") -> None:
+    """Refuse, naming ``option``, a directory that cannot be created or written, before anything runs."""
     try:
         os.makedirs(out_dir, exist_ok=True)
         probe = os.path.join(out_dir, f".warpfree_write_test_{os.getpid()}")
@@ -341,7 +346,7 @@ def require_writable(out_dir: str) -> None:
             f.write("")
         os.remove(probe)
     except OSError as exc:
-        raise ParameterError("--out", f"cannot write the run directory {out_dir}: {exc.strerror or exc}") from None
+        raise ParameterError(option, f"cannot write the directory {out_dir}: {exc.strerror or exc}") from None
 
 
 def _write_meta(out_dir: str, meta: dict) -> None:

@@ -26,7 +26,7 @@ from .errors import ParameterError, RunError
 from .scene_loader import load_scene, scene_parameters, shipped_scenes
 from .validation import check_lines
 
-__all__ = ["AGREEMENT", "validation_cases", "run_cases", "markdown_table", "read_table", "table_differences"]
+__all__ = ["AGREEMENT", "validation_cases", "selected_cases", "run_cases", "markdown_table", "read_table", "table_differences"]
 
 #: how closely a value must agree with a table made before: a fraction of max(|value|, |earlier value|, tolerance)
 AGREEMENT = 0.01
@@ -68,20 +68,27 @@ def run_case(name: str, path: str, quick: bool, out_dir: str) -> dict:
     return record
 
 
-def run_cases(names: list[str] | None, quick: bool, out_dir: str, say=print) -> dict:
-    """Run the named cases (None: all), saying a line per check as each ends; the report ``validation.json`` holds."""
+def selected_cases(names: list[str] | None) -> dict[str, str]:
+    """The cases ``names`` asks for (None: all), name -> path, in that order; ParameterError naming --scenes for a
+    name that is not a case."""
     cases = validation_cases()
     names = list(cases) if names is None else names
     unknown = [n for n in names if n not in cases]
     if unknown:
         raise ParameterError("--scenes", f"not validation cases: {', '.join(unknown)} (the cases: {', '.join(cases)})")
+    return {n: cases[n] for n in names}
+
+
+def run_cases(names: list[str] | None, quick: bool, out_dir: str, say=print) -> dict:
+    """Run the named cases (None: all), saying a line per check as each ends; the report ``validation.json`` holds."""
+    cases = selected_cases(names)
     from .device import current_launcher
 
     launcher = current_launcher()
     report = {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
               "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
               "device": f"{launcher.device} x{launcher.threads}", "quick": quick, "cases": []}
-    for name in names:
+    for name in cases:
         say(f"{name}: running{' (quick)' if quick else ''} ...")
         record = run_case(name, cases[name], quick, out_dir)
         report["cases"].append(record)

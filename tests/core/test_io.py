@@ -9,7 +9,7 @@ import pytest
 
 
 from warpfree.errors import ParameterError
-from warpfree.io.frames import (_splat, colour_range, estimate_spacing, length_scale, plot_series, quantity_label,
+from warpfree.io.frames import (_splat, colour_range, estimate_spacing, length_scale, quantity_label,
                                 render_frame, write_png)
 from warpfree.io.vtk import VtuSeries, read_pvd, read_snapshot, read_units, write_pvtu, write_vtu
 
@@ -280,16 +280,6 @@ def test_an_obstacle_under_water_stays_visible_in_3d(tmp_path):
     differ = np.any(np.abs(with_obstacle - without) > 0.05, axis=2)
     half = differ.shape[1] // 2
     assert differ[:, :half].sum() > 50 and differ[:, half:].sum() > 50  # the perspective and the side view
-
-
-def test_plot_series(tmp_path):
-    x = np.linspace(0, 3, 40)
-    ys = {"sim": np.sqrt(x), "coarse": (x[::2], np.sqrt(x[::2]) * 0.9)}
-    out = plot_series(tmp_path / "s.png", x, ys, "t [s]", "front [m]", "surge front",
-                      reference={"experiment": (x[::6], np.sqrt(x[::6]))})
-    assert _image_stats(out)[1] > 1e-3
-    with pytest.raises(ParameterError):
-        plot_series(tmp_path / "s2.png", None, {"sim": np.sqrt(x)})
 
 
 @pytest.mark.parametrize("background", [True, False])

@@ -84,6 +84,15 @@ def test_against_an_earlier_table(tmp_path, capsys):
 def test_bad_validate_input_names_the_option(tmp_path, capsys):
     assert main(["validate", "--scenes", "nope", "--out", str(tmp_path / "v")]) == 2
     assert "--scenes" in capsys.readouterr().err
+    assert main(["validate", "--scenes", ",", "--out", str(tmp_path / "v")]) == 2
+    assert "--scenes: names no case" in capsys.readouterr().err
+    assert main(["validate", "--threads", "0", "--out", str(tmp_path / "v")]) == 2
+    assert "threads" in capsys.readouterr().err
+    assert not (tmp_path / "v").exists()  # refused before anything was made
+    (tmp_path / "a_file").write_text("")
+    assert main(["validate", "--quick", "--scenes", "efg_cylinder", "--table", str(tmp_path / "a_file" / "t.md"),
+                 "--out", str(tmp_path / "x")]) == 2
+    assert "--table: cannot write" in capsys.readouterr().err
     assert main(["validate", "--quick", "--against", str(tmp_path / "missing.md"), "--out", str(tmp_path / "w")]) == 2
     assert "--against" in capsys.readouterr().err
     (tmp_path / "busy").mkdir()

@@ -1,4 +1,4 @@
-"""Headless PNG frames of particle fields and line plots for validation.
+"""Headless PNG frames of particle fields (the validation figures are :mod:`warpfree.io.validation_plots`).
 
 - :func:`render_frame` draws one frame. 1D: the field against x. 2D: the particles as discs coloured by a field, sized
   so that particles at the mean spacing touch, boundary particles grey, obstacles in a colour of their own. 3D: two
@@ -6,7 +6,6 @@
   far ones, darker with depth) and an orthographic side (x–z) or top (x–y) view, also depth sorted; the container
   bounds drawn as a box outline, boundary particles faint behind the fluid, and the obstacles seen through the fluid
   (drawn once more over it, translucent, with their outline).
-- :func:`plot_series` draws curves (lines) against reference data (markers), e.g. a surge front against an experiment.
 
 How a frame is drawn (chosen by measurement: ``bench/core/frame_cost.py``). What a frame series keeps from frame to
 frame (axes, ticks, labels, the colour bar of its one colour range, the panels' titles) is drawn once by Matplotlib
@@ -35,8 +34,9 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..units import display_scale
+from .validation_plots import new_figure
 
-__all__ = ["render_frame", "plot_series", "estimate_spacing", "quantity_label", "length_scale", "colour_range",
+__all__ = ["render_frame", "estimate_spacing", "quantity_label", "length_scale", "colour_range",
            "write_png", "DIMENSIONLESS"]
 
 _BOUNDARY_GREY = (0.55, 0.55, 0.55)
@@ -103,25 +103,6 @@ def _check_range(vmin, vmax, values) -> tuple[float, float]:
 
 
 # ----------------------------------------------------------------------------------------------- helpers
-
-def _figure(width_in: float, height_in: float, dpi: float):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(width_in, height_in), dpi=dpi)
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def _save(fig, path) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}.png")
-    # zlib level 3: ~3x faster to encode than matplotlib's default (6) for a few % larger files.
-    fig.savefig(str(tmp), format="png", dpi=fig.dpi, pil_kwargs={"compress_level": 3})
-    os.replace(tmp, path)
-    return path
-
 
 def _png_chunk(kind: bytes, data: bytes) -> bytes:
     return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
@@ -607,7 +588,7 @@ def _template_2d(b: np.ndarray, vmin, vmax, cm, field_label: str, length_unit, d
     W, H = wa + left + right, ha + bottom + top
     extent = (b[0, 0], b[0, 1], b[1, 0], b[1, 1])
     factor, xlabel, ylabel = _axis_labels(b, (0, 1), length_unit)
-    fig = _figure(W, H, dpi)
+    fig = new_figure(W, H, dpi)
     ax = fig.add_axes([left / W, bottom / H, wa / W, ha / H])
     ax.set_xlim(extent[0] / factor, extent[1] / factor)
     ax.set_ylim(extent[2] / factor, extent[3] / factor)
@@ -719,7 +700,7 @@ class _LineFigure:
 def _line_figure(b, label, dpi, vmin, vmax, length_unit) -> _LineFigure:
     from matplotlib import rcParams
 
-    fig = _figure(7.0, 3.6, dpi)
+    fig = new_figure(7.0, 3.6, dpi)
     ax = fig.add_axes([0.12, 0.15, 0.84, 0.74])
     factor, unit = length_scale(float(b[0, 1] - b[0, 0]), length_unit)
     ax.set_xlim(b[0, 0] / factor, b[0, 1] / factor)
@@ -823,7 +804,7 @@ def _template_3d(b, vmin, vmax, cm, field_label, dpi, view, azimuth, elevation, 
     left, gap, right, bottom, top = 0.3, 0.9, 1.4, 0.6, 0.6
     W = left + panel_w + gap + panel_w + right
     H = bottom + panel_h + top
-    fig = _figure(W, H, dpi)
+    fig = new_figure(W, H, dpi)
     ax1 = fig.add_axes([(left + 0.5 * (panel_w - w1)) / W, (bottom + 0.5 * (panel_h - h1)) / H, w1 / W, h1 / H])
     x2 = left + panel_w + gap
     ax2 = fig.add_axes([(x2 + 0.5 * (panel_w - w2)) / W, (bottom + 0.5 * (panel_h - h2)) / H, w2 / W, h2 / H])
@@ -943,58 +924,3 @@ def _frame_3d(p, v, b, bp, sp, h, vmin, vmax, cm, field_label, title, dpi, view,
         layers.append((p[order2, a2], p[order2, b2], r2, rgba[order2]))
     image2 = _with_solid_over(_splat_premultiplied(panel2.width, panel2.height, panel2.extent, layers), solid_image)
     return _compose(template, [image1, image2], title)
-
-
-# ----------------------------------------------------------------------------------------------- series
-
-def _xy(label, value, x) -> tuple[np.ndarray, np.ndarray]:
-    if isinstance(value, tuple) and len(value) == 2:
-        xs, ys = value
-    else:
-        if x is None:
-            raise ParameterError("ys", f"entry {label!r} is a bare y array but no shared x was given")
-        xs, ys = x, value
-    xs = np.asarray(xs, dtype=np.float64).reshape(-1)
-    ys = np.asarray(ys, dtype=np.float64).reshape(-1)
-    if xs.shape != ys.shape:
-        raise ParameterError("ys", f"entry {label!r}: x has {xs.size} values, y has {ys.size}")
-    return xs, ys
-
-
-def plot_series(path, x, ys: dict, xlabel: str = "", ylabel: str = "", title: str = "",
-                reference: dict | tuple | None = None, *, logx: bool = False, logy: bool = False,
-                xlim=None, ylim=None, dpi: int = 100, marker: str | None = None) -> Path:
-    """Line plot of computed series with reference data as markers; writes a PNG and returns the path.
-
-    ``ys`` maps a label to ``(x, y)`` or to a bare ``y`` sharing the ``x`` argument (``x`` may be None
-    when every entry carries its own x); ``marker`` (e.g. "o") marks their points too (a few computed values, a
-    convergence study). ``reference`` maps a label to ``(x, y)`` (markers only), or is a single ``(x, y)`` pair
-    labelled "reference".
-    """
-    fig = _figure(7.0, 4.6, dpi)
-    ax = fig.add_axes([0.14, 0.13, 0.82, 0.78])
-    for label, value in (ys or {}).items():
-        xs, yv = _xy(label, value, x)
-        ax.plot(xs, yv, lw=1.6, label=str(label), marker=marker, ms=4)
-    if reference is not None:
-        refs = {"reference": reference} if isinstance(reference, tuple) else reference
-        markers = "osD^v<>ph*"
-        for k, (label, value) in enumerate(refs.items()):
-            xs, yv = _xy(label, value, None)
-            ax.plot(xs, yv, ls="none", marker=markers[k % len(markers)], ms=5, mfc="none", mew=1.2, color="k",
-                    label=str(label))
-    if logx:
-        ax.set_xscale("log")
-    if logy:
-        ax.set_yscale("log")
-    if xlim is not None:
-        ax.set_xlim(xlim)
-    if ylim is not None:
-        ax.set_ylim(ylim)
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.set_title(title)
-    ax.grid(True, alpha=0.3)
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=9, frameon=False)
-    return _save(fig, path)

@@ -19,7 +19,7 @@ __all__ = ["COMPUTED", "REFERENCE", "TOLERANCE", "new_figure", "comparison_axes"
 COMPUTED, REFERENCE, TOLERANCE = "C0", "k", "C2"
 
 
-def new_figure(width: float, height: float, dpi: int = 110):
+def new_figure(width: float, height: float, dpi: float = 110):
     """A Matplotlib ``Figure`` of ``width`` x ``height`` inches on its own Agg canvas."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
