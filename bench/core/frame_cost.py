@@ -12,7 +12,7 @@ What it measures
        less than wall time; the wall time of the frames is given beside them.
     2. The steps between two frames (the step count over one output interval times the median step time, on 1 and
        2 threads): a frame must cost less than them, or the writer process competes with the stepping for the cores.
-    3. With ``--whole-run`` (the lead's measurement, on a quiet machine; ~5 min): the default scene run from the
+    3. With ``--whole-run`` (on a quiet machine; ~5 min): the default scene run from the
        command line with frames and without (``--no-frames``), on 2 threads, alternated ``--runs`` times each (side
        by side: both see the same machine), VTU written in both; the ratio of their medians, of the run's whole time
        (``summary.json``'s ``total_s``: set-up, steps, outputs, analysis) and of the process's wall time. Target:
