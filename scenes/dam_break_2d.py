@@ -19,15 +19,21 @@ break uses 0.2.)
 """
 
 import os
+from typing import Annotated
 
 import numpy as np
 
 from warpfree.geometry import lattice_box
 from warpfree.errors import ParameterError, reported_as
+from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_parameters
+from warpfree.smoothing import SmoothingKernel
+from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, DynamicViscosity,
+                                                EndTime, FixedStep, FrameField, Gravity, HFactor, Kernel,
+                                                OutputInterval, RestDensity, Spacing, WallLayers, Walls, WallSafety)
 from warpfree.solvers.wcsph.scene_tools import (box_2d, box_walls_2d, front_position, hydrostatic_density,
-                                                 require_scene_values, require_wall_cover)
+                                                 require_wall_cover)
 from warpfree.run import OutputOptions
-from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
+from warpfree.solvers.wcsph import BoundaryModel, FluidField, FluidParams, WCSPHModel, WCSPHSolver
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.dam_break_2d import front_checks, front_errors
 
@@ -41,21 +47,23 @@ SMALLEST = {"dx": 0.1, "t_end": 0.1, "output_interval": 0.02}
 QUICK = {"dx": 0.05, "t_end": 0.57}
 
 
-def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval: float = 0.02,
-          column_height: float = 2.0, tank_length: float = 4.0, tank_height: float = 4.0, h_factor: float = 1.6,
-          kernel: str = "wendland_c2", alpha: float = 0.1, wall_artificial: bool = False, delta: float = 0.1,
-          mu: float = 1.0e-3,
-          boundary_model: str = "dynamic", wall_safety: float = 0.75, cfl: float = 0.4, g: float = 9.81, rho0: float = 1000.0,
-          wall_layers: int = 3, checkpoint_every: int = 0, dt: float | None = None, frames: bool = True, frame_field: str = "speed",
-          vtk: bool = True) -> TimeLoop:
+@checked_parameters
+def build(a: Annotated[float, Param("m", "width a of the water column", "(0, inf)")] = 1.0,
+          dx: Spacing = 0.025, t_end: EndTime = 0.8, output_interval: OutputInterval = 0.02,
+          column_height: Annotated[float, Param("a", "height of the water column, in column widths a", "(0, inf)")] = 2.0,
+          tank_length: Annotated[float, Param("a", "length of the tank, in column widths a", "(1, inf)")] = 4.0,
+          tank_height: Annotated[float, Param("a", "height of the tank, in column widths a", "(0, inf)")] = 4.0,
+          h_factor: HFactor = 1.6, kernel: Kernel = SmoothingKernel.WENDLAND_C2, alpha: ArtificialViscosity = 0.1,
+          wall_artificial: Annotated[bool, Param("", "artificial viscosity on fluid-wall pairs too")] = False,
+          delta: DensityDiffusion = 0.1, mu: DynamicViscosity = 1.0e-3, boundary_model: Walls = BoundaryModel.DYNAMIC,
+          wall_safety: WallSafety = 0.75, cfl: Courant = 0.4, g: Gravity = 9.81, rho0: RestDensity = 1000.0,
+          wall_layers: WallLayers = 3, checkpoint_every: CheckpointEvery = 0, dt: FixedStep = None,
+          frames: Frames = True, frame_field: FrameField = FluidField.SPEED, vtk: Vtk = True) -> TimeLoop:
     """Build the dam break; lengths in units of a (tank_length, tank_height), SI otherwise."""
     params = dict(locals())
-    require_scene_values(positive=dict(a=a, dx=dx, column_height=column_height, tank_length=tank_length,
-                                       tank_height=tank_height, g=g, rho0=rho0), layers=dict(wall_layers=wall_layers))
-    if tank_length <= 1.0 or tank_height <= column_height:
-        raise ParameterError("tank_length" if tank_length <= 1.0 else "tank_height",
-                             f"the tank (in units of a) must hold the 1 x {column_height} column: got "
-                             f"{tank_length} x {tank_height}")
+    if tank_height <= column_height:
+        raise ParameterError("tank_height", f"the tank (in units of a) must hold the 1 x {column_height} column: got "
+                                            f"{tank_length} x {tank_height}")
     height = column_height * a
     length, top = tank_length * a, tank_height * a
     c0 = 10.0 * np.sqrt(2.0 * g * height)
@@ -65,7 +73,7 @@ def build(a: float = 1.0, dx: float = 0.025, t_end: float = 0.8, output_interval
         fp = FluidParams(dim=2, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
                          delta=delta, gravity=(0.0, -g, 0.0), boundary_model=boundary_model, cfl=cfl,
                          wall_artificial_viscosity=wall_artificial, lj_d=2.0 * g * height,
-                         lj_r0=dx if boundary_model == "lennard_jones" else wall_safety * dx,
+                         lj_r0=dx if boundary_model is BoundaryModel.LENNARD_JONES else wall_safety * dx,
                          container_lo=(0.0, 0.0, -1.0), container_hi=(length, top, 1.0))
         require_wall_cover(wall_layers, dx, fp.support, fp.boundary_model)
         model = WCSPHModel(fluid, walls, fp, containers=[box_2d(length, top)])

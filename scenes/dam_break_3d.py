@@ -17,16 +17,21 @@ number whose end state matches C = 0.2 at h = 1.3 dx (the study: ``bench/results
 """
 
 import os
+from typing import Annotated
 
 import numpy as np
 
 from warpfree.geometry import fill_mesh, load_mesh
 from warpfree.solvers.wcsph.surface_layers import surface_layers
 from warpfree.errors import ParameterError, reported_as
-from warpfree.solvers.wcsph.scene_tools import (clear_of, hydrostatic_density, require_scene_values,
-                                                 require_wall_cover)
+from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_parameters
+from warpfree.smoothing import SmoothingKernel
+from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, DynamicViscosity,
+                                                EndTime, FixedStep, FrameField, Gravity, HFactor, Kernel,
+                                                OutputInterval, RestDensity, Spacing, WallLayers, WallSafety)
+from warpfree.solvers.wcsph.scene_tools import clear_of, hydrostatic_density, require_wall_cover
 from warpfree.run import OutputOptions
-from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
+from warpfree.solvers.wcsph import FluidField, FluidParams, WCSPHModel, WCSPHSolver
 from warpfree.time_loop import TimeLoop
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -40,17 +45,22 @@ SMALLEST = {"dx": 0.1, "t_end": 0.04, "output_interval": 0.02, "surface": True}
 QUICK = {"dx": 0.1, "t_end": 0.6}
 
 
-def build(dx: float = 0.05, t_end: float = 1.0, output_interval: float = 0.05,
-          tank_mesh: str = os.path.join(HERE, "meshes", "spheric2_tank.stl"),
-          obstacle_mesh: str = os.path.join(HERE, "meshes", "spheric2_obstacle.stl"),
-          column_length: float = 1.228, column_height: float = 0.55, h_factor: float = 1.3,
-          kernel: str = "wendland_c2", alpha: float = 0.1, delta: float = 0.1, mu: float = 1.0e-3,
-          wall_safety: float = 0.75, cfl: float = 0.3, g: float = 9.81, rho0: float = 1000.0, wall_layers: int = 3,
-          checkpoint_every: int = 0, dt: float | None = None, frames: bool = True, frame_field: str = "speed", vtk: bool = True,
-          surface: bool = False) -> TimeLoop:
+@checked_parameters
+def build(dx: Spacing = 0.05, t_end: EndTime = 1.0, output_interval: OutputInterval = 0.05,
+          tank_mesh: Annotated[str, Param("", "the tank: a watertight STL, OBJ or PLY file")] =
+          os.path.join(HERE, "meshes", "spheric2_tank.stl"),
+          obstacle_mesh: Annotated[str, Param("", "the obstacle: a watertight STL, OBJ or PLY file (empty: none)")] =
+          os.path.join(HERE, "meshes", "spheric2_obstacle.stl"),
+          column_length: Annotated[float, Param("m", "length of the water column along x", "(0, inf)")] = 1.228,
+          column_height: Annotated[float, Param("m", "height of the water column", "(0, inf)")] = 0.55,
+          h_factor: HFactor = 1.3, kernel: Kernel = SmoothingKernel.WENDLAND_C2, alpha: ArtificialViscosity = 0.1,
+          delta: DensityDiffusion = 0.1, mu: DynamicViscosity = 1.0e-3, wall_safety: WallSafety = 0.75,
+          cfl: Courant = 0.3, g: Gravity = 9.81, rho0: RestDensity = 1000.0, wall_layers: WallLayers = 3,
+          checkpoint_every: CheckpointEvery = 0, dt: FixedStep = None, frames: Frames = True,
+          frame_field: FrameField = FluidField.SPEED, vtk: Vtk = True,
+          surface: Annotated[bool, Param("", "write the free surface as PLY meshes at every output")] = False
+          ) -> TimeLoop:
     params = dict(locals())
-    require_scene_values(positive=dict(dx=dx, column_length=column_length, column_height=column_height, g=g,
-                                       rho0=rho0), layers=dict(wall_layers=wall_layers))
     with reported_as(mesh="tank_mesh"):
         tank = load_mesh(tank_mesh)
     lo, hi = tank.bounds

@@ -6,10 +6,12 @@ rate into ``summary.json``. The particles sit on a lattice (spacing L/n), h = 1.
 """
 
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import ParameterError, reported_as, require_finite, require_integer, require_positive
+from warpfree.errors import ParameterError, reported_as, require_integer
+from warpfree.parameters import Frames, Param, Vtk, checked_parameters
 from warpfree.geometry import lattice_box
 from warpfree.run import OutputOptions
 from warpfree.solvers.heat import HeatModel, HeatSolver
@@ -25,15 +27,20 @@ SMALLEST = {"n": 16, "t_end": 2.0, "output_interval": 0.25}
 QUICK = {"n": 20}
 
 
-def build(n: int = 40, length: float = 1.0, alpha: float = 0.01, mode: int = 1, amplitude: float = 1.0,
-          t_end: float = 2.5, output_interval: float = 0.05, frames: bool = True, vtk: bool = True) -> TimeLoop:
+@checked_parameters
+def build(n: Annotated[int, Param("", "particles per side of the periodic box (two supports of 2.6 dx need 6)",
+                                  "[6, inf)")] = 40,
+          length: Annotated[float, Param("m", "side L of the periodic box", "(0, inf)")] = 1.0,
+          alpha: Annotated[float, Param("m²/s", "thermal diffusivity α", "(0, inf)")] = 0.01,
+          mode: Annotated[int, Param("", "sine mode m of the initial temperature, below n/2", "[1, inf)")] = 1,
+          amplitude: Annotated[float, Param("K", "amplitude A of the initial sine (not 0)", "(-inf, inf)")] = 1.0,
+          t_end: Annotated[float, Param("s", "simulated time at which the run ends", "(0, inf)")] = 2.5,
+          output_interval: Annotated[float, Param("s", "simulated time between outputs", "(0, inf)")] = 0.05,
+          frames: Frames = True, vtk: Vtk = True) -> TimeLoop:
     """``n`` particles per side of the L × L box (m), diffusivity α (m²/s), sine mode ``mode``, T0 = 300 K."""
     params = dict(locals())
-    if require_integer("n", n) < 6:
-        raise ParameterError("n", f"must be an integer >= 6 (the box must hold two supports of 2.6 dx), got {n!r}")
     require_integer("mode", mode, minimum=1, maximum=(n - 1) // 2)  # below n/2
-    require_positive("length", length)
-    if require_finite("amplitude", amplitude) == 0.0:
+    if amplitude == 0.0:
         raise ParameterError("amplitude", "must not be 0 (the decay of a zero mode is not measurable)")
     dx = length / n
     space = Space(2, (0.0, 0.0, 0.0), (length, length, 0.0), (True, True, False))

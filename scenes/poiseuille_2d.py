@@ -25,15 +25,19 @@ model's ``viscosity_factor``), and the error against the series converges.
 """
 
 import os
+from typing import Annotated
 
 import numpy as np
 
 from warpfree.errors import ParameterError, reported_as
 from warpfree.geometry import lattice_box
-from warpfree.kernels.smoothing import KERNELS
+from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions
-from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
-from warpfree.solvers.wcsph.scene_tools import require_scene_values, require_wall_cover
+from warpfree.smoothing import SmoothingKernel
+from warpfree.solvers.wcsph import BoundaryModel, FluidField, FluidParams, WCSPHModel, WCSPHSolver
+from warpfree.solvers.wcsph.parameters import (Courant, EndTime, FrameField, HFactor, Kernel, OutputInterval,
+                                                RestDensity, WallLayers)
+from warpfree.solvers.wcsph.scene_tools import require_wall_cover
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import poiseuille_2d as exact
 from warpfree.validation import tolerance_check
@@ -50,28 +54,27 @@ SMALLEST = {"n": 10, "t_end": 0.0225, "output_interval": 0.00225}
 QUICK = {"n": 20}
 
 
-def build(n: int = 40, width: float = 1.0e-3, channel_length: float = 1.0e-3, nu: float = 1.0e-6,
-          force: float = 2.0e-4, rho0: float = 1000.0, mach: float = 0.1, h_factor: float = 1.6,
-          kernel: str = "wendland_c2", wall_layers: int = 3, bins: int = 10, cfl: float = 0.1, t_end: float = 0.225,
-          output_interval: float = 0.0225, checkpoint_every: int = 0, frames: bool = True,
-          frame_field: str = "speed", vtk: bool = True) -> TimeLoop:
+@checked_parameters
+def build(n: Annotated[int, Param("", "particles across the channel (dx = width/n)", "[4, inf)")] = 40,
+          width: Annotated[float, Param("m", "channel width L", "(0, inf)")] = 1.0e-3,
+          channel_length: Annotated[float, Param("m", "length of the periodic section (a whole number of dx)",
+                                                 "(0, inf)")] = 1.0e-3,
+          nu: Annotated[float, Param("m²/s", "kinematic viscosity ν", "(0, inf)")] = 1.0e-6,
+          force: Annotated[float, Param("m/s²", "body force F along the channel", "(0, inf)")] = 2.0e-4,
+          rho0: RestDensity = 1000.0,
+          mach: Annotated[float, Param("", "Mach number of the steady centre speed (c0 = u_c/mach)", "(0, 0.5)")] = 0.1,
+          h_factor: HFactor = 1.6, kernel: Kernel = SmoothingKernel.WENDLAND_C2, wall_layers: WallLayers = 3,
+          bins: Annotated[int, Param("", "bins across the channel for the velocity profile", "[1, inf)")] = 10,
+          cfl: Courant = 0.1, t_end: EndTime = 0.225, output_interval: OutputInterval = 0.0225,
+          checkpoint_every: CheckpointEvery = 0, frames: Frames = True, frame_field: FrameField = FluidField.SPEED,
+          vtk: Vtk = True) -> TimeLoop:
     """``n`` particles across the channel of width L = ``width`` (m); the periodic section is ``channel_length``
     long (m, a whole number of spacings L/n); ν (m²/s), body force F (m/s²) along x; c0 = u_c/mach."""
     params = dict(locals())
-    require_scene_values(positive=dict(width=width, channel_length=channel_length, nu=nu, force=force, rho0=rho0,
-                                       mach=mach, h_factor=h_factor, t_end=t_end, output_interval=output_interval),
-                         layers=dict(n=n, wall_layers=wall_layers, bins=bins))
-    n, wall_layers, bins = int(n), int(wall_layers), int(bins)
-    if kernel not in KERNELS:
-        raise ParameterError("kernel", f"must be one of {sorted(KERNELS)}, got {kernel!r}")
-    if n < 4:
-        raise ParameterError("n", f"must be >= 4 particles across the channel, got {n}")
     if bins > n:
         raise ParameterError("bins", f"must be <= n = {n} (every bin needs a layer of particles), got {bins}")
-    if mach >= 0.5:
-        raise ParameterError("mach", f"must be < 0.5 (weakly compressible: c0 = u_c/mach), got {mach}")
     dx = width / n
-    support = KERNELS[kernel][1] * h_factor * dx
+    support = kernel.support * h_factor * dx
     columns = channel_length / dx
     if abs(columns - round(columns)) > 1e-6 * columns:
         raise ParameterError("channel_length", f"must be a whole number of spacings dx = width/n = {dx:.6g} m "
@@ -87,7 +90,7 @@ def build(n: int = 40, width: float = 1.0e-3, channel_length: float = 1.0e-3, nu
         walls = np.vstack([lattice_box((0.0, -wall_layers * dx), (channel_length, 0.0), dx),
                            lattice_box((0.0, width), (channel_length, width + wall_layers * dx), dx)])
     fp = FluidParams(dim=2, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=rho0 * nu, alpha=0.0,
-                     delta=0.0, gravity=(force, 0.0, 0.0), boundary_model="dynamic", no_slip=True, cfl=cfl,
+                     delta=0.0, gravity=(force, 0.0, 0.0), boundary_model=BoundaryModel.DYNAMIC, no_slip=True, cfl=cfl,
                      container_lo=(0.0, 0.0, -1.0), container_hi=(channel_length, width, 1.0),
                      periodic=(True, False, False))
     solver = WCSPHSolver(WCSPHModel(fluid, walls, fp))

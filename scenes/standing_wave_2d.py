@@ -23,12 +23,19 @@ layers (5 at 2.4 dx).
 
 import math
 import os
+from typing import Annotated
 
 import numpy as np
 
 from warpfree.errors import ParameterError, reported_as
+from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions
-from warpfree.solvers.wcsph.scene_tools import box_2d, require_scene_values, still_water_2d
+from warpfree.smoothing import SmoothingKernel
+from warpfree.solvers.wcsph import FluidField
+from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, DynamicViscosity,
+                                                FrameField, Gravity, HFactor, Kernel, RestDensity, SettlePeriods,
+                                                Spacing, WallLayers)
+from warpfree.solvers.wcsph.scene_tools import box_2d, still_water_2d
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import standing_wave_2d as linear
 
@@ -42,17 +49,21 @@ SMALLEST = {"dx": 0.05, "periods": 0.25, "settle_periods": 0.25, "outputs_per_pe
 QUICK = {"dx": 0.04}
 
 
-def build(length: float = 1.0, depth: float = 0.5, amplitude: float = 0.01, dx: float = 0.02, periods: float = 3.0,
-          h_factor: float = 2.4, kernel: str = "wendland_c2", alpha: float = 0.02, delta: float = 0.1,
-          mu: float = 1.0e-3, cfl: float = 0.1, g: float = 9.81, rho0: float = 1000.0, wall_layers: int = 5,
-          settle_periods: float = 3.0, outputs_per_period: int = 40, checkpoint_every: int = 0, frames: bool = True,
-          frame_field: str = "speed", vtk: bool = True) -> TimeLoop:
+@checked_parameters
+def build(length: Annotated[float, Param("m", "length of the tank (the wavelength is twice it)", "(0, inf)")] = 1.0,
+          depth: Annotated[float, Param("m", "water depth (the tank is twice as high)", "(0, inf)")] = 0.5,
+          amplitude: Annotated[float, Param("m", "amplitude A of the surface wave (A < 0.2 depth)", "(0, inf)")] = 0.01,
+          dx: Spacing = 0.02,
+          periods: Annotated[float, Param("", "length of the run, in periods of linear theory", "(0, inf)")] = 3.0,
+          h_factor: HFactor = 2.4, kernel: Kernel = SmoothingKernel.WENDLAND_C2, alpha: ArtificialViscosity = 0.02,
+          delta: DensityDiffusion = 0.1, mu: DynamicViscosity = 1.0e-3, cfl: Courant = 0.1, g: Gravity = 9.81,
+          rho0: RestDensity = 1000.0, wall_layers: WallLayers = 5, settle_periods: SettlePeriods = 3.0,
+          outputs_per_period: Annotated[int, Param("", "outputs per period of linear theory", "[1, inf)")] = 40,
+          checkpoint_every: CheckpointEvery = 0, frames: Frames = True, frame_field: FrameField = FluidField.SPEED,
+          vtk: Vtk = True) -> TimeLoop:
     """Tank ``length`` × 2 ``depth`` (m), water ``depth`` deep, wave ``amplitude`` A (m, A ≪ depth); the run lasts
     ``periods`` periods of linear theory. c0 = 10 sqrt(2 g d) as in the other tanks."""
     params = dict(locals())
-    require_scene_values(positive=dict(length=length, depth=depth, amplitude=amplitude, dx=dx, periods=periods,
-                                       g=g, rho0=rho0), layers=dict(wall_layers=wall_layers,
-                                                                    outputs_per_period=outputs_per_period))
     if amplitude >= 0.2 * depth:
         raise ParameterError("amplitude", f"must be < 0.2 depth = {0.2 * depth:g} m (a linear wave), got {amplitude}")
     omega = linear.frequency(g, length, depth)

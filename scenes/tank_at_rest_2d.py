@@ -27,11 +27,19 @@ Time step: seed eq. 5-12 with Courant number 0.4, as the dam breaks (the study: 
 """
 
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import reported_as, require_finite
-from warpfree.solvers.wcsph.scene_tools import box_2d, require_scene_values, still_water_2d
+from warpfree.errors import reported_as
+from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_parameters
+from warpfree.smoothing import SmoothingKernel
+from warpfree.solvers.wcsph import BoundaryModel, FluidField
+from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, DynamicViscosity,
+                                                EndTime, FixedStep, FrameField, Gravity, HFactor, Kernel,
+                                                OutputInterval, RestDensity, SettlePeriods, Shifting, Spacing,
+                                                WallLayers, Walls, WallSafety)
+from warpfree.solvers.wcsph.scene_tools import box_2d, still_water_2d
 from warpfree.run import OutputOptions
 from warpfree.time_loop import TimeLoop
 
@@ -45,17 +53,22 @@ SMALLEST = {"dx": 0.05, "t_end": 0.05, "output_interval": 0.01, "settle_periods"
 QUICK = {"width": 0.5, "depth": 0.4, "dx": 0.025, "t_end": 1.0}
 
 
-def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float = 2.0,
-          output_interval: float = 0.05, h_factor: float = 1.6, kernel: str = "wendland_c2",
-          alpha: float = 0.1, delta: float = 0.1, mu: float = 1.0e-3, boundary_model: str = "dynamic", wall_safety: float = 0.75,
-          cfl: float = 0.4, g: float = 9.81, rho0: float = 1000.0, wall_layers: int = 3,
-          checkpoint_every: int = 0, dt: float | None = None, frames: bool = True, frame_field: str = "pressure", vtk: bool = True,
-          tilt: float = 0.0, shifting: float = 0.0, relax: bool = True, settle_periods: float = 3.0) -> TimeLoop:
+@checked_parameters
+def build(width: Annotated[float, Param("m", "width of the tank", "(0, inf)")] = 1.0,
+          depth: Annotated[float, Param("m", "water depth H (the tank is twice as high)", "(0, inf)")] = 0.5,
+          dx: Spacing = 0.02, t_end: EndTime = 2.0, output_interval: OutputInterval = 0.05, h_factor: HFactor = 1.6,
+          kernel: Kernel = SmoothingKernel.WENDLAND_C2, alpha: ArtificialViscosity = 0.1,
+          delta: DensityDiffusion = 0.1, mu: DynamicViscosity = 1.0e-3, boundary_model: Walls = BoundaryModel.DYNAMIC,
+          wall_safety: WallSafety = 0.75, cfl: Courant = 0.4, g: Gravity = 9.81, rho0: RestDensity = 1000.0,
+          wall_layers: WallLayers = 3, checkpoint_every: CheckpointEvery = 0, dt: FixedStep = None,
+          frames: Frames = True, frame_field: FrameField = FluidField.PRESSURE, vtk: Vtk = True,
+          tilt: Annotated[float, Param("°", "tilt of the tank (gravity stays vertical)", "(-90, 90)")] = 0.0,
+          shifting: Shifting = 0.0,
+          relax: Annotated[bool, Param("", "start from a relaxed arrangement instead of the lattice")] = True,
+          settle_periods: SettlePeriods = 3.0) -> TimeLoop:
     """Build the tank; the container is twice as high as the water."""
     params = dict(locals())
-    require_scene_values(positive=dict(width=width, depth=depth, dx=dx, g=g, rho0=rho0),
-                         layers=dict(wall_layers=wall_layers))
-    angle = np.radians(require_finite("tilt", tilt))
+    angle = np.radians(tilt)
     rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
     tank = box_2d(width, 2.0 * depth) @ rotation.T
     tank[:, 1] -= tank[:, 1].min()
@@ -65,7 +78,7 @@ def build(width: float = 1.0, depth: float = 0.5, dx: float = 0.02, t_end: float
             tank, depth, dx, dict(h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha, delta=delta,
                                   gravity=(0.0, -g, 0.0), boundary_model=boundary_model, cfl=cfl, shifting=shifting,
                                   lj_d=2.0 * g * depth,
-                                  lj_r0=dx if boundary_model == "lennard_jones" else wall_safety * dx),
+                                  lj_r0=dx if boundary_model is BoundaryModel.LENNARD_JONES else wall_safety * dx),
             wall_layers=wall_layers, relax=relax, settle_periods=settle_periods)
     lo, hi = tank.min(axis=0), tank.max(axis=0)
 

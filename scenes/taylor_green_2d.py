@@ -28,15 +28,18 @@ t ≈ 0.11 s (energy error −78 % to −92 % at t_e for n = 25 to 100): plain W
 
 import math
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
+from warpfree.errors import ParameterError, reported_as
 from warpfree.geometry import lattice_box
-from warpfree.kernels.smoothing import KERNELS
+from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions
-from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
-from warpfree.solvers.wcsph.scene_tools import require_scene_values
+from warpfree.smoothing import SmoothingKernel
+from warpfree.solvers.wcsph import FluidField, FluidParams, WCSPHModel, WCSPHSolver
+from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, FrameField, HFactor,
+                                                Kernel, RestDensity, Shifting)
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import taylor_green_2d as exact
 
@@ -52,30 +55,31 @@ SMALLEST = {"n": 16, "t_end": 0.05, "output_interval": 0.01}
 QUICK = {"n": 25}
 
 
-def build(n: int = 50, length: float = 1.0, u0: float = 1.0, reynolds: float = 100.0, rho0: float = 1000.0,
-          mach: float = 0.1, h_factor: float = 1.6, kernel: str = "wendland_c2", alpha: float = 0.0,
-          delta: float = 0.0, shifting: float = 20.0, cfl: float = 0.1, t_end: float = 0.0, output_interval: float = 0.0,
-          checkpoint_every: int = 0, frames: bool = True, frame_field: str = "speed", vtk: bool = True) -> TimeLoop:
+@checked_parameters
+def build(n: Annotated[int, Param("", "particles per side of the periodic box", "[1, inf)")] = 50,
+          length: Annotated[float, Param("m", "side L of the periodic box", "(0, inf)")] = 1.0,
+          u0: Annotated[float, Param("m/s", "velocity amplitude U of the vortex", "(0, inf)")] = 1.0,
+          reynolds: Annotated[float, Param("", "Reynolds number U L/ν", "(0, inf)")] = 100.0,
+          rho0: RestDensity = 1000.0,
+          mach: Annotated[float, Param("", "Mach number U/c0", "(0, 0.5)")] = 0.1,
+          h_factor: HFactor = 1.6, kernel: Kernel = SmoothingKernel.WENDLAND_C2, alpha: ArtificialViscosity = 0.0,
+          delta: DensityDiffusion = 0.0, shifting: Shifting = 20.0, cfl: Courant = 0.1,
+          t_end: Annotated[float, Param("s", "simulated time at which the run ends (0: t_e, the kinetic energy down to "
+                                             "1/e)", "[0, inf)")] = 0.0,
+          output_interval: Annotated[float, Param("s", "simulated time between outputs (0: 40 outputs to t_end)",
+                                                  "[0, inf)")] = 0.0,
+          checkpoint_every: CheckpointEvery = 0, frames: Frames = True, frame_field: FrameField = FluidField.SPEED,
+          vtk: Vtk = True) -> TimeLoop:
     """``n`` particles per side of the L × L periodic box (m); U (m/s); Re = U L/ν; c0 = U/mach.
 
     t_end = 0 runs to t_e (exact kinetic energy down to e^-1); output_interval = 0 gives 40 outputs to t_end.
     """
     params = dict(locals())
-    require_scene_values(positive=dict(length=length, u0=u0, reynolds=reynolds, rho0=rho0, mach=mach,
-                                       h_factor=h_factor))
-    require_integer("n", n)
-    if kernel not in KERNELS:
-        raise ParameterError("kernel", f"must be one of {sorted(KERNELS)}, got {kernel!r}")
     # the periodic side must hold two neighbour radii (support + 15 % skin)
-    n_min = math.floor(2.0 * KERNELS[kernel][1] * h_factor * 1.15) + 1
+    n_min = math.floor(2.0 * kernel.support * h_factor * 1.15) + 1
     if n < n_min:
         raise ParameterError("n", f"must be >= {n_min} for h = {h_factor} dx with the {kernel} kernel (the periodic "
                                   f"box must hold two neighbour radii), got {n}")
-    if mach >= 0.5:
-        raise ParameterError("mach", f"must be < 0.5 (weakly compressible: c0 = U/mach), got {mach}")
-    for name, value in (("t_end", t_end), ("output_interval", output_interval)):
-        require_positive(name, value, allow_zero=True)
-    n = int(n)
     nu = u0 * length / reynolds
     c0 = u0 / mach
     t_e = exact.time_for_energy_ratio(math.exp(-1.0), nu, length)

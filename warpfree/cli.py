@@ -16,7 +16,8 @@ from . import __version__
 from .errors import ParameterError, RunError
 from .parallel import world
 from .parallel.world import abort_on_error, world_started
-from .scene_loader import load_scene, parse_overrides, scene_parameters, scene_path, shipped_scenes, summary_line
+from .parameters import listing, parse_overrides, scene_parameters
+from .scene_loader import load_scene, scene_path, shipped_scenes, summary_line
 
 DESCRIPTION = """warpfree: meshfree particle methods (WCSPH fluids, SPEM, EFG, PIDC) as NVIDIA Warp kernels.
 
@@ -131,8 +132,8 @@ def run_command(args) -> int:
         module = load_scene(scene_file)
         parameters = scene_parameters(module)
         if args.list:
-            for name, p in parameters.items():
-                print(f"{name}: {p.type_text} = {p.default!r}")
+            for line in listing(parameters):
+                print(line)
             return 0
         overrides = parse_overrides(args.overrides, parameters)
         if args.frames is not None:

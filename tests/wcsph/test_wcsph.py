@@ -140,8 +140,9 @@ def _box_case(**overrides):
     ("boundary_model", "mirror", "boundary_model"),
 ])
 def test_bad_physical_constants_name_the_parameter(field, value, match):
-    x, p = _box_case(**{field: value})
+    """Refused by name when the parameters are made (a closed choice) or when the model is (a number)."""
     with pytest.raises(ParameterError, match=match):
+        x, p = _box_case(**{field: value})
         WCSPHSolver(WCSPHModel(x, np.zeros((0, 2)), p))
 
 

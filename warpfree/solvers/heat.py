@@ -28,6 +28,7 @@ from warpfree.kernels.smoothing import kernel_id, normalisation, support_factor
 from warpfree.neighbours import NeighbourGrid, NeighbourList
 from warpfree.particles import ParticleSet
 from warpfree.reduce import reduce
+from warpfree.smoothing import SmoothingKernel
 from warpfree.solver import OutputSet, State, TimeDependentSolver
 from warpfree.space import Space
 
@@ -39,12 +40,12 @@ class HeatModel:
     (m²/s), smoothing length ``h_factor · dx``, in ``space`` (its periodic axes wrap)."""
 
     def __init__(self, positions, dx: float, alpha: float, space: Space, launcher: Launcher | None = None,
-                 h_factor: float = 1.3, kernel: str = "wendland_c2"):
+                 h_factor: float = 1.3, kernel: SmoothingKernel = SmoothingKernel.WENDLAND_C2):
         launcher = launcher or current_launcher()
         self.dx = require_positive("dx", dx)
         self.alpha = require_positive("alpha", alpha)
         self.h = require_positive("h_factor", h_factor) * dx
-        self.kernel = kernel
+        self.kernel = kernel = SmoothingKernel.of("kernel", kernel)
         self.dim = space.dim
         self.space = space
         self.particles = ParticleSet("particles", space.wrap(np.asarray(positions, float)), space.dim, launcher.device)

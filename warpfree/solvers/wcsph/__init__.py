@@ -2,7 +2,7 @@
 (:mod:`.surface`) and the helpers of the fluid scenes (:mod:`.scene_tools`). Kernels:
 ``warpfree.kernels.wcsph``."""
 
-from .model import FluidParams, WCSPHModel
-from .solver import WCSPHSolver, WCSPHState
+from .model import BoundaryModel, FluidParams, WCSPHModel
+from .solver import FluidField, WCSPHSolver, WCSPHState
 
-__all__ = ["FluidParams", "WCSPHModel", "WCSPHSolver", "WCSPHState"]
+__all__ = ["BoundaryModel", "FluidField", "FluidParams", "WCSPHModel", "WCSPHSolver", "WCSPHState"]

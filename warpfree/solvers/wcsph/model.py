@@ -25,12 +25,22 @@ from warpfree.progress import announced, group_digits
 from warpfree.errors import ParameterError, require_positive
 from warpfree.kernels.smoothing import kernel_id, kernel_profile, normalisation, support_factor
 from warpfree.kernels.wcsph import FluidConstants, FluidTerms
+from warpfree.parameters import Choice
 from warpfree.particles import to_vec3
+from warpfree.smoothing import SmoothingKernel
 from warpfree.space import Space
 
 from .solids import Solids
 
-__all__ = ["FluidParams", "WCSPHModel", "lattice_second_moment"]
+__all__ = ["FluidParams", "WCSPHModel", "BoundaryModel", "lattice_second_moment"]
+
+
+class BoundaryModel(Choice):
+    """How wall particles act on the fluid."""
+
+    DYNAMIC = "dynamic", ("dynamic wall particles (Adami, Hu & Adams 2012): pressure extrapolated from the fluid, "
+                          "no-slip ghost velocity")
+    LENNARD_JONES = "lennard_jones", "a Lennard-Jones repulsive force from one layer of wall particles (Monaghan 1994)"
 
 #: h/dx by dimension when a model does not set it: about 30 neighbours in 2D (1.6: 31 on the lattice), 80 in 3D
 #: (1.3). Measured in 2D: at 1.3 (20 neighbours, the seed's 1.2-1.3) the error of a disordered arrangement does not
@@ -44,7 +54,7 @@ DEFAULT_H_FACTOR = {2: 1.6, 3: 1.3}
 SURFACE_DIV_FRACTION = 0.975
 
 
-def lattice_second_moment(kernel: str, dim: int, h_factor: float, eps: float = 0.01) -> float:
+def lattice_second_moment(kernel: SmoothingKernel, dim: int, h_factor: float, eps: float = 0.01) -> float:
     """S = -(1/d) Σ_{j≠0} V r_j (dW/dr)(r_j) r_j² / (r_j² + eps h²) over the square lattice of spacing dx (V = dx^d),
     with the normalised kernel of ``warpfree.kernels.smoothing`` and h = h_factor dx: the factor by which the
     Morris/Brookshaw Laplacian of a quadratic field falls short on the lattice (dimensionless, dx-independent)."""
@@ -65,7 +75,7 @@ class FluidParams:
     dim: int = 2
     dx: float = 0.02                 # initial particle spacing (m)
     h_factor: float | None = None    # h = h_factor * dx; None: DEFAULT_H_FACTOR[dim]
-    kernel: str = "wendland_c2"
+    kernel: SmoothingKernel = SmoothingKernel.WENDLAND_C2
     rho0: float = 1000.0             # reference density (kg/m³)
     c0: float = 40.0                 # numerical speed of sound (m/s), ~10 × the largest flow speed
     gamma: float = 7.0               # Tait exponent
@@ -73,7 +83,7 @@ class FluidParams:
     alpha: float = 0.0               # Monaghan artificial viscosity (0 = off)
     delta: float = 0.0               # δ-SPH density diffusion coefficient (0 = off; 0.1 typical)
     gravity: tuple = (0.0, -9.81, 0.0)
-    boundary_model: str = "dynamic"  # "dynamic" (Adami 2012) or "lennard_jones" (seed 5-6)
+    boundary_model: BoundaryModel = BoundaryModel.DYNAMIC
     no_slip: bool = True             # walls enter the viscous terms with a no-slip ghost velocity
     wall_artificial_viscosity: bool = False  # artificial viscosity on fluid-wall pairs too (default: fluid pairs only)
     shifting: float = 0.0            # particle shifting coefficient A (0 = off; 2 is Lind et al. 2012's and
@@ -91,6 +101,8 @@ class FluidParams:
     def __post_init__(self):
         if self.h_factor is None:
             self.h_factor = DEFAULT_H_FACTOR.get(self.dim, 1.3)
+        self.kernel = SmoothingKernel.of("kernel", self.kernel)
+        self.boundary_model = BoundaryModel.of("boundary_model", self.boundary_model)
 
     @property
     def h(self) -> float:
@@ -118,8 +130,6 @@ class FluidParams:
             raise ParameterError("dim", f"must be 2 or 3, got {self.dim!r}")
         require_positive("dx", self.dx)
         require_positive("h_factor", self.h_factor)
-        if self.kernel not in ("cubic_spline", "wendland_c2", "quintic_spline"):
-            raise ParameterError("kernel", f"must be cubic_spline, wendland_c2 or quintic_spline, got {self.kernel!r}")
         for name in ("rho0", "c0", "gamma"):
             require_positive(name, getattr(self, name))
         for name in ("mu", "alpha", "delta", "skin", "shifting", "shifting_speed"):
@@ -127,9 +137,7 @@ class FluidParams:
         g = np.asarray(self.gravity, dtype=float)
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise ParameterError("gravity", f"must be 3 finite numbers, got {self.gravity!r}")
-        if self.boundary_model not in ("dynamic", "lennard_jones"):
-            raise ParameterError("boundary_model", f"must be 'dynamic' or 'lennard_jones', got {self.boundary_model!r}")
-        if self.boundary_model == "lennard_jones":
+        if self.boundary_model is BoundaryModel.LENNARD_JONES:
             require_positive("lj_d", self.lj_d)
             require_positive("lj_r0", self.lj_r0)
         else:
@@ -138,7 +146,7 @@ class FluidParams:
             if self.lj_r0 >= self.dx:
                 raise ParameterError("lj_r0", f"the safety net of dynamic walls must act below dx = {self.dx}, "
                                               f"got {self.lj_r0}")
-        if self.shifting > 0 and self.boundary_model != "dynamic":
+        if self.shifting > 0 and self.boundary_model is not BoundaryModel.DYNAMIC:
             raise ParameterError("shifting", "needs dynamic walls (boundary_model='dynamic'): shifting counts the "
                                              "wall particles' volume so that the fluid is not pushed into the walls")
         cfl = require_positive("cfl", self.cfl)
@@ -229,8 +237,8 @@ class WCSPHModel:
         self.terms = FluidTerms(
             kernel=self.kernel_id, dim=params.dim, laminar=params.mu > 0.0, artificial=params.alpha > 0.0,
             delta_sph=params.delta > 0.0,
-            walls="none" if self.nb == 0 else params.boundary_model,
-            wall_safety=params.boundary_model == "dynamic" and params.lj_r0 > 0.0,
+            walls="none" if self.nb == 0 else params.boundary_model.value,
+            wall_safety=params.boundary_model is BoundaryModel.DYNAMIC and params.lj_r0 > 0.0,
             no_slip=bool(params.no_slip), wall_artificial=bool(params.wall_artificial_viscosity),
             shifting=params.shifting > 0.0, periodic=self.space.periodic)
         self.constants = self._constants()

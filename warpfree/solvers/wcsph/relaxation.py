@@ -26,6 +26,7 @@ from warpfree.neighbours import MovingNeighbours, empty_rows
 from warpfree.particles import to_vec3
 from warpfree.progress import announced, group_digits
 from warpfree.reduce import Reduction
+from warpfree.smoothing import SmoothingKernel
 from .solids import Solids
 from warpfree.space import Space
 from warpfree.kernels import wcsph_relaxation as rk
@@ -121,7 +122,7 @@ def free_boundary_points(region, dx: float, containers=(), obstacles=(), launche
     return points, normals, weights
 
 
-def _stiffness(kernel: str, dim: int, h_factor: float, dx: float) -> float:
+def _stiffness(kernel: SmoothingKernel, dim: int, h_factor: float, dx: float) -> float:
     """K = -(dx/h)^d σ_d f''(0)/h² (1/m²): the self-stiffness of ∇C of a particle in a lattice."""
     h = h_factor * dx
     f2 = float(kernel_profile(kernel, dim, 0.0, "grad_coef"))  # f''(0) = lim (df/dq)/q at q -> 0
@@ -129,7 +130,7 @@ def _stiffness(kernel: str, dim: int, h_factor: float, dx: float) -> float:
 
 
 @announced(lambda positions, *a, **k: f"fluid layout relaxed ({group_digits(len(positions))} particles)")
-def relax_particles(positions, dx: float, region, walls=None, containers=(), obstacles=(), kernel: str = "wendland_c2",
+def relax_particles(positions, dx: float, region, walls=None, containers=(), obstacles=(), kernel: SmoothingKernel = SmoothingKernel.WENDLAND_C2,
                     h_factor: float = 1.3, beta: float = 0.1, tolerance: float = 0.01, max_iterations: int = 2000,
                     jitter: float = JITTER, seed: int = 0, launcher: Launcher | None = None) -> Relaxation:
     """Relax ``positions`` ((N, dim), m) inside ``region`` until the largest offset from the uniform arrangement,

@@ -7,21 +7,15 @@ import numpy as np
 
 from warpfree.errors import ParameterError, require_integer, require_positive
 
-
-def require_scene_values(positive: dict | None = None, layers: dict | None = None) -> None:
-    """Check a scene's parameters at build time: ``positive`` name -> value (> 0), ``layers`` name -> value
-    (an integer >= 1). The error names the scene's parameter, not a quantity derived from it."""
-    for name, value in (positive or {}).items():
-        require_positive(name, value)
-    for name, value in (layers or {}).items():
-        require_integer(name, value, minimum=1)
+from .model import BoundaryModel
 
 
-def require_wall_cover(wall_layers: int, dx: float, support: float, boundary_model: str = "dynamic") -> None:
+def require_wall_cover(wall_layers: int, dx: float, support: float,
+                       boundary_model: BoundaryModel = BoundaryModel.DYNAMIC) -> None:
     """Dynamic walls must fill the kernel support (m) of the fluid row nearest them, which stands dx/2 from the wall:
     ``wall_layers`` dx >= support - dx/2. Thinner walls leave part of that row's support empty, and the pressure term
     pushes the row into the wall. The error names ``wall_layers``."""
-    if boundary_model != "dynamic":
+    if BoundaryModel.of("boundary_model", boundary_model) is not BoundaryModel.DYNAMIC:
         return
     need = int(np.ceil((support - 0.5 * dx) / dx - 1e-9))
     if wall_layers < need:

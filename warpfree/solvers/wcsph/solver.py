@@ -20,6 +20,7 @@ from warpfree.device import Launcher
 from warpfree.parallel import world as ranks_of_run
 from warpfree.errors import ParameterError, RunError, require_memory, require_positive
 from warpfree.kernels import wcsph as K
+from warpfree.parameters import Choice
 from warpfree.neighbours import MovingNeighbours, NeighbourGrid, NeighbourList, empty_rows
 from warpfree.particles import ParticleSet, to_vec3
 from warpfree.progress import announced, group_digits
@@ -33,7 +34,7 @@ from warpfree.solver import OutputSet, State, TimeDependentSolver
 from .model import WCSPHModel
 from .spread import STEP_FIELDS, FluidSpread
 
-__all__ = ["WCSPHSolver", "WCSPHState"]
+__all__ = ["WCSPHSolver", "WCSPHState", "FluidField"]
 
 #: minimum neighbour count of the best-surrounded fluid particle (seed §5.5 recommends 20 in 2D, 56 in
 #: 3D; a lattice with h = 1.3 dx and support 2h has 20 and 80). Below this, h is too small for dx.
@@ -41,6 +42,17 @@ MIN_NEIGHBOURS = {1: 4, 2: 20, 3: 56}
 
 #: the units of the output sets' quantities (SI)
 UNITS = {"position": "m", "velocity": "m/s", "speed": "m/s", "density": "kg/m³", "pressure": "Pa"}
+
+
+class FluidField(Choice):
+    """The fluid's field that frames colour by."""
+
+    SPEED = "speed", "|v| (m/s)"
+    PRESSURE = "pressure", "p (Pa)"
+    DENSITY = "density", "ρ (kg/m³)"
+    VELOCITY_X = "velocity_x", "v_x (m/s)"
+    VELOCITY_Y = "velocity_y", "v_y (m/s)"
+    VELOCITY_Z = "velocity_z", "v_z (m/s)"
 
 
 class WCSPHState(State):

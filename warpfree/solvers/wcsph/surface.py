@@ -27,6 +27,7 @@ from warpfree.errors import ParameterError, require_positive
 from warpfree.kernels import wcsph as K
 from warpfree.kernels.smoothing import kernel_id, support_factor
 from warpfree.neighbours import NeighbourGrid
+from warpfree.smoothing import SmoothingKernel
 from warpfree.space import Space
 
 __all__ = ["colour_function_grid", "free_surface_mesh"]
@@ -43,7 +44,8 @@ def _grid_layout(pts: np.ndarray, pad: float, cell: float) -> tuple[np.ndarray, 
 
 
 def colour_function_grid(launcher: Launcher, positions: wp.array, volumes: wp.array, h: float,
-                         kernel: str = "wendland_c2", cell: float | None = None, padding: float | None = None,
+                         kernel: SmoothingKernel = SmoothingKernel.WENDLAND_C2, cell: float | None = None,
+                         padding: float | None = None,
                          max_nodes: int = MAX_NODES) -> tuple[wp.array, np.ndarray, float]:
     """Sample χ(x) = Σ_j V_j W(|x - x_j|, h) on a regular grid.
 
@@ -52,10 +54,8 @@ def colour_function_grid(launcher: Launcher, positions: wp.array, volumes: wp.ar
     radius plus one cell.
     """
     h = require_positive("h", h)
-    try:
-        kind = kernel_id(kernel)
-    except ValueError as exc:
-        raise ParameterError("kernel", str(exc).split(": ", 1)[-1]) from None
+    kernel = SmoothingKernel.of("kernel", kernel)
+    kind = kernel_id(kernel)
     support = support_factor(kernel) * h
     cell = 0.75 * h if cell is None else require_positive("cell", cell)
     pad = support + cell if padding is None else require_positive("padding", padding, allow_zero=True)
@@ -89,7 +89,7 @@ def colour_function_grid(launcher: Launcher, positions: wp.array, volumes: wp.ar
 
 
 def free_surface_mesh(launcher: Launcher, positions: wp.array, volumes: wp.array, h: float,
-                      kernel: str = "wendland_c2", cell: float | None = None, iso: float = 0.5,
+                      kernel: SmoothingKernel = SmoothingKernel.WENDLAND_C2, cell: float | None = None, iso: float = 0.5,
                       dim: int = 3) -> trimesh.Trimesh:
     """Free-surface triangle mesh: the ``χ = iso`` iso-surface of the colour function (3D only).
 
