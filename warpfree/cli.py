@@ -1,23 +1,27 @@
 """Command line: ``warpfree list``, ``warpfree run SCENE [--set name=value ...] [--out DIR] [--overwrite]
 [--threads N] [--device D] [--frames/--no-frames] [--checkpoint-every K] [--resume DIR]``, ``warpfree --version``
 (also ``python -m warpfree``). Exit codes: 0 done, 2 bad input (nothing run, nothing on disk lost), 3 a run that
-stopped with its last good state kept."""
+stopped with its last good state kept, 130 (143) a run stopped by Ctrl-C (SIGTERM) with its last completed step
+kept."""
 
 from __future__ import annotations
 
 import argparse
 import json
 import os
+import re
 import shutil
+import signal
 import sys
 import time
 
 from . import __version__
-from .errors import ParameterError, RunError
+from .errors import ParameterError, RunError, RunInterrupted
 from .parallel import world
 from .parallel.world import abort_on_error, world_started
 from .parameters import listing, parse_overrides, scene_parameters
 from .scene_loader import load_scene, scene_path, shipped_scenes, summary_line
+from .stop import SIGNAL_NAMES, exit_code
 
 DESCRIPTION = """warpfree: meshfree particle methods (WCSPH fluids, SPEM, EFG, PIDC) as NVIDIA Warp kernels.
 
@@ -123,7 +127,7 @@ def run_command(args) -> int:
         if args.overwrite:
             raise ParameterError("--overwrite", "a resumed run continues its directory; it cannot also replace it")
         module = load_scene(scene_file)
-        overrides.update(resume_overrides(args.overrides, overrides, module))
+        overrides.update(resume_overrides(args.overrides, overrides, module, time_reached(out_dir)))
     else:
         if not args.scene:
             raise ParameterError("scene", "give a scene's name or file, e.g. warpfree run dam_break_2d "
@@ -149,6 +153,8 @@ def run_command(args) -> int:
         require_writable(out_dir)
     device.use(*rank_device(args.device, args.threads, ranks))
     run = build_scene(module, overrides, started)
+    if args.resume and isinstance(run, TimeLoop):
+        require_end_after(run.t_end, time_reached(out_dir, run.output_interval))
     checkpoint_every = meta.get("checkpoint_every") if args.resume else args.checkpoint_every
     if checkpoint_every is not None:
         if not isinstance(run, TimeLoop):
@@ -298,19 +304,58 @@ def read_meta(run_dir: str) -> dict:
     return meta
 
 
-def resume_overrides(pairs: list[str], previous: dict, module) -> dict:
-    """``--set`` on ``--resume``: only the end time may change (the model must stay the one checkpointed)."""
+def resume_overrides(pairs: list[str], previous: dict, module, reached: float = 0.0) -> dict:
+    """``--set`` on ``--resume``: only the end time may change (the model must stay the one checkpointed), and not
+    to before ``reached``, the time the run directory already holds."""
     parameters = scene_parameters(module)
     changes = parse_overrides(pairs, parameters)
     refused = sorted(k for k in changes if k not in RESUMABLE and changes[k] != previous.get(k))
     if refused:
         raise ParameterError(refused[0], f"cannot change on --resume (the checkpoint holds a run with the earlier "
                                          f"value); only {', '.join(RESUMABLE)} can")
+    if changes.get("t_end"):
+        require_end_after(changes["t_end"], reached)
     for k, v in changes.items():
         before = previous.get(k, parameters[k].default)
         if k in RESUMABLE and v != before:
             _say(f"warpfree: resuming with {k} = {v} (was {before})")
     return changes
+
+
+def time_reached(run_dir: str, output_interval: float | None = None) -> float:
+    """The latest simulated time a run directory holds: its summary's time, the last snapshot of its VTU series and,
+    given the run's output interval, its last frame (frames are numbered by output)."""
+    from .io.vtk import read_pvd
+
+    times = [0.0]
+    try:
+        with open(os.path.join(run_dir, "summary.json")) as f:
+            times.append(float(json.load(f)["time"]))
+    except (OSError, ValueError, KeyError, TypeError):
+        pass
+    for entry in os.scandir(run_dir):
+        if entry.name.endswith(".pvd"):
+            try:
+                times += [t for t, _ in read_pvd(entry.path)]
+            except Exception:  # a damaged index: the resume rewrites it
+                pass
+    frames = os.path.join(run_dir, "frames")
+    if output_interval and os.path.isdir(frames):
+        numbers = [int(m.group(1)) for m in map(FRAME_NUMBER.search, os.listdir(frames)) if m]
+        times += [max(numbers) * output_interval] if numbers else []
+    return max(times)
+
+
+#: the output number of a frame file (``frame_00012.png``, ``particles_phi_00012.png``)
+FRAME_NUMBER = re.compile(r"_(\d{5})\.png$")
+
+
+def require_end_after(t_end: float, reached: float) -> None:
+    """A resume must not end before the time its run directory already holds: the outputs after the new end would
+    stay beside a summary that ends earlier."""
+    if t_end < reached * (1.0 - 1e-12):
+        raise ParameterError("t_end", f"{t_end:.6g} is before the time this run already reached ({reached:.6g}; its "
+                                      f"outputs up to then stay on disk): a resume can only end at or after it")
 
 
 def require_fresh(out_dir: str, overwrite: bool, marker: str = RUN_JSON) -> None:
@@ -359,7 +404,7 @@ def _write_meta(out_dir: str, meta: dict) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line with ``argv`` (default ``sys.argv``); the exit code: 0 done, 1 a validation failed, 2 bad
-    input, 3 a run stopped."""
+    input, 3 a run stopped by a fault, 130 (143) a run stopped by Ctrl-C (SIGTERM)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
@@ -375,12 +420,30 @@ def main(argv: list[str] | None = None) -> int:
     except RunError as err:
         _say(f"warpfree: run stopped: {err}")
         return 3
+    except RunInterrupted as stop:
+        _say(f"warpfree: {interrupted_text(stop)}")
+        return exit_code(stop.signum)
+    except KeyboardInterrupt:  # during set-up, or a second Ctrl-C in the middle of a step
+        _say("warpfree: interrupted by Ctrl-C (SIGINT); what the run had written stays as it was")
+        return exit_code(signal.SIGINT)
     finally:
         from .progress import enable
 
         enable(False)  # a run's announcements end with it (main is also called in-process, by tests)
     parser.print_help()
     return 0
+
+
+def interrupted_text(stop: RunInterrupted) -> str:
+    """The one line a run stopped by Ctrl-C or SIGTERM ends with: where it stopped, what it kept, how to go on."""
+    text = f"stopped by {SIGNAL_NAMES.get(stop.signum, f'signal {stop.signum}')}"
+    if stop.step is not None:
+        text += f" after step {stop.step}"
+    if stop.kept:
+        run_dir = os.path.dirname(os.path.dirname(stop.kept))
+        text += (f"; its outputs are written and its state is kept in {stop.kept}: continue with "
+                 f"warpfree run --resume {run_dir}")
+    return text
 
 
 def _say(message: str) -> None:

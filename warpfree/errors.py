@@ -6,7 +6,8 @@ here (:func:`require_finite`, :func:`require_positive`, :func:`require_integer`,
 argument; a scene that passes a quantity derived from its parameters wraps the call in :func:`reported_as`, so
 that the user reads the name they set. Nothing is clamped or reinterpreted: a value is accepted as given or refused.
 A run that goes wrong (non-finite values, particles leaving the container) raises :class:`RunError` after the
-simulation loop has kept its last good checkpoint on disk.
+simulation loop has kept its last good checkpoint on disk; a run stopped on request (Ctrl-C, SIGTERM) raises
+:class:`RunInterrupted` after keeping its last completed step.
 """
 
 import difflib
@@ -71,6 +72,16 @@ class RunError(RuntimeError):
         if last_good:
             text += f" (last good state kept in {last_good})"
         super().__init__(text)
+
+
+class RunInterrupted(Exception):
+    """A run stopped on request (Ctrl-C, SIGTERM: ``signum``) at the end of step ``step``, at simulated time
+    ``time``, with that step's outputs written and its state kept in the checkpoint ``kept`` (None: nothing could be
+    kept, e.g. a static solve)."""
+
+    def __init__(self, signum: int, step: int | None = None, time: float | None = None, kept: str | None = None):
+        self.signum, self.step, self.time, self.kept = signum, step, time, kept
+        super().__init__(f"interrupted by signal {signum}" + (f" after step {step}" if step is not None else ""))
 
 
 def require_finite(name: str, value) -> float:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import signal
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
@@ -28,11 +29,12 @@ from typing import ClassVar
 
 import numpy as np
 
-from .errors import ParameterError, RunError, reported_as
+from .errors import ParameterError, RunError, RunInterrupted, reported_as
 from .io.frames import DIMENSIONLESS
 from .io.writer import OutputError, OutputWriter
 from .parallel import world
 from .solver import OutputSet, PhaseTimes, Solver, StaticSolver
+from .stop import StopSignals
 from .validation import validation_block
 
 __all__ = ["OutputOptions", "RunDirectory", "Run", "StaticRun", "build_scene"]
@@ -122,6 +124,9 @@ class Run(ABC):
     """
 
     kind: ClassVar[str] = "run"
+    #: Ctrl-C and SIGTERM stop the run at the end of a step, keeping it (:mod:`warpfree.stop`); a run without steps
+    #: (a static solve) is ended at once, with nothing to keep
+    stoppable: ClassVar[bool] = False
 
     def __init__(self, solver: Solver, name: str = "run", params: dict | None = None,
                  analyses: list[Analysis] | None = None, output: OutputOptions | None = None,
@@ -141,6 +146,7 @@ class Run(ABC):
         self._frame_scales: dict[str, dict] = {}  # per frame series: its fixed colour range and disc spacing
         self._resumed_time: float | None = None
         self._directory: RunDirectory | None = None
+        self._stop = None  # the run's StopSignals (warpfree.stop) while it runs
         #: the ranks of the run (one process, or ``mpiexec``'s): rank 0 writes the summary, the indices, the frames
         #: and the plots; every rank its own piece of each snapshot and its checkpoints
         self.world = world()
@@ -315,12 +321,25 @@ class Run(ABC):
         try:
             try:
                 try:
-                    with reported_as(**self.reported_as):
+                    with reported_as(**self.reported_as), StopSignals(self.world, self.stoppable) as self._stop:
                         self._execute(directory, resume, progress)
                     with self.phases("output"):
                         self._writer.finish()
                 except OutputError as exc:
                     raise RunError(str(exc).splitlines()[0], self._current_step()) from None
+            except RunInterrupted as stop:
+                try:
+                    self._writer.finish()  # the outputs of every completed step, then the step itself
+                except OutputError as exc:
+                    raise RunError(str(exc).splitlines()[0], self._current_step()) from None
+                kept = self._keep_last_step(directory)
+                summary = self.summary(time.perf_counter() - wall0, interrupted=stop.signum)
+                self._write_summary(directory, summary)
+                raise RunInterrupted(stop.signum, stop.step, stop.time, kept) from None
+            except KeyboardInterrupt:  # a second Ctrl-C, in the middle of a step: the last checkpoint stands
+                summary = self.summary(time.perf_counter() - wall0, interrupted=signal.SIGINT)
+                self._write_summary(directory, summary)
+                raise
             except RunError as err:
                 try:
                     self._writer.finish()  # what was handed over before the failure is still written
@@ -374,12 +393,18 @@ class Run(ABC):
         """Keep the last good state on disk (time loops: a checkpoint); returns the error to raise."""
         return err
 
+    def _keep_last_step(self, directory: RunDirectory | None) -> str | None:
+        """A run stopped on request: keep the state of its last completed step (time loops: a checkpoint); the
+        path kept, or None when nothing can be kept."""
+        return None
+
     # -- summary ----------------------------------------------------------------------------------
     def _phases(self) -> dict[str, float]:
         return {**self.phases.as_dict(), **self.solver.phases.as_dict()}
 
-    def summary(self, wall_s: float, error: str | None = None) -> dict:
-        """Parameters, model, device, wall time per phase, throughput, diagnostics, status."""
+    def summary(self, wall_s: float, error: str | None = None, interrupted: int | None = None) -> dict:
+        """Parameters, model, device, wall time per phase, throughput, diagnostics, status (``ok``, ``error``, or
+        ``interrupted`` by the signal ``interrupted``)."""
         s = self.solver
         out = {
             "scene": self.name,
@@ -395,8 +420,10 @@ class Run(ABC):
             "throughput": self._throughput(),
             "diagnostics": s.diagnostics(),
             "units": self._units_summary(),
-            "status": "error" if error else "ok",
+            "status": "error" if error else "interrupted" if interrupted else "ok",
         }
+        if interrupted:
+            out["interrupted_by"] = signal.Signals(interrupted).name
         out.update(self._summary_fields(error))
         if self.world.distributed:
             out["ranks"] = self._ranks_summary(out["phases_s"])

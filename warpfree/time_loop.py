@@ -15,6 +15,7 @@ goes wrong later). Every ``checkpoint_every`` steps it writes a checkpoint (``wa
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import sys
@@ -25,7 +26,7 @@ from typing import ClassVar
 import numpy as np
 
 from .clock import choose_step, refusal
-from .errors import ParameterError, RunError, require_integer, require_positive
+from .errors import ParameterError, RunError, RunInterrupted, require_integer, require_positive
 from .io import checkpoint
 from .run import Analysis, OutputOptions, Run, RunDirectory
 from .solver import TimeDependentSolver
@@ -50,6 +51,7 @@ class TimeLoop(Run):
     """
 
     kind: ClassVar[str] = "time-dependent"
+    stoppable: ClassVar[bool] = True
 
     def __init__(self, solver: TimeDependentSolver, t_end: float, output_interval: float, name: str = "run",
                  params: dict | None = None, probes: dict[str, Probe] | None = None,
@@ -149,10 +151,13 @@ class TimeLoop(Run):
                 self.series[name].append(float(probe(self.solver, self.time)))
             for k, v in self.solver.diagnostics().items():
                 self.diag_series.setdefault(k, []).append(float(v))
-            if directory is not None:
-                self._good = (self._loop_scalars(), self.solver.state.numpy(), self._series_lengths())
         if directory is not None:
-            self.write_outputs(directory, index, self.step_count, self.time, self.frame_title())
+            with self.phases("output"):
+                state, lengths = self.solver.state.numpy(), self._series_lengths()
+            try:
+                self.write_outputs(directory, index, self.step_count, self.time, self.frame_title())
+            finally:  # the loop's scalars once the frames have fixed their scales (a write that failed: all the same)
+                self._good = (self._loop_scalars(), state, lengths)
 
     def frame_title(self) -> str:
         """The title of the frames written now: the scene and the time in the solver's time unit, with the SI prefix
@@ -163,7 +168,12 @@ class TimeLoop(Run):
         return f"{self.name}  t = {self.time / factor:.4g} {unit}"
 
     def _loop_scalars(self) -> dict:
-        return {"time": self.time, "step": self.step_count, "n_outputs": self.n_outputs}
+        """The loop's own state a checkpoint keeps (JSON): time, step, outputs written, and what the frames fixed
+        from the first ones (their extent, each series' colour range and disc size), so that a resumed run draws its
+        frames as the uninterrupted one does."""
+        frames = {"bounds": self._bounds, "scales": self._frame_scales}
+        return {"time": self.time, "step": self.step_count, "n_outputs": self.n_outputs,
+                "frames": json.loads(json.dumps(frames))}
 
     def _series_lengths(self) -> dict[str, int]:
         return {**{f"probe:{k}": len(v) for k, v in self.series.items()},
@@ -180,7 +190,11 @@ class TimeLoop(Run):
         return out
 
     def save_checkpoint(self, directory: RunDirectory) -> str:
-        """Write the current state, loop scalars and series as a checkpoint."""
+        """Write the current state, loop scalars and series as a checkpoint, once every output handed to the writer
+        so far is on disk: a resume takes every output up to its checkpoint as written, so a kill right after the
+        checkpoint must find them there."""
+        with self.phases("output"):
+            self._writer.finish()
         with self.phases("checkpoint"):
             self.last_checkpoint = checkpoint.save(directory.checkpoints, self.step_count, self._loop_scalars(),
                                                    self._series_arrays(), self.solver.state.numpy(),
@@ -193,6 +207,15 @@ class TimeLoop(Run):
         """This rank's checkpoint suffix in a distributed run (None in one process)."""
         w = self.world
         return checkpoint.piece_name(w.rank, w.size) if w.distributed else None
+
+    def _keep_last_step(self, directory: RunDirectory | None) -> str | None:
+        """A run stopped on request: its current state (the last completed step) as a checkpoint, unless one of
+        this step exists; the checkpoint's path (None for a run in memory)."""
+        if directory is None:
+            return None
+        if self._checkpoint_step != self.step_count:
+            self.save_checkpoint(directory)
+        return self.last_checkpoint
 
     def _keep_last_good(self, directory: RunDirectory | None, err: RunError) -> RunError:
         """Write the state of the last output as a checkpoint when none newer exists; name it in the error."""
@@ -218,6 +241,11 @@ class TimeLoop(Run):
         self.time = float(loop["time"])
         self.step_count = int(loop["step"])
         self.n_outputs = int(loop["n_outputs"])
+        frames = loop.get("frames", {})
+        bounds = frames.get("bounds")
+        self._bounds = tuple(tuple(axis) for axis in bounds) if bounds else None
+        self._frame_scales = {name: {k: tuple(v) if isinstance(v, list) else v for k, v in scale.items()}
+                              for name, scale in frames.get("scales", {}).items()}
         self.series = {k[len("probe:"):]: v.tolist() for k, v in series.items() if k.startswith("probe:")}
         for k in self.probes:
             self.series.setdefault(k, [])
@@ -335,9 +363,17 @@ class TimeLoop(Run):
                     self.save_checkpoint(directory)
                 if bar is not None:
                     bar.update(self.time)
+                self._stop_if_asked()
+            self._stop_if_asked()  # asked during the last step: the analyses wait for the resume
         finally:
             if bar is not None:
                 bar.close()
+
+    def _stop_if_asked(self) -> None:
+        """After a step: stop, every rank alike, when Ctrl-C or SIGTERM asked to (:mod:`warpfree.stop`)."""
+        signum = self._stop.agreed() if self._stop is not None else None
+        if signum:
+            raise RunInterrupted(signum, self.step_count, self.time)
 
     def _start_clock(self, clock) -> None:
         """Set up a device clock (``warpfree.clock``) as :meth:`next_dt` would step: the time, the next output time, the

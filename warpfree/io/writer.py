@@ -198,7 +198,15 @@ def _preload(modules) -> None:
 
 
 def _serve(preload_plots: bool = False) -> None:
-    """Worker loop: read batches from stdin, write their files, answer on stdout."""
+    """Worker loop: read batches from stdin, write their files, answer on stdout.
+
+    The run decides when writing ends: Ctrl-C and SIGTERM sent to the whole process group are ignored here (the run
+    stops at the end of a step and finishes the batches it handed over), and a run that has gone (killed) leaves
+    its batches to be written all the same, unanswered, until the pipe is empty."""
+    import signal
+
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, signal.SIG_IGN)
     requests = sys.stdin.buffer
     answers = os.fdopen(os.dup(sys.stdout.fileno()), "wb")
     sys.stdout = sys.stderr  # anything a library prints must not reach the answer channel
@@ -216,8 +224,18 @@ def _serve(preload_plots: bool = False) -> None:
         if message[0] == "stop":
             return
         _, batch_id, batch = message
-        pickle.dump((batch_id, run_batch(batch)), answers)
-        answers.flush()
+        error = run_batch(batch)
+        if answers is None:
+            continue
+        try:
+            pickle.dump((batch_id, error), answers)
+            answers.flush()
+        except (BrokenPipeError, OSError):  # the run has gone: write what it handed over, answer no more
+            try:
+                answers.close()
+            except OSError:
+                pass
+            answers = None
 
 
 if __name__ == "__main__":
