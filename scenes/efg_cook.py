@@ -20,21 +20,22 @@ Errors by layout and quadrature: ``bench/results/scene_studies.md``.
 """
 
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
+from warpfree.errors import reported_as
+from warpfree.parameters import Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions, StaticRun
-from warpfree.solvers.efg.boundary import Essential, Natural
-from warpfree.galerkin.node_layouts import quadrilateral_nodes
-from warpfree.galerkin.mls import MLSModel, MLSSettings
+from warpfree.solvers.efg.boundary import Essential, EssentialMethod, Natural
+from warpfree.galerkin.node_layouts import NodePlacement, quadrilateral_nodes
+from warpfree.galerkin.mls import MLSModel, MLSSettings, SupportScale
 from warpfree.io.validation_plots import plot_against_reference
+from warpfree.solvers.efg.parameters import DomainIntegration, Layout, LayoutSeed, Magnify, Method
 from warpfree.solvers.efg.plots import plot_deformed
 from warpfree.galerkin.quadrature import polyline_points, quadrilateral_cells, structured_quadrilateral
-from warpfree.solvers.efg.solver import ELASTICITY_UNITS, ElasticitySolver
+from warpfree.solvers.efg.solver import ELASTICITY_UNITS, ElasticitySolver, Integration
 from warpfree.validation import efg_cook as cook, tolerance_check
-
-LAYOUTS = ("regular", "random")
 
 
 def _edge(a, b, pieces: int) -> np.ndarray:
@@ -42,15 +43,14 @@ def _edge(a, b, pieces: int) -> np.ndarray:
     return (1.0 - t) * np.asarray(a) + t * np.asarray(b)
 
 
-def cook_solver(cells: int, layout: str = "regular", seed: int = 0, d_max: float = 1.8, gauss: int = 2,
-                method: str = "lagrange", integration: str = "consistent") -> ElasticitySolver:
+def cook_solver(cells: int, layout: NodePlacement = NodePlacement.REGULAR, seed: int = 0, d_max: float = 1.8,
+                gauss: int = 2, method: EssentialMethod = EssentialMethod.LAGRANGE,
+                integration: Integration = Integration.CONSISTENT) -> ElasticitySolver:
     """Cook's membrane's EFG solver (not yet solved) on (cells + 1)² mapped-grid nodes."""
-    if layout not in LAYOUTS:
-        raise ParameterError("layout", f"must be one of {list(LAYOUTS)}, got {layout!r}")
+    jittered = NodePlacement.of("layout", layout) is NodePlacement.RANDOM
     c = cook.CORNERS
     p = cook.DEFAULTS
-    nodes = quadrilateral_nodes(c, (cells, cells), seed=seed if layout == "random" else None,
-                                jitter=0.5 if layout == "random" else 0.0)
+    nodes = quadrilateral_nodes(c, (cells, cells), seed=seed if jittered else None, jitter=0.5 if jittered else 0.0)
     x = nodes.position
     model = MLSModel(x, MLSSettings(d_max=d_max))
     quad = quadrilateral_cells(structured_quadrilateral(c, (cells, cells)), gauss)
@@ -105,14 +105,17 @@ SMALLEST = {"cells": 4}
 QUICK = {"cells": 32}
 
 
-def build(cells: int = 32, layout: str = "regular", seed: int = 0, d_max: float = 1.8, gauss: int = 2,
-          method: str = "lagrange", integration: str = "consistent", refinements: int = 0, magnify: float = 50.0,
-          frames: bool = True, vtk: bool = True) -> StaticRun:
+@checked_parameters
+def build(cells: Annotated[int, Param("", "node spacings along each side of the membrane (nodes: (cells + 1)²)",
+                                      "[1, inf)")] = 32,
+          layout: Layout = NodePlacement.REGULAR, seed: LayoutSeed = 0, d_max: SupportScale = 1.8,
+          gauss: Annotated[int, Param("", "Gauss points per background-cell side", "[1, inf)")] = 2,
+          method: Method = EssentialMethod.LAGRANGE, integration: DomainIntegration = Integration.CONSISTENT,
+          refinements: Annotated[int, Param("", "also solve at 8, 16, ... cells a side, this many layouts (0: none)",
+                                            "[0, inf)")] = 0,
+          magnify: Magnify = 50.0, frames: Frames = True, vtk: Vtk = True) -> StaticRun:
     """``cells`` node spacings a side (nodes: (cells + 1)²); ``refinements``: also 8, 16, ... cells a side."""
     params = dict(locals())
-    for name in ("cells", "gauss", "refinements"):
-        require_integer(name, params[name], minimum=0 if name == "refinements" else 1)
-    require_positive("magnify", magnify)
     options = dict(layout=layout, seed=seed, d_max=d_max, gauss=gauss, method=method, integration=integration)
     with reported_as(**NAMES):
         solver = cook_solver(cells, **options)

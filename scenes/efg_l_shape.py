@@ -14,16 +14,19 @@ with the tolerance band below). The domain is the unit-free L of the manufacture
 from __future__ import annotations
 
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import ParameterError, reported_as, require_integer, require_memory, require_positive
-from warpfree.galerkin.mls import MLSModel, MLSSettings
+from warpfree.errors import ParameterError, reported_as, require_memory
+from warpfree.galerkin.mls import Basis, MLSBasis, MLSModel, MLSSettings, SupportScale
+from warpfree.parameters import Frames, Param, Vtk, checked_parameters
 from warpfree.galerkin.node_layouts import BYTES_PER_NODE
 from warpfree.galerkin.quadrature import QuadraturePoints, cell_order, rectangle_cells, segment_points
 from warpfree.run import OutputOptions, StaticRun
 from warpfree.solvers.efg.boundary import Essential, Natural
 from warpfree.io.validation_plots import plot_against_reference
+from warpfree.solvers.efg.parameters import CellGauss
 from warpfree.solvers.efg.solver import POISSON_UNITS, PoissonSolver
 from warpfree.validation import tolerance_check
 from warpfree.validation.efg_l_shape import OUTER, SQUARES, exact, exact_gradient, source
@@ -51,7 +54,8 @@ def l_shape_checks(rates: list[float]) -> dict:
               "falls off is a quadrature defect, README)")}
 
 
-def l_shape_solver(n: int, basis: str = "linear", d_max: float = 2.0, gauss: int | None = None) -> PoissonSolver:
+def l_shape_solver(n: int, basis: MLSBasis = MLSBasis.LINEAR, d_max: float = 2.0,
+                   gauss: int | None = None) -> PoissonSolver:
     """The case's EFG solver (not yet solved) at node spacing 1/n."""
     order = cell_order(basis, gauss)
     require_memory("cells", 3.0 * (n + 1.0) ** 2, BYTES_PER_NODE, "nodes")
@@ -87,15 +91,16 @@ def l2_error(solver: PoissonSolver) -> float:
     return float(np.sqrt(error / norm))
 
 
-def build(n: int = 16, basis: str = "linear", d_max: float = 2.0, gauss: int | None = None, refinements: int = 2,
-          frames: bool = True, vtk: bool = True) -> StaticRun:
+@checked_parameters
+def build(n: Annotated[int, Param("", "node spacings per unit length of the L (spacing 1/n)", "[2, inf)")] = 16,
+          basis: Basis = MLSBasis.LINEAR, d_max: SupportScale = 2.0, gauss: CellGauss = None,
+          refinements: Annotated[int, Param("", "also solve at n/2, n/4, ..., this many coarser levels, for the rates",
+                                            "[0, inf)")] = 2,
+          frames: Frames = True, vtk: Vtk = True) -> StaticRun:
     """``n``: node spacings per unit length (the L is 2 x 2); ``refinements``: also solve at n/2, n/4, ... (that
     many coarser levels, each a whole number of at least 2) for the rates."""
     gauss = cell_order(basis, gauss)
     params = dict(locals())
-    require_integer("n", n, minimum=2)
-    require_integer("refinements", refinements, minimum=0)
-    require_positive("d_max", d_max)
     if n >> refinements < 2 or n % (1 << refinements):
         raise ParameterError("refinements", f"n = {n} halved {refinements} times must stay a whole number of at "
                                             f"least 2 spacings per unit")
@@ -125,7 +130,7 @@ def build(n: int = 16, basis: str = "linear", d_max: float = 2.0, gauss: int | N
                      reported_as=NAMES)
 
 
-def _plot_convergence(path, ns, errors, rates, basis: str):
+def _plot_convergence(path, ns, errors, rates, basis: MLSBasis):
     """Relative L2 error against the spacing with the order-3 line through the finest (above); the rate of each
     halving, placed at its finer spacing, with the band 3 ± 0.5 (below)."""
     h = 1.0 / np.asarray(ns, dtype=np.float64)

@@ -33,16 +33,19 @@ Errors at the defaults, by basis and interface condition: ``bench/results/scene_
 """
 
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import reported_as, require_integer, require_positive
+from warpfree.errors import reported_as
+from warpfree.parameters import Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions, StaticRun
-from warpfree.solvers.efg.boundary import Essential, Free, Interface
-from warpfree.galerkin.mls import MLSModel, MLSSettings
+from warpfree.solvers.efg.boundary import Essential, EssentialMethod, Free, Interface, InterfaceCondition
+from warpfree.galerkin.mls import Basis, MLSBasis, MLSModel, MLSSettings, MLSWeight, SupportScale, Weight
 from warpfree.galerkin.graded import graded_box, merged_nodes, side_vertices
 from warpfree.galerkin.quadrature import BoundaryPoints, QuadraturePoints, cell_order, polyline_points, segment_points
-from warpfree.solvers.efg.solver import PoissonSolver
+from warpfree.solvers.efg.parameters import CellGauss, DomainIntegration, Method
+from warpfree.solvers.efg.solver import Integration, PoissonSolver
 from warpfree.validation import efg_resistor as ref, tolerance_check
 
 MM = ref.MM
@@ -56,9 +59,10 @@ def _merge(parts: list[QuadraturePoints]) -> QuadraturePoints:
                             np.concatenate([p.cell + o for p, o in zip(parts, offsets)]))
 
 
-def resistor_solver(per_mm: int = 13, d_max: float = 1.8, weight: str = "cubic_spline", method: str = "lagrange",
-                    gauss: int = 2, truncation: bool = True, integration: str = "consistent",
-                    basis: str = "linear", interface_condition: str = "nitsche", corner_levels: int = 0,
+def resistor_solver(per_mm: int = 13, d_max: float = 1.8, weight: MLSWeight = MLSWeight.CUBIC_SPLINE,
+                    method: EssentialMethod = EssentialMethod.LAGRANGE, gauss: int = 2, truncation: bool = True,
+                    integration: Integration = Integration.CONSISTENT, basis: MLSBasis = MLSBasis.LINEAR,
+                    interface_condition: InterfaceCondition = InterfaceCondition.NITSCHE, corner_levels: int = 0,
                     corner_reach: float = 2.0) -> PoissonSolver:
     """The resistor's EFG solver (not yet solved): ``per_mm`` node spacings per mm, the cells (and their corners,
     the nodes) split ``corner_levels`` times toward the re-entrant corners (``warpfree.galerkin.graded``)."""
@@ -91,7 +95,7 @@ def resistor_solver(per_mm: int = 13, d_max: float = 1.8, weight: str = "cubic_s
     interface = Interface(side((2, 1), (1, 1)), inside=0, outside=1)    # normal +y: out of the lower bar
     return PoissonSolver(model, cells, conductivity=SIGMA, cell_material=cell_material, essential=electrodes,
                          free=insulated, interfaces=[interface], method=method, integration=integration,
-                         interface_condition=interface_condition if truncation else "none")
+                         interface_condition=interface_condition if truncation else InterfaceCondition.NONE)
 
 
 def _line_field(solver: PoissonSolver, line: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -207,10 +211,22 @@ SMALLEST = {"per_mm": 6}
 QUICK = {"per_mm": 40, "corner_levels": 5}
 
 
-def build(per_mm: int = 40, d_max: float = 2.5, weight: str = "cubic_spline", method: str = "lagrange",
-          gauss: int | None = None, truncation: bool = True, integration: str = "consistent",
-          interface_condition: str = "nitsche", basis: str = "quadratic", corner_levels: int = 5,
-          corner_reach: float = 2.0, frames: bool = True, vtk: bool = True) -> StaticRun:
+@checked_parameters
+def build(per_mm: Annotated[int, Param("1/mm", "node spacings per mm away from the re-entrant corners",
+                                       "[2, inf)")] = 40,
+          d_max: SupportScale = 2.5, weight: Weight = MLSWeight.CUBIC_SPLINE,
+          method: Method = EssentialMethod.LAGRANGE, gauss: CellGauss = None,
+          truncation: Annotated[bool, Param("", "domain truncation at the interface: a node serves only its own "
+                                                "material")] = True,
+          integration: DomainIntegration = Integration.CONSISTENT,
+          interface_condition: Annotated[InterfaceCondition, Param(
+              "", "what couples the materials across the interface under truncation")] = InterfaceCondition.NITSCHE,
+          basis: Basis = MLSBasis.QUADRATIC,
+          corner_levels: Annotated[int, Param("", "times the cells are split toward the re-entrant corners (0: the "
+                                                  "regular grid)", "[0, inf)")] = 5,
+          corner_reach: Annotated[float, Param("", "a cell is split while its distance to a corner is below this "
+                                                   "many of its sides", "(0, inf)")] = 2.0,
+          frames: Frames = True, vtk: Vtk = True) -> StaticRun:
     """``per_mm``: node spacings per mm away from the corners; ``corner_levels``, ``corner_reach``: the cells (and
     nodes) split ``corner_levels`` times toward the re-entrant corners, a cell while its distance to a corner is below
     ``corner_reach`` × its side (0 levels: the regular grid, 13 per mm its 742 nodes, the thesis's 721-node size);
@@ -218,11 +234,6 @@ def build(per_mm: int = 40, d_max: float = 2.5, weight: str = "cubic_spline", me
     ``gauss``: points per cell side (None: the basis's, ``warpfree.galerkin.quadrature.CELL_ORDER``)."""
     gauss = cell_order(basis, gauss)
     params = dict(locals())
-    require_integer("per_mm", per_mm, minimum=2)
-    require_integer("gauss", gauss, minimum=1)
-    require_integer("corner_levels", corner_levels, minimum=0)
-    require_positive("d_max", d_max)
-    require_positive("corner_reach", corner_reach)
     with reported_as(**NAMES):
         solver = resistor_solver(per_mm, d_max, weight, method, gauss, truncation, integration, basis,
                                  interface_condition, corner_levels, corner_reach)

@@ -21,28 +21,33 @@ Errors at the defaults and under refinement: ``bench/results/scene_studies.md``.
 """
 
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
+from warpfree.errors import reported_as
+from warpfree.parallel.petsc_system import Preconditioner
+from warpfree.parameters import Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions, StaticRun
-from warpfree.solvers.efg.boundary import Essential, Natural
-from warpfree.galerkin.node_layouts import box_sides, grid_nodes, random_grid_nodes
-from warpfree.galerkin.mls import MLSModel, MLSSettings
+from warpfree.solvers.efg.boundary import Essential, EssentialMethod, Natural
+from warpfree.galerkin.node_layouts import NodePlacement, box_sides, grid_nodes, random_grid_nodes
+from warpfree.galerkin.mls import Basis, MLSBasis, MLSModel, MLSSettings, MLSWeight, SupportScale, Weight
+from warpfree.galerkin.shapes import ShapeFunctions
 from warpfree.io.validation_plots import plot_against_reference
+from warpfree.solvers.efg.parameters import CellGauss, Layout, LayoutSeed, Magnify, Method, Model, ModelIntegration
 from warpfree.solvers.efg.plots import plot_deformed
 from warpfree.galerkin.quadrature import cell_order, polyline_points, rectangle_cells
-from warpfree.solvers.efg.solver import ElasticitySolver
+from warpfree.solvers.efg.solver import ElasticitySolver, Integration, LinearSolver, Plane
 from warpfree.solvers.nem import NEMModel
 from warpfree.validation import efg_timoshenko as beam, tolerance_check
 
-LAYOUTS = ("regular", "random")
 
-
-def beam_solver(cells_x: int, cells_y: int, layout: str = "regular", seed: int = 0, d_max: float = 3.5,
-                weight: str = "cubic_spline", basis: str = "linear", gauss: int = 2, method: str = "lagrange",
-                integration: str | None = None, model: str = "efg", linear_solver: str = "auto",
-                preconditioner: str = "auto") -> ElasticitySolver:
+def beam_solver(cells_x: int, cells_y: int, layout: NodePlacement = NodePlacement.REGULAR, seed: int = 0,
+                d_max: float = 3.5, weight: MLSWeight = MLSWeight.CUBIC_SPLINE, basis: MLSBasis = MLSBasis.LINEAR,
+                gauss: int = 2, method: EssentialMethod = EssentialMethod.LAGRANGE,
+                integration: Integration | None = None, model: ShapeFunctions = ShapeFunctions.EFG,
+                linear_solver: LinearSolver = LinearSolver.AUTO,
+                preconditioner: Preconditioner = Preconditioner.AUTO) -> ElasticitySolver:
     """The beam's solver (not yet solved) on (cells_x + 1)(cells_y + 1) nodes; ``model`` "efg" or "nem" (the
     natural element method on the same nodes, direct substitution; by default stabilized conforming nodal integration
     on the nodes' Voronoi cells, ``integration="gauss"`` or ``"consistent"``: Delaunay triangles with 3 Gauss
@@ -50,30 +55,28 @@ def beam_solver(cells_x: int, cells_y: int, layout: str = "regular", seed: int =
     p = beam.DEFAULTS
     length, depth = p["L"], p["D"]
     lower, upper = (0.0, -depth / 2), (length, depth / 2)
-    if layout == "regular":
+    if NodePlacement.of("layout", layout) is NodePlacement.REGULAR:
         nodes = grid_nodes(lower, upper, (cells_x, cells_y))
-    elif layout == "random":
-        nodes = random_grid_nodes(lower, upper, (cells_x, cells_y), seed=seed)
     else:
-        raise ParameterError("layout", f"must be one of {list(LAYOUTS)}, got {layout!r}")
+        nodes = random_grid_nodes(lower, upper, (cells_x, cells_y), seed=seed)
     x = nodes.position
     # NEM integrates by default with stabilized conforming nodal integration (smoothing cells, the only integration
     # of its C0 Laplace functions that converges: bench/results/nem_integration.md); "gauss" and "consistent" on
     # the Delaunay triangles (3 points) keep an error that refinement does not remove
-    integration = integration or ("scni" if model == "nem" else "consistent")
-    if model == "nem":
-        shapes, method = NEMModel(x), "direct"
-        cells = shapes.smoothing_cells() if integration == "scni" else shapes.integration_cells()
-    elif model == "efg":
+    model = ShapeFunctions.of("model", model)
+    integration = Integration.of("integration", integration or (Integration.SCNI if model is ShapeFunctions.NEM
+                                                                 else Integration.CONSISTENT))
+    if model is ShapeFunctions.NEM:
+        shapes, method = NEMModel(x), EssentialMethod.DIRECT
+        cells = shapes.smoothing_cells() if integration is Integration.SCNI else shapes.integration_cells()
+    else:
         shapes = MLSModel(x, MLSSettings(basis=basis, weight=weight, d_max=d_max))
         cells = rectangle_cells(lower, upper, (cells_x, cells_y), gauss)
-    else:
-        raise ParameterError("model", f"must be 'efg' or 'nem', got {model!r}")
     left = box_sides(x, lower, upper)[3]                        # counter-clockwise: top to bottom
     right = np.c_[np.full(cells_y + 1, length), np.linspace(-depth / 2, depth / 2, cells_y + 1)]
     top = np.c_[np.linspace(length, 0.0, cells_x + 1), np.full(cells_x + 1, depth / 2)]
     bottom = np.c_[np.linspace(0.0, length, cells_x + 1), np.full(cells_x + 1, -depth / 2)]
-    return ElasticitySolver(shapes, cells, p["E"], p["nu"], "stress",
+    return ElasticitySolver(shapes, cells, p["E"], p["nu"], Plane.STRESS,
                             essential=[Essential(left, lambda q: beam.displacement(q), name="clamped_edge")],
                             natural=[Natural(polyline_points(right, 3), lambda q, n: beam.traction_end(q),
                                              name="end_load")],
@@ -115,20 +118,25 @@ SMALLEST = {"cells_x": 12, "cells_y": 3}
 QUICK = {"cells_x": 48, "cells_y": 12}
 
 
-def build(cells_x: int = 48, cells_y: int = 12, layout: str = "regular", seed: int = 0, d_max: float = 3.5,
-          weight: str = "cubic_spline", basis: str = "linear", gauss: int | None = None, method: str = "lagrange",
-          integration: str | None = None, model: str = "efg", refinements: int = 0, magnify: float = 200.0,
-          linear_solver: str = "auto", preconditioner: str = "auto", frames: bool = True,
-          vtk: bool = True) -> StaticRun:
+@checked_parameters
+def build(cells_x: Annotated[int, Param("", "node spacings along the beam's length", "[1, inf)")] = 48,
+          cells_y: Annotated[int, Param("", "node spacings across the beam's depth", "[1, inf)")] = 12,
+          layout: Layout = NodePlacement.REGULAR, seed: LayoutSeed = 0, d_max: SupportScale = 3.5,
+          weight: Weight = MLSWeight.CUBIC_SPLINE, basis: Basis = MLSBasis.LINEAR, gauss: CellGauss = None,
+          method: Method = EssentialMethod.LAGRANGE, integration: ModelIntegration = None,
+          model: Model = ShapeFunctions.EFG,
+          refinements: Annotated[int, Param("", "also solve on this many layouts from 12 x 3 cells, doubling "
+                                                "(convergence study; 0: none)", "[0, inf)")] = 0,
+          magnify: Magnify = 200.0,
+          linear_solver: Annotated[LinearSolver, Param("", "how the assembled system is solved")] = LinearSolver.AUTO,
+          preconditioner: Annotated[Preconditioner, Param("", "PETSc's preconditioner")] = Preconditioner.AUTO,
+          frames: Frames = True, vtk: Vtk = True) -> StaticRun:
     """``cells_x`` x ``cells_y`` node spacings (nodes: one more each way); ``gauss``: points per cell side (None: the
-    basis's, ``warpfree.galerkin.quadrature.CELL_ORDER``); ``refinements``: also solve on that many layouts from
-    6 x 1.5 ... cells doubling (convergence study); ``linear_solver``, ``preconditioner``: how the system is solved
-    (``warpfree.solvers.efg.solver.LINEAR_SOLVERS``: SuperLU in one process, PETSc over several ranks)."""
+    basis's, ``warpfree.galerkin.quadrature.CELL_ORDER``); ``refinements``: also solve on that many layouts of
+    12 x 3, 24 x 6, ... cells (convergence study); ``linear_solver``, ``preconditioner``: how the system is solved
+    (``warpfree.solvers.efg.solver.LinearSolver``: SuperLU in one process, PETSc over several ranks)."""
     gauss = cell_order(basis, gauss)
     params = dict(locals())
-    for name in ("cells_x", "cells_y", "gauss", "refinements"):
-        require_integer(name, params[name], minimum=0 if name == "refinements" else 1)
-    require_positive("magnify", magnify)
     options = dict(layout=layout, seed=seed, d_max=d_max, weight=weight, basis=basis, gauss=gauss, method=method,
                    integration=integration, model=model, linear_solver=linear_solver, preconditioner=preconditioner)
     with reported_as(**NAMES):
@@ -148,7 +156,7 @@ def build(cells_x: int = 48, cells_y: int = 12, layout: str = "regular", seed: i
                 _plot_convergence(os.path.join(out_dir, "convergence.png"), study, h, e, rate)
         if out_dir is not None:
             u, _, sig = run.solver.gauss_strain_stress()
-            label = "NEM" if model == "nem" else "EFG"
+            label = "NEM" if model is ShapeFunctions.NEM else "EFG"
             plot_deformed(os.path.join(out_dir, "deformed.png"), run.solver.cells.position, u, sig, magnify,
                           f"{label} Timoshenko beam", (8.0, 3.0))
             _plot_deflection(os.path.join(out_dir, "deflection.png"), run.solver, label)

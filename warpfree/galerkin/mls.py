@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Annotated
 
 import numpy as np
 import warp as wp
@@ -30,16 +31,49 @@ from warpfree.device import Launcher, current_launcher
 from warpfree.errors import ParameterError, require_integer, require_positive
 from warpfree.kernels import mls as mk
 from warpfree.neighbours import NeighbourGrid, empty_rows, lay_out_rows
+from warpfree.parameters import Choice, Param
 from warpfree.progress import announced, group_digits
 from warpfree.space import Space
 
 from .shapes import ShapeData, ShapeModel, material_array, points2d, vec3_points
 
-__all__ = ["MLSSettings", "MLSModel", "BASES", "WEIGHTS", "RCOND_LIMIT"]
+__all__ = ["MLSSettings", "MLSModel", "MLSBasis", "MLSWeight", "SupportShape", "Basis", "Weight", "SupportScale",
+           "BASES", "WEIGHTS", "RCOND_LIMIT"]
 
-BASES = {"linear": 3, "quadratic": 6}
-WEIGHTS = {"cubic_spline": 0, "quartic": 1, "gaussian": 2, "singular": 3}
-SUPPORTS = ("circular", "rectangular")
+
+class MLSBasis(Choice):
+    """The MLS basis p(x)."""
+
+    LINEAR = "linear", "linear basis (1, x, y)"
+    QUADRATIC = "quadratic", "quadratic basis (1, x, y, x², xy, y²)"
+
+
+class MLSWeight(Choice):
+    """The MLS weight function w(r), r = |x - x_I| / R_I."""
+
+    CUBIC_SPLINE = "cubic_spline", "cubic spline: 2/3 - 4r² + 4r³ to r = 1/2, 4/3 - 4r + 4r² - 4r³/3 beyond"
+    QUARTIC = "quartic", "quartic 1 - 6r² + 8r³ - 3r⁴"
+    GAUSSIAN = "gaussian", "Gaussian exp(-(r/0.4)²), shifted to vanish at r = 1"
+    SINGULAR = "singular", "cubic spline / (r² + ε²): interpolating shape functions, φ_I(x_J) = δ_IJ"
+
+
+class SupportShape(Choice):
+    """The shape of a node's support."""
+
+    CIRCULAR = "circular", "a disc of radius R_I"
+    RECTANGULAR = "rectangular", "a square of half-width R_I, tensor-product weight w(|Δx|/R_I) w(|Δy|/R_I)"
+
+
+#: basis terms m by basis
+BASES = {MLSBasis.LINEAR: 3, MLSBasis.QUADRATIC: 6}
+#: the weight ids of the kernels (``kernels/mls.py``)
+WEIGHTS = {MLSWeight.CUBIC_SPLINE: 0, MLSWeight.QUARTIC: 1, MLSWeight.GAUSSIAN: 2, MLSWeight.SINGULAR: 3}
+
+#: scene parameters of the MLS model, declared once (EFG and PIC scenes)
+Basis = Annotated[MLSBasis, Param("", "MLS basis p(x)")]
+Weight = Annotated[MLSWeight, Param("", "MLS weight function w(r)")]
+SupportScale = Annotated[float, Param("c_I", "support radius R_I = d_max c_I, c_I the distance from node I to its 4th "
+                                             "nearest node", "(1, inf)")]
 
 #: smallest admitted pivot of the Jacobi-scaled moment matrix: below it the fit is ill-posed (nodes on a line,
 #: a point at the edge of too few supports) and the shape functions would carry its rounding error, 1e-16/rcond
@@ -54,19 +88,16 @@ class MLSSettings:
     Cook); ``support`` "circular" or "rectangular" (tensor-product weight, seed 002 eq 3.23); ``rank``: c_I is the
     distance from node I to its rank-th nearest node (4: the grid spacing inside a regular 2D grid)."""
 
-    basis: str = "linear"
-    weight: str = "cubic_spline"
+    basis: MLSBasis = MLSBasis.LINEAR
+    weight: MLSWeight = MLSWeight.CUBIC_SPLINE
     d_max: float = 2.0
-    support: str = "circular"
+    support: SupportShape = SupportShape.CIRCULAR
     rank: int = 4
 
     def __post_init__(self):
-        if self.basis not in BASES:
-            raise ParameterError("basis", f"must be one of {sorted(BASES)}, got {self.basis!r}")
-        if self.weight not in WEIGHTS:
-            raise ParameterError("weight", f"must be one of {sorted(WEIGHTS)}, got {self.weight!r}")
-        if self.support not in SUPPORTS:
-            raise ParameterError("support", f"must be one of {list(SUPPORTS)}, got {self.support!r}")
+        object.__setattr__(self, "basis", MLSBasis.of("basis", self.basis))
+        object.__setattr__(self, "weight", MLSWeight.of("weight", self.weight))
+        object.__setattr__(self, "support", SupportShape.of("support", self.support))
         d = require_positive("d_max", self.d_max)
         if d <= 1.0:
             raise ParameterError("d_max", f"must be > 1 (a support no wider than the distance to the nearest nodes "
@@ -83,17 +114,17 @@ class MLSSettings:
         p = mk.MLSParams()
         p.terms = self.terms
         p.weight = WEIGHTS[self.weight]
-        p.rectangular = int(self.support == "rectangular")
+        p.rectangular = int(self.support is SupportShape.RECTANGULAR)
         return p
 
     def kernel_key(self) -> tuple[int, int, bool]:
         """(basis terms, weight id, rectangular): what the MLS kernels are compiled for (``kernels/mls.py``)."""
-        return self.terms, WEIGHTS[self.weight], self.support == "rectangular"
+        return self.terms, WEIGHTS[self.weight], self.support is SupportShape.RECTANGULAR
 
     @property
     def interpolating(self) -> bool:
         """φ_I(x_J) = δ_IJ (the singular weight): essential conditions by direct substitution."""
-        return self.weight == "singular"
+        return self.weight is MLSWeight.SINGULAR
 
 
 class MLSModel(ShapeModel):
@@ -129,7 +160,7 @@ class MLSModel(ShapeModel):
         half = self.settings.d_max * self.spacing
         self.support_np = np.stack([half, half], axis=1)
         self.support = wp.array(self.support_np, dtype=wp.vec2d, device=dev)
-        reach = float(np.max(half)) * (math.sqrt(2.0) if self.settings.support == "rectangular" else 1.0)
+        reach = float(np.max(half)) * (math.sqrt(2.0) if self.settings.support is SupportShape.RECTANGULAR else 1.0)
         # the query radius must cover every support; float32 positions: widen by a rounding margin
         self.reach = reach * (1.0 + 1e-5)
         for a in range(2):

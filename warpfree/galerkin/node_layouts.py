@@ -17,6 +17,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from warpfree.errors import ParameterError, require_finite, require_memory
+from warpfree.parameters import Choice
 from warpfree.galerkin.quadrature import (_angle_range, _box, _cell_counts, _convex_ccw, _finite_array,
                                              _ring, _whole, bilinear_map)
 
@@ -25,8 +26,15 @@ from warpfree.galerkin.quadrature import (_angle_range, _box, _cell_counts, _con
 #: memory grows by 73-113 kB per node (Gauss points included) up to 17 k nodes
 BYTES_PER_NODE = 100e3
 
-__all__ = ["NodeLayout", "annulus_nodes", "box_sides", "grid_nodes", "nodes_on", "quadrilateral_nodes",
+__all__ = ["NodeLayout", "NodePlacement", "annulus_nodes", "box_sides", "grid_nodes", "nodes_on", "quadrilateral_nodes",
            "random_grid_nodes"]
+
+
+class NodePlacement(Choice):
+    """Where a layout's nodes sit on its grid."""
+
+    REGULAR = "regular", "on the grid's points"
+    RANDOM = "random", "one random node per sub-cell of the grid, boundary nodes along their edges"
 
 
 class NodeLayout(NamedTuple):

@@ -21,6 +21,8 @@ from numpy.polynomial.legendre import leggauss
 
 from warpfree.errors import ParameterError, require_finite, require_integer, require_memory
 
+from .mls import MLSBasis
+
 __all__ = ["CELL_ORDER", "BoundaryPoints", "QuadraturePoints", "cell_order", "annulus_cells", "arc_points",
            "bilinear_map", "gauss_legendre", "polyline_points", "quadrilateral_cells", "rectangle_cells", "segment_points", "structured_quadrilateral",
            "triangle_cells", "triangle_rule", "TRIANGLE_DEGREES"]
@@ -142,13 +144,11 @@ def _convex_ccw(name: str, corners) -> np.ndarray:
 CELL_ORDER = {"linear": 2, "quadratic": 3}
 
 
-def cell_order(basis: str, order: int | None = None) -> int:
+def cell_order(basis: MLSBasis, order: int | None = None) -> int:
     """``order`` when given, else the basis's :data:`CELL_ORDER`."""
     if order is not None:
         return order
-    if basis not in CELL_ORDER:
-        raise ParameterError("basis", f"must be one of {sorted(CELL_ORDER)}, got {basis!r}")
-    return CELL_ORDER[basis]
+    return CELL_ORDER[MLSBasis.of("basis", basis)]
 
 
 def gauss_legendre(order: int) -> tuple[np.ndarray, np.ndarray]:

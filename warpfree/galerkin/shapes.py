@@ -19,8 +19,16 @@ from warpfree.device import Launcher
 from warpfree.errors import ParameterError
 from warpfree.kernels import galerkin as gk
 from warpfree.kernels import neighbours as nk
+from warpfree.parameters import Choice
 
-__all__ = ["ShapeModel", "ShapeData", "evaluate_nodal", "points2d", "vec3_points", "material_array"]
+__all__ = ["ShapeFunctions", "ShapeModel", "ShapeData", "evaluate_nodal", "points2d", "vec3_points", "material_array"]
+
+
+class ShapeFunctions(Choice):
+    """The shape functions of a Galerkin solve."""
+
+    EFG = "efg", "element-free Galerkin: MLS shape functions on the nodes' supports"
+    NEM = "nem", "natural element method: Laplace shape functions of the nodes' Delaunay triangulation"
 
 
 class ShapeData:

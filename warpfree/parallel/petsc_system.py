@@ -10,7 +10,7 @@ unknowns p eliminated (:class:`~warpfree.sparse.PrescribedValues`),
 and both sums are PETSc's: each rank gives its part's triplets (``MatSetValuesCOO``, entries of rows another rank
 owns sent to it) and its part of the right-hand side (rank 0 adds ``b_f``, which every rank knows); PETSc's rows
 are split in contiguous blocks over the ranks. The solve is a Krylov method with a preconditioner
-(:data:`PRECONDITIONERS`), chosen by measurement (``bench/efg/petsc_solvers.py``):
+(:class:`Preconditioner`), chosen by measurement (``bench/efg/petsc_solvers.py``):
 
 - "superlu" (the default): flexible GMRES preconditioned by SciPy's SuperLU factorisation of the whole K_ff on
   every rank (the ranks' parts gathered once; threshold pivoting, which a saddle point's zero block needs). It
@@ -35,18 +35,26 @@ import numpy as np
 import scipy.sparse as sp
 
 from warpfree.errors import ParameterError, RunError
+from warpfree.parameters import Choice
 from warpfree.sparse import FactorisedSystem, PrescribedValues
 
 from .world import World
 
-__all__ = ["PETScSystem", "PRECONDITIONERS", "PETSC_EXTRA", "require_petsc"]
+__all__ = ["PETScSystem", "Preconditioner", "PETSC_EXTRA", "require_petsc"]
 
 #: what to install for a distributed Galerkin solve
 PETSC_EXTRA = "pip install 'warpfree[petsc]' (PETSc builds from source: install petsc first, then petsc4py)"
 
-#: the preconditioners :class:`PETScSystem` offers (module docstring); "auto": "superlu", the one that solved every
-#: system of the EFG scenes (``bench/results/petsc_solvers.md``)
-PRECONDITIONERS = ("auto", "superlu", "gamg")
+
+class Preconditioner(Choice):
+    """The preconditioner of a distributed Krylov solve.
+
+    The choices are measured in the module docstring; "auto" is "superlu", the one that solved every system of the
+    EFG scenes (``bench/results/petsc_solvers.md``)."""
+
+    AUTO = "auto", "superlu, the one that solves every system of the EFG scenes"
+    SUPERLU = "superlu", "flexible GMRES preconditioned by SuperLU's factorisation of the whole matrix on every rank"
+    GAMG = "gamg", "CG or GMRES with algebraic multigrid (an elliptic matrix: direct substitution)"
 
 
 def require_petsc(parameter: str = "linear_solver"):
@@ -97,7 +105,7 @@ class PETScSystem:
     world: the ranks (one process works too: the same solve on one rank).
     part: this rank's part K_r of the square matrix (SciPy sparse, n x n; the parts add up to K).
     prescribed: the prescribed unknowns (every rank the same).
-    preconditioner: one of :data:`PRECONDITIONERS`.
+    preconditioner: a :class:`Preconditioner` (or its text).
     symmetric: K is symmetric (CG instead of GMRES for "gamg").
     rtol: the relative residual the Krylov solve reaches.
 
@@ -106,16 +114,15 @@ class PETScSystem:
     setup, solve, last_solve), ``counts``, ``iterations`` and ``residual`` (the last solve's) describe it.
     """
 
-    def __init__(self, world: World, part, prescribed: PrescribedValues, preconditioner: str = "auto",
-                 symmetric: bool = False, rtol: float = 1e-12):
-        if preconditioner not in PRECONDITIONERS:
-            raise ParameterError("preconditioner", f"must be one of {list(PRECONDITIONERS)}, got {preconditioner!r}")
+    def __init__(self, world: World, part, prescribed: PrescribedValues,
+                 preconditioner: Preconditioner = Preconditioner.AUTO, symmetric: bool = False, rtol: float = 1e-12):
+        preconditioner = Preconditioner.of("preconditioner", preconditioner)
         PETSc = require_petsc()
         self._PETSc = PETSc
         self.world = world
         self.prescribed = prescribed
         self.rtol = float(rtol)
-        self.preconditioner = "superlu" if preconditioner == "auto" else preconditioner
+        self.preconditioner = Preconditioner.SUPERLU if preconditioner is Preconditioner.AUTO else preconditioner
         self.timings = {"assemble": 0.0, "setup": 0.0, "solve": 0.0, "last_solve": 0.0}
         self.counts = {"factorise": 0, "solve": 0}
         self.iterations = 0
@@ -158,7 +165,7 @@ class PETScSystem:
         ksp.setOperators(self._matrix)
         ksp.setTolerances(rtol=self.rtol, atol=0.0, max_it=10_000)
         pc = ksp.getPC()
-        if self.preconditioner == "superlu":
+        if self.preconditioner is Preconditioner.SUPERLU:
             ksp.setType(PETSc.KSP.Type.FGMRES)  # its residual is the true one
             pc.setType(PETSc.PC.Type.PYTHON)
             pc.setPythonContext(_WholeFactorisation(self))

@@ -20,10 +20,28 @@ from dataclasses import dataclass
 import numpy as np
 
 from warpfree.errors import ParameterError
+from warpfree.parameters import Choice
 
 from warpfree.galerkin.quadrature import BoundaryPoints, segment_points
 
-__all__ = ["Essential", "Natural", "Free", "Interface", "EssentialPoints", "essential_points"]
+__all__ = ["EssentialMethod", "InterfaceCondition", "Essential", "Natural", "Free", "Interface", "EssentialPoints",
+           "essential_points"]
+
+
+class EssentialMethod(Choice):
+    """How essential conditions (prescribed values) are imposed."""
+
+    LAGRANGE = "lagrange", "Lagrange multipliers λ_K at the boundary's vertices, linear hats between them"
+    PENALTY = "penalty", "a penalty α ∫ φ_I (u - ū) dΓ, α scaled to the stiffness"
+    DIRECT = "direct", "direct substitution at the boundary's nodes (interpolating shape functions only)"
+
+
+class InterfaceCondition(Choice):
+    """What couples the materials across an interface where domain truncation splits the nodes."""
+
+    NITSCHE = "nitsche", ("symmetric Nitsche terms: the interface flux truncation drops, its symmetric partner and a "
+                          "penalty β k/h")
+    NONE = "none", "domain truncation alone"
 
 
 @dataclass

@@ -32,27 +32,50 @@ from scipy.spatial import cKDTree
 
 from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.parallel import world as ranks_of_run
-from warpfree.parallel.petsc_system import PRECONDITIONERS, PETScSystem, require_petsc
+from warpfree.parallel.petsc_system import PETScSystem, Preconditioner, require_petsc
+from warpfree.parameters import Choice
 from warpfree.solver import OutputSet, StaticSolver
 from warpfree.sparse import FactorisedSystem, PrescribedValues
 
 from warpfree.galerkin import assembly
 from warpfree.galerkin.consistent_integration import consistent_test_gradients, quadratic_consistent_test_gradients
+from warpfree.galerkin.mls import MLSBasis
 from warpfree.galerkin.nodal_integration import SmoothingCells, smoothed_shape
 from warpfree.galerkin.quadrature import BoundaryPoints, QuadraturePoints
 from warpfree.galerkin.shapes import ShapeData, ShapeModel
 
 from . import boundary_terms
-from .boundary import Essential, Free, Interface, Natural, essential_points, nodes_on_polyline
+from .boundary import (Essential, EssentialMethod, Free, Interface, InterfaceCondition, Natural, essential_points,
+                       nodes_on_polyline)
 from .plots import von_mises
 
-__all__ = ["EFGSolver", "PoissonSolver", "ElasticitySolver", "elasticity_matrix", "METHODS"]
+__all__ = ["EFGSolver", "PoissonSolver", "ElasticitySolver", "elasticity_matrix", "Integration", "LinearSolver",
+           "Plane"]
 
-METHODS = ("lagrange", "penalty", "direct")
-#: how the system is solved: "auto" (SuperLU in one process, PETSc over several ranks), "superlu" (every process
-#: the whole system, factorised by SciPy's SuperLU), "petsc" (the ranks' parts as one PETSc matrix, a Krylov solve)
-LINEAR_SOLVERS = ("auto", "superlu", "petsc")
-INTEGRATIONS = ("consistent", "gauss", "scni")
+
+class Integration(Choice):
+    """How the weak form is integrated over the domain."""
+
+    CONSISTENT = "consistent", ("variationally consistent: test gradients corrected so that the discrete divergence "
+                                "theorem holds (linear fields exact)")
+    GAUSS = "gauss", "plain Gauss quadrature of the integration cells"
+    SCNI = "scni", "stabilized conforming nodal integration on the nodes' smoothing cells"
+
+
+class LinearSolver(Choice):
+    """How the assembled system is solved."""
+
+    AUTO = "auto", "SuperLU in one process, PETSc over several ranks"
+    SUPERLU = "superlu", "every process factorises the whole system with SciPy's SuperLU"
+    PETSC = "petsc", "the ranks' parts as one PETSc matrix, a Krylov solve"
+
+
+class Plane(Choice):
+    """The plane condition of 2D elasticity."""
+
+    STRESS = "stress", "plane stress: σ_zz = 0"
+    STRAIN = "strain", "plane strain: ε_zz = 0"
+
 #: relative tolerance of the check that the boundary pieces enclose the cells (∮ x·n dΓ = 2 · area)
 CLOSURE_RTOL = 1e-6
 
@@ -70,19 +93,17 @@ ELASTICITY_UNITS = {"position": "m", "displacement": "m", "stress_xx": "Pa", "st
 OUTSIDE_WINDING = 0.02
 
 
-def elasticity_matrix(young: float, poisson: float, plane: str) -> np.ndarray:
+def elasticity_matrix(young: float, poisson: float, plane: Plane) -> np.ndarray:
     """D (3, 3), Voigt with engineering shear: plane stress (seed 003 eq 3.37) E/(1-ν²) [[1, ν, 0], [ν, 1, 0],
     [0, 0, (1-ν)/2]]; plane strain (3.38) E/((1+ν)(1-2ν)) [[1-ν, ν, 0], [ν, 1-ν, 0], [0, 0, (1-2ν)/2]]."""
     e = require_positive("young", young)
     nu = require_finite("poisson", poisson)
     if not -1.0 < nu < 0.5:
         raise ParameterError("poisson", f"must lie in (-1, 0.5), got {nu}")
-    if plane == "stress":
+    if Plane.of("plane", plane) is Plane.STRESS:
         return e / (1.0 - nu * nu) * np.array([[1.0, nu, 0.0], [nu, 1.0, 0.0], [0.0, 0.0, 0.5 * (1.0 - nu)]])
-    if plane == "strain":
-        return e / ((1.0 + nu) * (1.0 - 2.0 * nu)) * np.array([[1.0 - nu, nu, 0.0], [nu, 1.0 - nu, 0.0],
-                                                               [0.0, 0.0, 0.5 - nu]])
-    raise ParameterError("plane", f"must be 'stress' or 'strain', got {plane!r}")
+    return e / ((1.0 + nu) * (1.0 - 2.0 * nu)) * np.array([[1.0 - nu, nu, 0.0], [nu, 1.0 - nu, 0.0],
+                                                           [0.0, 0.0, 0.5 - nu]])
 
 
 class EFGSolver(StaticSolver):
@@ -113,30 +134,28 @@ class EFGSolver(StaticSolver):
     components: ClassVar[int] = 1
 
     def __init__(self, model: ShapeModel, cells: QuadraturePoints, essential: list[Essential] | None = None,
-                 natural: list[Natural] | None = None, method: str = "lagrange", penalty: float = 1e7,
-                 cell_material=None, free: list | None = None, interfaces: list[Interface] | None = None,
-                 integration: str = "consistent", interface_condition: str = "nitsche", nitsche_penalty: float = 20.0,
-                 linear_solver: str = "auto", preconditioner: str = "auto"):
+                 natural: list[Natural] | None = None, method: EssentialMethod = EssentialMethod.LAGRANGE,
+                 penalty: float = 1e7, cell_material=None, free: list | None = None,
+                 interfaces: list[Interface] | None = None, integration: Integration = Integration.CONSISTENT,
+                 interface_condition: InterfaceCondition = InterfaceCondition.NITSCHE, nitsche_penalty: float = 20.0,
+                 linear_solver: LinearSolver = LinearSolver.AUTO, preconditioner: Preconditioner = Preconditioner.AUTO):
         super().__init__(model, model.launcher)
-        if method not in METHODS:
-            raise ParameterError("method", f"must be one of {list(METHODS)}, got {method!r}")
-        if method == "direct" and not model.settings.interpolating:
+        method = EssentialMethod.of("method", method)
+        if method is EssentialMethod.DIRECT and not model.settings.interpolating:
             raise ParameterError("method", "'direct' substitution needs interpolating shape functions "
                                            "(weight='singular'); use 'lagrange' or 'penalty'")
-        if integration not in INTEGRATIONS:
-            raise ParameterError("integration", f"must be one of {list(INTEGRATIONS)}, got {integration!r}")
-        if (integration == "scni") != isinstance(cells, SmoothingCells):
+        integration = Integration.of("integration", integration)
+        if (integration is Integration.SCNI) != isinstance(cells, SmoothingCells):
             raise ParameterError("cells", "integration='scni' integrates on smoothing cells (SmoothingCells, e.g. "
                                           "NEMModel.smoothing_cells()) and they need integration='scni', got "
                                           f"integration={integration!r} with {type(cells).__name__}")
-        if integration == "scni" and (interfaces or cell_material is not None):
+        if integration is Integration.SCNI and (interfaces or cell_material is not None):
             raise ParameterError("integration", "'scni' is implemented for one material without interfaces")
         self.integration = integration
         self.free = [f if isinstance(f, Free) else Free(f) for f in (free or [])]
         self.interfaces = list(interfaces or [])
-        if interface_condition not in ("nitsche", "none"):
-            raise ParameterError("interface_condition", f"must be 'nitsche' or 'none', got {interface_condition!r}")
-        if interface_condition == "nitsche" and self.interfaces and self.components != 1:
+        interface_condition = InterfaceCondition.of("interface_condition", interface_condition)
+        if interface_condition is InterfaceCondition.NITSCHE and self.interfaces and self.components != 1:
             raise ParameterError("interface_condition", "Nitsche interface terms are implemented for the scalar "
                                                         "problem only; use 'none' for elasticity")
         self.interface_condition = interface_condition
@@ -159,7 +178,7 @@ class EFGSolver(StaticSolver):
         self.correction: np.ndarray | None = None  # ξ_I of consistent integration (N, 2)
         self.world = ranks_of_run()
         self.set_linear_solver(linear_solver, preconditioner)
-        if self.world.distributed and integration == "scni":
+        if self.world.distributed and integration is Integration.SCNI:
             raise ParameterError("integration", "a distributed run cannot integrate on smoothing cells ('scni') yet: "
                                                 "use 'consistent' or 'gauss', or run in one process")
         #: the Gauss points this process integrates (a distributed run's rank: those its box owns) and their
@@ -172,15 +191,15 @@ class EFGSolver(StaticSolver):
         self._multiplier_scale = 1.0
         self._interface_cache: dict = {}
 
-    def set_linear_solver(self, linear_solver: str = "auto", preconditioner: str = "auto") -> None:
-        """How :meth:`solve` solves the system (:data:`LINEAR_SOLVERS`; ``preconditioner``: PETSc's, one of
-        ``warpfree.parallel.petsc_system.PRECONDITIONERS``). PETSc missing: ParameterError naming the extra."""
-        if linear_solver not in LINEAR_SOLVERS:
-            raise ParameterError("linear_solver", f"must be one of {list(LINEAR_SOLVERS)}, got {linear_solver!r}")
-        if preconditioner not in PRECONDITIONERS:
-            raise ParameterError("preconditioner", f"must be one of {list(PRECONDITIONERS)}, got {preconditioner!r}")
+    def set_linear_solver(self, linear_solver: LinearSolver = LinearSolver.AUTO,
+                          preconditioner: Preconditioner = Preconditioner.AUTO) -> None:
+        """How :meth:`solve` solves the system (:class:`LinearSolver`; ``preconditioner``: PETSc's,
+        :class:`~warpfree.parallel.petsc_system.Preconditioner`). PETSc missing: ParameterError naming the extra."""
+        linear_solver = LinearSolver.of("linear_solver", linear_solver)
+        preconditioner = Preconditioner.of("preconditioner", preconditioner)
         #: the ranks' parts of the system solved as one PETSc matrix (each rank keeps its part of K)
-        self.petsc = linear_solver == "petsc" or (linear_solver == "auto" and self.world.distributed)
+        self.petsc = linear_solver is LinearSolver.PETSC or (linear_solver is LinearSolver.AUTO
+                                                             and self.world.distributed)
         if self.petsc:
             require_petsc("linear_solver")
         self.preconditioner = preconditioner
@@ -221,19 +240,20 @@ class EFGSolver(StaticSolver):
         model, c = self.model, self.components
         total = self._total
         with self.phases("shape functions"):
-            if self.integration == "scni":
+            if self.integration is Integration.SCNI:
                 self.shape = smoothed_shape(model, self.cells)
             else:
                 self.shape = model.shape_at(self._points.position, self._material, name="Gauss point")
-            essential = [] if self.method == "direct" else [self._essential_set(b) for b in self.essential]
+            direct = self.method is EssentialMethod.DIRECT
+            essential = [] if direct else [self._essential_set(b) for b in self.essential]
             natural = [(nat, self._shape(nat.points.position, nat.material, f"{nat.name} point"))
                        for nat in self.natural]
             test = None
-            if self.integration == "consistent":
+            if self.integration is Integration.CONSISTENT:
                 pieces = self._boundary_pieces(essential, natural)
                 self._check_closed(pieces)
                 self._check_nodes_inside([p for _, p, _ in pieces])
-                quadratic = getattr(getattr(model, "settings", None), "basis", "linear") == "quadratic"
+                quadratic = getattr(getattr(model, "settings", None), "basis", None) is MLSBasis.QUADRATIC
                 correct = quadratic_consistent_test_gradients if quadratic else consistent_test_gradients
                 regions = 1 if self.point_material is None else int(self.point_material.max()) + 1
                 test, self.correction = correct(
@@ -241,7 +261,7 @@ class EFGSolver(StaticSolver):
                     self._material, regions=regions, total=total)
         with self.phases("assembly"):
             K = self._total_matrix(self.stiffness(self.shape, test))
-            if self.interfaces and self.interface_condition == "nitsche":
+            if self.interfaces and self.interface_condition is InterfaceCondition.NITSCHE:
                 K = K + self._share * self.interface_stiffness()
             f = total(self.body_load(self.shape))
             for nat, sh in natural:
@@ -333,7 +353,7 @@ class EFGSolver(StaticSolver):
         pieces += [(sh, nat.points, nat.material) for nat, sh in natural]
         pieces += [(self._shape(f.points.position, f.material, "free boundary point"), f.points, f.material)
                    for f in self.free]
-        if self.method == "direct":
+        if self.method is EssentialMethod.DIRECT:
             for b in self.essential:
                 ep = essential_points(b, self.components)
                 pieces.append((self._shape(ep.points.position, b.material, f"{b.name} point"), ep.points, b.material))
@@ -389,7 +409,7 @@ class EFGSolver(StaticSolver):
     def _impose(self, K, f, essential) -> tuple[sp.csr_matrix, np.ndarray, PrescribedValues]:
         model, c = self.model, self.components
         n = c * model.node_count
-        if self.method == "direct":
+        if self.method is EssentialMethod.DIRECT:
             idx, val = [], []
             tol = 1e-9 * float(model.spacing.min())
             for b in self.essential:
@@ -409,7 +429,7 @@ class EFGSolver(StaticSolver):
         for (ep, shape), b in zip(essential, self.essential):
             if shape.counts.min() == 0:
                 raise ParameterError(f"{b.name}.vertices", "part of this boundary lies outside every node's support")
-            if self.method == "lagrange":
+            if self.method is EssentialMethod.LAGRANGE:
                 G = boundary_terms.multiplier_matrix(model, shape, ep.points.weight, ep.multiplier, ep.hat, c, b.constrained,
                                                ep.n_multipliers)
                 q = np.zeros((ep.n_multipliers, c))
@@ -424,7 +444,7 @@ class EFGSolver(StaticSolver):
                 fb = assembly.load_vector(model, shape, ep.prescribed * mask * ep.points.weight[:, None])
                 mass = M if mass is None else mass + M
                 rhs_parts.append(fb)
-        if self.method == "penalty":
+        if self.method is EssentialMethod.PENALTY:
             alpha = self.penalty * self._largest_diagonal(K) / float(np.abs(mass.diagonal()).max())
             return (K + self._share * alpha * mass).tocsr(), f + alpha * np.sum(rhs_parts, axis=0), PrescribedValues([], [], n)
         # scale the constraint rows so that both blocks' pivots are of K's size (K ~ E, G ~ length: unscaled, the
@@ -580,8 +600,9 @@ class ElasticitySolver(EFGSolver):
     name: ClassVar[str] = "efg_elasticity"
     components: ClassVar[int] = 2
 
-    def __init__(self, model: ShapeModel, cells: QuadraturePoints, young: float, poisson: float, plane: str = "stress",
-                 body: Callable[[np.ndarray], np.ndarray] | None = None, **kwargs):
+    def __init__(self, model: ShapeModel, cells: QuadraturePoints, young: float, poisson: float,
+                 plane: Plane = Plane.STRESS, body: Callable[[np.ndarray], np.ndarray] | None = None, **kwargs):
+        plane = Plane.of("plane", plane)
         self.D = elasticity_matrix(young, poisson, plane)
         self.young, self.poisson, self.plane = float(young), float(poisson), plane
         super().__init__(model, cells, **kwargs)
