@@ -27,9 +27,9 @@ import numpy as np
 from warpfree.errors import reported_as
 from warpfree.parameters import Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions
-from warpfree.galerkin.mls import MLSModel, MLSSettings
+from warpfree.galerkin.mls import MLSModel, MLSSettings, SupportScale
 from warpfree.solvers.pic import Injection, ParticleWall, PICSolver, PlasmaPoisson, SourceWall, Species
-from warpfree.solvers.pic.parameters import EndTime, FieldSolveAt, NodeSpacing, OutputEvery, SupportScale, TimeStep
+from warpfree.solvers.pic.parameters import EndTime, FieldSolveAt, NodeSpacing, OutputEvery, TimeStep
 from warpfree.solvers.pic.scene_tools import (POTENTIAL_FRAMES, lattice_nodes, plot_history, plot_phase_space,
                                               plot_profile, walled_box, write_history)
 from warpfree.time_loop import TimeLoop

@@ -21,10 +21,10 @@ import numpy as np
 from warpfree.errors import reported_as
 from warpfree.parameters import Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions
-from warpfree.galerkin.mls import MLSModel, MLSSettings
+from warpfree.galerkin.mls import MLSModel, MLSSettings, SupportScale
 from warpfree.solvers.pic import Gather, PICSolver, PlasmaPoisson, Species, lattice_positions, load_species
 from warpfree.solvers.pic.parameters import (FieldSolveAt, LengthY, NodeSpacing, OutputEvery, ParticleGather, Periods,
-                                             SupportScale, TimeStep)
+                                             TimeStep)
 from warpfree.solvers.pic.scene_tools import (ENERGY_DRIFT_TARGET, POTENTIAL_FRAMES, lattice_nodes, momentum_change,
                                               periodic_box, plot_history, plot_oscillation, relative_drift,
                                               write_history)
