@@ -20,13 +20,16 @@ resolution and jitter, and the thesis's schemes beside them: ``bench/results/sce
 
 import math
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import reported_as, require_positive
+from warpfree.errors import reported_as
+from warpfree.parameters import Frames, Param, Seed, Vtk, checked_parameters
 from warpfree.run import OutputOptions
-from warpfree.solvers.spem import SPEMModel, SPEMSolver, staggered_disk, support_for_jitter
+from warpfree.solvers.spem import HStaggering, Scheme, SPEMModel, SPEMSolver, staggered_disk, support_for_jitter
 from warpfree.solvers.spem.kronecker import NodalValues
+from warpfree.solvers.spem.parameters import Courant, DerivativeScheme, EndTime, Jitter, OutputInterval
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import tolerance_check
 from warpfree.validation.em_cavity_2d import cavity_field
@@ -55,10 +58,24 @@ def cavity_checks(result: dict) -> dict:
                 basis="the thesis's mean error along the radial line, about 5 % (plain SPH, §4.3, Fig. 4.7)")}
 
 
-def build(radius: float = 0.1, eps_r: float = 10.0, cells_per_radius: int = 20, courant: float = 0.9,
-          t_end: float = 5.5e-9, output_interval: float = 0.25e-9, scheme: str = "fpm", support: float = 0.0,
-          jitter: float = 0.0, seed: int = 0, conservative: bool | None = None, kronecker: bool = False,
-          h_staggering: str | None = None, pair_order: int = 1, frames: bool = True, vtk: bool = True) -> TimeLoop:
+@checked_parameters
+def build(radius: Annotated[float, Param("m", "radius r0 of the cavity", "(0, inf)")] = 0.1,
+          eps_r: Annotated[float, Param("", "relative permittivity εr of the dielectric", "(0, inf)")] = 10.0,
+          cells_per_radius: Annotated[int, Param("", "lattice spacings per radius (Δ = r0/cells_per_radius)",
+                                                 "[1, inf)")] = 20,
+          courant: Courant = 0.9, t_end: EndTime = 5.5e-9, output_interval: OutputInterval = 0.25e-9,
+          scheme: DerivativeScheme = Scheme.FPM,
+          support: Annotated[float, Param("Δ", "support radius of a particle (0: 1.1 + 2 jitter)", "[0, 4]")] = 0.0,
+          jitter: Jitter = 0.0, seed: Seed = 0,
+          conservative: Annotated[bool | None, Param("", "the energy-conserving operator pair (none: on for fpm)")]
+          = None,
+          kronecker: Annotated[bool, Param("", "impose the initial profile as the SPH interpolant's values (sph and "
+                                               "cspm only)")] = False,
+          h_staggering: Annotated[HStaggering | None, Param("", "where the H particles sit (none: edges for fpm, "
+                                                                "centres for cspm and sph)")] = None,
+          pair_order: Annotated[int, Param("", "moments the conservative pair keeps exact: 1 linear, 2 also quadratic "
+                                               "(for jittered layouts)", "[1, 2]")] = 1,
+          frames: Frames = True, vtk: Vtk = True) -> TimeLoop:
     """Times in s, lengths in m; ``support`` 0: 1.1 + 2·jitter spacings (``support_for_jitter``);
     ``h_staggering``: "edges" (Yee's) or "centres" (None: Yee's for FPM, cell centres for the thesis's "cspm" and
     "sph", printed for that layout);
@@ -66,13 +83,12 @@ def build(radius: float = 0.1, eps_r: float = 10.0, cells_per_radius: int = 20, 
     quadratic moments, for jittered layouts); ``kronecker``: impose the initial profile as the
     SPH interpolant's values (nodal values solved once; "sph"/"cspm" only)."""
     params = dict(locals())
-    require_positive("radius", radius)
-    require_positive("eps_r", eps_r)
-    spacing = radius / require_positive("cells_per_radius", cells_per_radius)
+    spacing = radius / cells_per_radius
     centre = np.array([radius, radius])
+    if h_staggering is None:
+        h_staggering = HStaggering.EDGES if scheme is Scheme.FPM else HStaggering.CENTRES
     with reported_as(spacing="cells_per_radius"):
-        layout = staggered_disk(centre, radius, spacing, jitter=jitter, seed=seed,
-                                h_staggering=h_staggering or ("edges" if scheme == "fpm" else "centres"))
+        layout = staggered_disk(centre, radius, spacing, jitter=jitter, seed=seed, h_staggering=h_staggering)
     model = SPEMModel(layout, scheme=scheme, support=support or support_for_jitter(jitter), eps_r=eps_r,
                       conservative=conservative, pair_order=pair_order)
     r_e = np.hypot(*(layout.e_position[:, :2] - centre).T)

@@ -17,12 +17,16 @@ against the Courant number: ``bench/results/scene_studies.md``.
 
 import math
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import ParameterError, reported_as, require_positive
+from warpfree.errors import ParameterError, reported_as
+from warpfree.parameters import Frames, Param, Seed, Vtk, checked_parameters
 from warpfree.run import OutputOptions
-from warpfree.solvers.spem import C0, Source, SPEMModel, SPEMSolver, Waveform, staggered_line
+from warpfree.solvers.spem import C0, Scheme, Source, SPEMModel, SPEMSolver, Waveform, staggered_line
+from warpfree.solvers.spem.parameters import (Courant, DerivativeScheme, EndTime, Frequency, Jitter, OutputInterval,
+                                              ParticlesPerWavelength)
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import tolerance_check
 from warpfree.validation.em_line_1d import line_wave, mean_error, wavelength_from_crossings
@@ -48,13 +52,15 @@ def line_checks(result: dict) -> dict:
                                                     basis=basis)}
 
 
-def build(frequency: float = 1.8e9, length: float = math.pi, particles_per_wavelength: float = 20.0,
-          courant: float = 0.95, t_end: float = 4.75e-9, output_interval: float = 0.475e-9, scheme: str = "fpm",
-          support: float = 1.1, jitter: float = 0.0, seed: int = 0, frames: bool = True, vtk: bool = True) -> TimeLoop:
+@checked_parameters
+def build(frequency: Frequency = 1.8e9,
+          length: Annotated[float, Param("m", "length of the line (at least 4 wavelengths)", "(0, inf)")] = math.pi,
+          particles_per_wavelength: ParticlesPerWavelength = 20.0, courant: Courant = 0.95, t_end: EndTime = 4.75e-9,
+          output_interval: OutputInterval = 0.475e-9, scheme: DerivativeScheme = Scheme.FPM,
+          support: Annotated[float, Param("Δ", "support radius of a particle", "[0.75, 4]")] = 1.1,
+          jitter: Jitter = 0.0, seed: Seed = 0, frames: Frames = True, vtk: Vtk = True) -> TimeLoop:
     """``particles_per_wavelength`` = λ/Δ; ``courant``: the step as a fraction of the stable limit; times in s."""
     params = dict(locals())
-    require_positive("frequency", frequency)
-    require_positive("particles_per_wavelength", particles_per_wavelength)
     wavelength = C0 / frequency
     if length < 4 * wavelength:
         raise ParameterError("length", f"must hold at least 4 wavelengths ({4 * wavelength:.4g} m), got {length}")

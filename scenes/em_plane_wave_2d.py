@@ -31,13 +31,18 @@ the defaults, at oblique incidence and on jittered particles: ``bench/results/sc
 
 import math
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
+from warpfree.distribution import Distribution
+from warpfree.errors import ParameterError, reported_as
+from warpfree.parameters import Frames, Param, Seed, Vtk, checked_parameters
 from warpfree.run import OutputOptions
-from warpfree.solvers.spem import (C0, PML, PlaneWave, SPEMModel, SPEMSolver, Waveform, staggered_box,
+from warpfree.solvers.spem import (C0, PML, HStaggering, PlaneWave, SPEMModel, SPEMSolver, Waveform, staggered_box,
                                    support_for_jitter)
+from warpfree.solvers.spem.parameters import (Courant, EndTime, Frequency, HLayout, Jitter, LoadDistribution,
+                                              OutputInterval, ParticlesPerWavelength, Ramp)
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import tolerance_check
 
@@ -66,26 +71,28 @@ def plane_wave_checks(result: dict) -> dict:
             "max_leakage": tolerance_check(result["max_leakage"], 2e-2, SOURCE, basis=wave)}
 
 
-def build(size: float = 0.5, frequency: float = 3.6e9, amplitude: float = 1.0, particles_per_wavelength: float = 40.0,
-          pml_cells: int = 12, margin: float = 0.05, ramp: float = 2.0, courant: float = 0.95, t_end: float = 2.0e-9,
-          output_interval: float = 0.25e-9, angle: float = 0.0, jitter: float = 0.0, seed: int = 0,
-          distribution: str = "blocks", h_staggering: str = "edges", frames: bool = True,
-          vtk: bool = True) -> TimeLoop:
+@checked_parameters
+def build(size: Annotated[float, Param("m", "side of the square of vacuum inside the PML", "(0, inf)")] = 0.5,
+          frequency: Frequency = 3.6e9,
+          amplitude: Annotated[float, Param("V/m", "amplitude A of the incident wave's Ez", "(0, inf)")] = 1.0,
+          particles_per_wavelength: ParticlesPerWavelength = 40.0,
+          pml_cells: Annotated[int, Param("Δ", "thickness of the PML, in particle spacings", "[2, inf)")] = 12,
+          margin: Annotated[float, Param("m", "gap between the total-field box and the PML (two spacings or more on "
+                                              "both sides of the box's boundary)", "(0, inf)")] = 0.05,
+          ramp: Ramp = 2.0, courant: Courant = 0.95, t_end: EndTime = 2.0e-9,
+          output_interval: OutputInterval = 0.25e-9,
+          angle: Annotated[float, Param("°", "direction of travel, from +y towards +x", "(-90, 90)")] = 0.0,
+          jitter: Jitter = 0.0, seed: Seed = 0, distribution: LoadDistribution = Distribution.BLOCKS,
+          h_staggering: HLayout = HStaggering.EDGES, frames: Frames = True, vtk: Vtk = True) -> TimeLoop:
     """Lengths in m, times in s, ``frequency`` in Hz; ``ramp``: periods of the sin² switch-on; ``margin``: the
     gap between the total-field box and the PML; ``angle``: the direction of travel, degrees from +y towards +x;
     ``distribution``: the load distribution over threads (``warpfree/distribution.py``); ``h_staggering``: "edges"
     (Yee's) or "centres" (``warpfree/solvers/spem/layouts.py``)."""
     params = dict(locals())
-    require_positive("size", size)
-    require_positive("frequency", frequency)
-    require_positive("amplitude", amplitude)
-    spacing = C0 / frequency / require_positive("particles_per_wavelength", particles_per_wavelength)
-    require_integer("pml_cells", pml_cells, minimum=2)  # spacings
+    spacing = C0 / frequency / particles_per_wavelength
     if not 2.0 * spacing <= margin < 0.5 * size - 2.0 * spacing:
         raise ParameterError("margin", f"must leave two spacings ({2 * spacing:.3g} m) on both sides of the total-field "
                                        f"box's boundary, got {margin}")
-    if ramp < 0.0:
-        raise ParameterError("ramp", f"must be >= 0 periods, got {ramp}")
     pml_thickness = pml_cells * spacing
     with reported_as(spacing="particles_per_wavelength, size, pml_cells, frequency"):
         layout = staggered_box((-pml_thickness, -pml_thickness), (size + pml_thickness, size + pml_thickness),
@@ -93,8 +100,6 @@ def build(size: float = 0.5, frequency: float = 3.6e9, amplitude: float = 1.0, p
     model = SPEMModel(layout, pml=PML(pml_thickness), interior=((0.0, 0.0), (size, size)),
                       support=support_for_jitter(jitter))
     waveform = Waveform(frequency, ramp=ramp)
-    if not -90.0 < angle < 90.0:
-        raise ParameterError("angle", f"must be in (-90, 90) degrees from +y (the wave travels upwards), got {angle}")
     direction = np.array([math.sin(math.radians(angle)), math.cos(math.radians(angle)), 0.0])
     wave = PlaneWave(waveform, lower=(margin, margin), upper=(size - margin, size - margin),
                      direction=tuple(direction[:2]), amplitude=amplitude)

@@ -22,12 +22,17 @@ and time: ``bench/results/scene_studies.md``.
 
 import math
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import ParameterError, reported_as, require_positive
+from warpfree.distribution import Distribution
+from warpfree.errors import ParameterError, reported_as
+from warpfree.parameters import Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions
-from warpfree.solvers.spem import C0, PML, Source, SPEMModel, SPEMSolver, Waveform, staggered_box
+from warpfree.solvers.spem import C0, PML, HStaggering, Source, SPEMModel, SPEMSolver, Waveform, staggered_box
+from warpfree.solvers.spem.parameters import (Courant, EndTime, HLayout, LoadDistribution, OutputInterval,
+                                              ParticlesPerWavelength, Ramp)
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import tolerance_check
 from warpfree.validation.em_waveguide_2d import cutoff_frequency, tm1_field
@@ -52,24 +57,32 @@ def waveguide_checks(result: dict) -> dict:
     return {"mean_error": tolerance_check(result["mean_error"], 3.9e-3, SOURCE, basis=basis)}
 
 
-def build(width: float = 0.5, length: float = 0.4, pml_thickness: float = 0.1, frequency_ratio: float = 1.2,
-          amplitude: float = 0.2, particles_per_wavelength: float = 40.0, courant: float = 0.95, ramp: float = 0.0,
-          t_end: float = 4.1e-9, output_interval: float = 0.41e-9, line_x: float = 0.244, pml_order: int = 3,
-          pml_reflection: float = 1e-6, distribution: str = "blocks", h_staggering: str = "edges", frames: bool = True,
-          vtk: bool = True) -> TimeLoop:
+@checked_parameters
+def build(width: Annotated[float, Param("m", "distance a between the plates", "(0, inf)")] = 0.5,
+          length: Annotated[float, Param("m", "length of the guide from the source to the PML", "(0, inf)")] = 0.4,
+          pml_thickness: Annotated[float, Param("m", "thickness δ of the PML beyond the guide (two spacings or more)",
+                                                "(0, inf)")] = 0.1,
+          frequency_ratio: Annotated[float, Param("", "source frequency over the TM1 cutoff, f/f_c (> 1: propagating)",
+                                                  "(1, inf)")] = 1.2,
+          amplitude: Annotated[float, Param("V/m", "amplitude E0 of the source's TM1 profile", "(-inf, inf)")] = 0.2,
+          particles_per_wavelength: ParticlesPerWavelength = 40.0, courant: Courant = 0.95, ramp: Ramp = 0.0,
+          t_end: EndTime = 4.1e-9, output_interval: OutputInterval = 0.41e-9,
+          line_x: Annotated[float, Param("m", "x of the column compared with the exact field (between the plates)",
+                                         "(0, inf)")] = 0.244,
+          pml_order: Annotated[int, Param("", "grading order n of the PML's conductivity σ = σm (ρ/δ)^n", "[1, 6]")]
+          = 3,
+          pml_reflection: Annotated[float, Param("", "the PML's reflection ψ at normal incidence (sets σm, eq. 3.26)",
+                                                 "(0, 1)")] = 1e-6,
+          distribution: LoadDistribution = Distribution.BLOCKS, h_staggering: HLayout = HStaggering.EDGES,
+          frames: Frames = True, vtk: Vtk = True) -> TimeLoop:
     """Lengths in m, times in s; ``frequency_ratio``: f/f_c of TM1 (> 1: propagating); ``distribution``: the
     load distribution over threads (``warpfree/distribution.py``); ``h_staggering``: "edges" (Yee's) or "centres"
     (``warpfree/solvers/spem/layouts.py``)."""
     params = dict(locals())
-    require_positive("width", width)
-    require_positive("length", length)
-    if not frequency_ratio > 1.0:
-        raise ParameterError("frequency_ratio", f"must exceed 1 (below the TM1 cutoff nothing propagates), got {frequency_ratio}")
-    if not 0.0 < line_x < width:
+    if not line_x < width:
         raise ParameterError("line_x", f"must lie between the plates (0, {width}), got {line_x}")
     frequency = frequency_ratio * cutoff_frequency(width)
-    spacing = C0 / frequency / require_positive("particles_per_wavelength", particles_per_wavelength)
-    require_positive("pml_thickness", pml_thickness)
+    spacing = C0 / frequency / particles_per_wavelength
     with reported_as(spacing="particles_per_wavelength, width, length, pml_thickness, frequency_ratio",
                      **{"pml.thickness": "pml_thickness", "pml.order": "pml_order", "pml.reflection": "pml_reflection"}):
         layout = staggered_box((0.0, 0.0), (width, length + pml_thickness), spacing, h_staggering=h_staggering)

@@ -20,13 +20,16 @@ balance), ``profile.png`` (mean potential and the reference along y, and their d
 
 import math
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import reported_as, require_integer, require_positive
+from warpfree.errors import reported_as
+from warpfree.parameters import Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions
-from warpfree.galerkin.mls import MLSModel, MLSSettings
-from warpfree.solvers.pic import Injection, PICSolver, PlasmaPoisson, Species
+from warpfree.galerkin.mls import MLSModel, MLSSettings, SupportScale
+from warpfree.solvers.pic import Injection, ParticleWall, PICSolver, PlasmaPoisson, SourceWall, Species
+from warpfree.solvers.pic.parameters import EndTime, FieldSolveAt, NodeSpacing, OutputEvery, TimeStep
 from warpfree.solvers.pic.scene_tools import (POTENTIAL_FRAMES, lattice_nodes, plot_history, plot_phase_space,
                                               plot_profile, walled_box, write_history)
 from warpfree.time_loop import TimeLoop
@@ -50,19 +53,26 @@ POTENTIAL_TOLERANCE = 2e-4
 BALANCE_TOLERANCE = 1e-11
 
 
-def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5, injection_speed: float = 0.1,
-          node_spacing: float = 1.0 / 32.0, width: float = 0.25, d_max: float = 2.0, particles_per_step: float = 20.0,
-          dt: float = 0.02, t_end: float = 20.0, output_every: int = 100,
-          field_solve: str | None = None, frames: bool = True,
-          vtk: bool = True) -> TimeLoop:
+@checked_parameters
+def build(voltage: Annotated[float, Param("m_e λ_D² ω_pe²/e", "anode potential V (the cathode at 0)", "(0, inf)")]
+          = 1.0,
+          gap: Annotated[float, Param("λ_D", "distance d from the cathode to the anode", "(0, inf)")] = 1.0,
+          injected_fraction: Annotated[float, Param("", "injected flux over the Child–Langmuir flux, Γ/Γ_CL",
+                                                    "(0, inf)")] = 0.5,
+          injection_speed: Annotated[float, Param("λ_D ω_pe", "speed v0 of the beam at the cathode", "(0, inf)")]
+          = 0.1,
+          node_spacing: NodeSpacing = 1.0 / 32.0,
+          width: Annotated[float, Param("λ_D", "width of the slab, periodic along x", "(0, inf)")] = 0.25,
+          d_max: SupportScale = 2.0,
+          particles_per_step: Annotated[float, Param("", "macro-particles the cathode emits per step, on average",
+                                                     "(0, inf)")] = 20.0,
+          dt: TimeStep = 0.02, t_end: EndTime = 20.0, output_every: OutputEvery = 100,
+          field_solve: FieldSolveAt = None, frames: Frames = True, vtk: Vtk = True) -> TimeLoop:
     """``voltage`` V and ``gap`` d of the diode; ``injected_fraction``: Γ / Γ_CL; ``injection_speed`` v0; ``width``
     of the periodic slab along x; ``particles_per_step``: macro-particles the cathode emits per step; ``dt``,
     ``t_end`` in the normalised time unit (the potential is averaged over the second half). ``field_solve``: where
     the field is solved (None: the host's SuperLU on the CPU, the device on a GPU; ``PICSolver``)."""
     params = dict(locals())
-    for name in ("voltage", "gap", "injected_fraction", "injection_speed", "width", "dt"):
-        require_positive(name, params[name])
-    every = require_integer("output_every", output_every, minimum=1)
     with reported_as(node_spacing="node_spacing, width, gap"):
         space = walled_box(width, gap)
         nodes = lattice_nodes(space, node_spacing)
@@ -72,8 +82,8 @@ def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5
     v0 = injection_speed
     beam = Species("electrons", -1.0, 1.0, flux / v0, drift=(0.0, v0))
     n_steps = int(math.ceil(t_end / dt))
-    solver = PICSolver(field, [], dt, modes=(), particle_walls="absorb",
-                       injections=[Injection(beam, "lower", particles_per_step)],
+    solver = PICSolver(field, [], dt, modes=(), particle_walls=ParticleWall.ABSORB,
+                       injections=[Injection(beam, SourceWall.LOWER, particles_per_step)],
                        average_from=0.5 * n_steps * dt, field_solve=field_solve)
 
     def diode_analysis(run, out_dir):
@@ -120,7 +130,7 @@ def build(voltage: float = 1.0, gap: float = 1.0, injected_fraction: float = 0.5
             _phase_space(os.path.join(out_dir, "phase_space.png"), s, y, ref, v0)
         return {"diode": result}
 
-    return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, name="pic_diode",
+    return TimeLoop(solver, t_end=n_steps * dt, output_interval=output_every * dt, name="pic_diode",
                     params=params, analyses=[diode_analysis],
                     output=OutputOptions(vtk=vtk, frames=frames, frame_field="velocity_y",
                                          extra_frames=POTENTIAL_FRAMES,

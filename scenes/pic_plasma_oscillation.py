@@ -14,13 +14,17 @@ The frequency error against node spacing and support radius: ``bench/results/sce
 
 import math
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import reported_as, require_integer, require_positive
+from warpfree.errors import reported_as
+from warpfree.parameters import Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions
-from warpfree.galerkin.mls import MLSModel, MLSSettings
-from warpfree.solvers.pic import PICSolver, PlasmaPoisson, Species, lattice_positions, load_species
+from warpfree.galerkin.mls import MLSModel, MLSSettings, SupportScale
+from warpfree.solvers.pic import Gather, PICSolver, PlasmaPoisson, Species, lattice_positions, load_species
+from warpfree.solvers.pic.parameters import (FieldSolveAt, LengthY, NodeSpacing, OutputEvery, ParticleGather, Periods,
+                                             TimeStep)
 from warpfree.solvers.pic.scene_tools import (ENERGY_DRIFT_TARGET, POTENTIAL_FRAMES, lattice_nodes, momentum_change,
                                               periodic_box, plot_history, plot_oscillation, relative_drift,
                                               write_history)
@@ -43,21 +47,22 @@ FREQUENCY_TOLERANCE = 0.01
 ROUND_OFF = 1e-12
 
 
-def build(wavenumber: float = 0.5, length_y: float = 4.0, node_spacing: float = 0.25, d_max: float = 2.0,
-          particles_per_node: int = 2, amplitude: float = 0.01, dt: float = 0.1, periods: float = 4.0,
-          gather: str = "momentum", output_every: int = 16,
-          field_solve: str | None = None, frames: bool = True, vtk: bool = True) -> TimeLoop:
+@checked_parameters
+def build(wavenumber: Annotated[float, Param("1/λ_D", "wavenumber k of the displacement (the box is 2π/k long)",
+                                             "(0, inf)")] = 0.5,
+          length_y: LengthY = 4.0, node_spacing: NodeSpacing = 0.25, d_max: SupportScale = 2.0,
+          particles_per_node: Annotated[int, Param("", "electrons per node spacing along each axis (a quiet lattice)",
+                                                   "[1, inf)")] = 2,
+          amplitude: Annotated[float, Param("λ_D", "displacement δ of the electrons, δ sin(kx)", "(0, inf)")] = 0.01,
+          dt: TimeStep = 0.1, periods: Periods = 4.0, gather: ParticleGather = Gather.MOMENTUM,
+          output_every: OutputEvery = 16, field_solve: FieldSolveAt = None, frames: Frames = True,
+          vtk: Vtk = True) -> TimeLoop:
     """``wavenumber`` k (1/λ_D units; the box is 2π/k long); ``amplitude`` δ of the displacement; ``dt`` in 1/ω_pe;
     ``periods`` of ω_p to run; ``gather`` "momentum" or "energy" (``warpfree.solvers.pic.field``); outputs every
     ``output_every`` steps. ``field_solve``: where the field is solved (None: the host's SuperLU on the CPU, the
     device on a GPU; ``PICSolver``)."""
     params = dict(locals())
-    k = require_positive("wavenumber", wavenumber)
-    require_positive("amplitude", amplitude)
-    require_positive("periods", periods)
-    require_positive("dt", dt)
-    require_integer("particles_per_node", particles_per_node, minimum=1)
-    every = require_integer("output_every", output_every, minimum=1)
+    k = wavenumber
     length = 2.0 * math.pi / k
     with reported_as(length_y="length_y", node_spacing="node_spacing, wavenumber, length_y"):
         space = periodic_box(length, length_y)
@@ -95,7 +100,7 @@ def build(wavenumber: float = 0.5, length_y: float = 4.0, node_spacing: float = 
                                                   f"cold oscillation")
         return {"oscillation": result}
 
-    return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, name="pic_plasma_oscillation",
+    return TimeLoop(solver, t_end=n_steps * dt, output_interval=output_every * dt, name="pic_plasma_oscillation",
                     params=params, analyses=[oscillation_analysis],
                     output=OutputOptions(vtk=vtk, frames=frames, frame_field="velocity_x",
                                          extra_frames=POTENTIAL_FRAMES,

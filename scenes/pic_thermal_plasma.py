@@ -15,13 +15,17 @@ particle frames and VTU.
 
 import math
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
+from warpfree.errors import reported_as
+from warpfree.parameters import Frames, Param, Seed, Vtk, checked_parameters
 from warpfree.run import OutputOptions
-from warpfree.galerkin.mls import MLSModel, MLSSettings
-from warpfree.solvers.pic import PICSolver, PlasmaPoisson, Species, load_species, random_positions
+from warpfree.galerkin.mls import MLSModel, MLSSettings, SupportScale
+from warpfree.solvers.pic import Gather, PICSolver, PlasmaPoisson, Species, load_species, random_positions
+from warpfree.solvers.pic.parameters import (FieldSolveAt, NodeSpacing, OutputEvery, ParticleGather, Periods,
+                                             TimeStep)
 from warpfree.solvers.pic.scene_tools import (ENERGY_DRIFT_TARGET, POTENTIAL_FRAMES, lattice_nodes, momentum_change,
                                               periodic_box, plot_history, relative_drift, write_history)
 from warpfree.time_loop import TimeLoop
@@ -40,30 +44,29 @@ QUICK = {"box": (8.0, 16.0), "periods": 10.0}
 ROUND_OFF = 1e-10
 
 
-def build(box: tuple = (64.0, 128.0), node_spacing: float = 1.0, d_max: float = 2.0, particles_per_node: int = 16,
-          mass_ratio: float = 1836.15, ion_temperature: float = 0.1, dt: float = 0.2, periods: float = 50.0,
-          gather: str = "momentum", seed: int = 0, output_every: int = 50,
-          field_solve: str | None = None, frames: bool = True,
-          vtk: bool = True) -> TimeLoop:
+@checked_parameters
+def build(box: Annotated[tuple[float, float], Param("λ_D", "size (Lx, Ly) of the box, periodic both ways",
+                                                    "(0, inf)")] = (64.0, 128.0),
+          node_spacing: NodeSpacing = 1.0, d_max: SupportScale = 2.0,
+          particles_per_node: Annotated[int, Param("", "macro-particles of each species per node cell", "[1, inf)")]
+          = 16,
+          mass_ratio: Annotated[float, Param("", "proton to electron mass ratio m_p/m_e", "(0, inf)")] = 1836.15,
+          ion_temperature: Annotated[float, Param("T_e", "proton temperature T_p (0: cold)", "[0, inf)")] = 0.1,
+          dt: TimeStep = 0.2, periods: Periods = 50.0, gather: ParticleGather = Gather.MOMENTUM, seed: Seed = 0,
+          output_every: OutputEvery = 50, field_solve: FieldSolveAt = None, frames: Frames = True,
+          vtk: Vtk = True) -> TimeLoop:
     """``box`` (Lx, Ly) in λ_D; ``node_spacing`` in λ_D; ``particles_per_node``: macro-particles of each species per
     node cell; ``mass_ratio`` m_p/m_e; ``ion_temperature`` T_p/T_e; ``dt`` in 1/ω_pe; ``periods`` 2π/ω_pe.
     ``field_solve``: where the field is solved (None: the host's SuperLU on the CPU, the device on a GPU;
     ``PICSolver``)."""
     params = dict(locals())
-    try:
-        lx, ly = (float(v) for v in box)
-    except (TypeError, ValueError):
-        raise ParameterError("box", f"must be two lengths (Lx, Ly) in Debye lengths, got {box!r}") from None
-    require_positive("periods", periods)
-    require_positive("dt", dt)
-    require_integer("particles_per_node", particles_per_node, minimum=1)
-    every = require_integer("output_every", output_every, minimum=1)
+    lx, ly = box
     with reported_as(length_x="box", length_y="box", node_spacing="node_spacing, box"):
         space = periodic_box(lx, ly)
         nodes = lattice_nodes(space, node_spacing)
     model = MLSModel(nodes, MLSSettings(d_max=d_max), space=space)
     field = PlasmaPoisson(model)
-    rng = np.random.default_rng(require_integer("seed", seed, minimum=0))
+    rng = np.random.default_rng(seed)
     count = particles_per_node * nodes.shape[0]
     with reported_as(count="particles_per_node", mass="mass_ratio", temperature="ion_temperature"):
         loads = [load_species(Species("electron", -1.0, 1.0, 1.0, 1.0), space, random_positions(space, count, rng),
@@ -97,7 +100,7 @@ def build(box: tuple = (64.0, 128.0), node_spacing: float = 1.0, d_max: float = 
             plot_history(out_dir, h, run.solver, ENERGY_DRIFT_TARGET, "± 1 % (the target over 50 plasma periods)")
         return {"thermal": result}
 
-    return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, name="pic_thermal_plasma",
+    return TimeLoop(solver, t_end=n_steps * dt, output_interval=output_every * dt, name="pic_thermal_plasma",
                     params=params, analyses=[energy_analysis],
                     output=OutputOptions(vtk=vtk, frames=frames, frame_field="velocity_x",
                                          extra_frames=POTENTIAL_FRAMES,

@@ -13,13 +13,17 @@ the beams' initial kinetic energy (the linear phase: above the seed's transient,
 
 import math
 import os
+from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import ParameterError, reported_as, require_integer, require_positive
+from warpfree.errors import ParameterError, reported_as
+from warpfree.parameters import Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions
-from warpfree.galerkin.mls import MLSModel, MLSSettings
-from warpfree.solvers.pic import PICSolver, PlasmaPoisson, Species, lattice_positions, load_species
+from warpfree.galerkin.mls import MLSModel, MLSSettings, SupportScale
+from warpfree.solvers.pic import Gather, PICSolver, PlasmaPoisson, Species, lattice_positions, load_species
+from warpfree.solvers.pic.parameters import (EndTime, FieldSolveAt, LengthY, NodeSpacing, OutputEvery, ParticleGather,
+                                             TimeStep)
 from warpfree.solvers.pic.scene_tools import (ENERGY_DRIFT_TARGET, POTENTIAL_FRAMES, lattice_nodes, momentum_change,
                                               periodic_box, plot_growth, plot_history, relative_drift, write_history)
 from warpfree.time_loop import TimeLoop
@@ -42,24 +46,27 @@ GROWTH_TOLERANCE = 0.10
 ROUND_OFF = 1e-12
 
 
-def build(beam_speed: float = 1.0, length_y: float = 4.0, node_spacing: float = 0.5, d_max: float = 2.0,
-          particles_per_node: int = 4, amplitude: float = 1e-4, dt: float = 0.1, t_end: float = 40.0,
-          fit_window: tuple = (1e-6, 1e-3), gather: str = "momentum", output_every: int = 20,
-          field_solve: str | None = None, frames: bool = True,
-          vtk: bool = True) -> TimeLoop:
+@checked_parameters
+def build(beam_speed: Annotated[float, Param("λ_D ω_pe", "drift speed v0 of the beams (at ±v0)", "(0, inf)")] = 1.0,
+          length_y: LengthY = 4.0, node_spacing: NodeSpacing = 0.5, d_max: SupportScale = 2.0,
+          particles_per_node: Annotated[int, Param("", "electrons of each beam per node spacing along each axis (a "
+                                                       "quiet lattice)", "[1, inf)")] = 4,
+          amplitude: Annotated[float, Param("v0", "velocity perturbation of the beams, δv/v0", "(0, inf)")] = 1e-4,
+          dt: TimeStep = 0.1, t_end: EndTime = 40.0,
+          fit_window: Annotated[tuple[float, float], Param("", "the mode's field energy, as fractions (low, high) of "
+                                                               "the beams' kinetic energy, between which γ is fitted",
+                                                           "(0, inf)")] = (1e-6, 1e-3),
+          gather: ParticleGather = Gather.MOMENTUM, output_every: OutputEvery = 20, field_solve: FieldSolveAt = None,
+          frames: Frames = True, vtk: Vtk = True) -> TimeLoop:
     """``beam_speed`` v0; ``amplitude``: the velocity perturbation / v0; ``dt``, ``t_end`` in 1/ω_pe; ``fit_window``:
     the mode's field energy, as fractions of the beams' kinetic energy, between which γ is fitted; ``gather``
     "momentum" or "energy" (``warpfree.solvers.pic.field``). ``field_solve``: where the field is solved (None: the
     host's SuperLU on the CPU, the device on a GPU; ``PICSolver``)."""
     params = dict(locals())
-    v0 = require_positive("beam_speed", beam_speed)
-    require_positive("amplitude", amplitude)
-    lo, hi = (float(v) for v in fit_window)
-    if not 0.0 < lo < hi:
+    v0 = beam_speed
+    lo, hi = fit_window
+    if not lo < hi:
         raise ParameterError("fit_window", f"must be two fractions 0 < low < high, got {fit_window!r}")
-    require_positive("dt", dt)
-    require_integer("particles_per_node", particles_per_node, minimum=1)
-    every = require_integer("output_every", output_every, minimum=1)
     k = K_V0_FASTEST / v0
     length = 2.0 * math.pi / k
     with reported_as(length_y="length_y", node_spacing="node_spacing, beam_speed, length_y"):
@@ -113,7 +120,7 @@ def build(beam_speed: float = 1.0, length_y: float = 4.0, node_spacing: float = 
             _phase_space(os.path.join(out_dir, "phase_space.png"), run.solver)
         return {"two_stream": result}
 
-    return TimeLoop(solver, t_end=n_steps * dt, output_interval=every * dt, name="pic_two_stream",
+    return TimeLoop(solver, t_end=n_steps * dt, output_interval=output_every * dt, name="pic_two_stream",
                     params=params, analyses=[growth_analysis],
                     output=OutputOptions(vtk=vtk, frames=frames, frame_field="velocity_x",
                                          extra_frames=POTENTIAL_FRAMES,

@@ -23,10 +23,18 @@ from __future__ import annotations
 import numpy as np
 
 from warpfree.errors import ParameterError, require_integer
+from warpfree.parameters import Choice
 
-__all__ = ["DISTRIBUTIONS", "launch_order"]
+__all__ = ["Distribution", "launch_order"]
 
-DISTRIBUTIONS = ("blocks", "alternating", "random", "neighbours")
+
+class Distribution(Choice):
+    """Which items each thread's chunk of a launch holds (the load distribution over threads)."""
+
+    BLOCKS = "blocks", "contiguous blocks of indices"
+    ALTERNATING = "alternating", "round-robin by index"
+    RANDOM = "random", "a seeded random permutation, equal counts per thread"
+    NEIGHBOURS = "neighbours", "dealt by neighbour count, so that every thread has about the same work"
 
 
 def _chunk_sizes(n: int, parts: int) -> np.ndarray:
@@ -36,20 +44,20 @@ def _chunk_sizes(n: int, parts: int) -> np.ndarray:
     return np.diff((n * c) // k)
 
 
-def launch_order(kind: str, n: int, parts: int, cost: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
-    """The index map (int32, a permutation of 0..n-1) of distribution ``kind`` for ``parts`` chunks;
-    ``cost`` (n,): the work per item (``neighbours`` only)."""
-    if kind not in DISTRIBUTIONS:
-        raise ParameterError("distribution", f"must be one of {', '.join(DISTRIBUTIONS)}, got {kind!r}")
+def launch_order(kind: Distribution, n: int, parts: int, cost: np.ndarray | None = None,
+                 seed: int = 0) -> np.ndarray:
+    """The index map (int32, a permutation of 0..n-1) of distribution ``kind`` (a :class:`Distribution` or its
+    text) for ``parts`` chunks; ``cost`` (n,): the work per item (``neighbours`` only)."""
+    kind = Distribution.of("distribution", kind)
     require_integer("parts", parts, minimum=1)
     index = np.arange(n)
     sizes = _chunk_sizes(n, int(parts))
-    if kind == "blocks" or n == 0:
+    if kind is Distribution.BLOCKS or n == 0:
         return index.astype(np.int32)
-    if kind == "random":
+    if kind is Distribution.RANDOM:
         return np.random.default_rng(seed).permutation(n).astype(np.int32)
     k = sizes.size
-    if kind == "alternating":
+    if kind is Distribution.ALTERNATING:
         groups = [index[c::k] for c in range(k)]
     else:
         if cost is None or np.shape(cost) != (n,):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from warpfree.device import Launcher
-from warpfree.distribution import DISTRIBUTIONS, launch_order
+from warpfree.distribution import Distribution, launch_order
 from warpfree.errors import ParameterError
 
 
@@ -13,7 +13,7 @@ def chunks_of(order, n, parts):
 
 
 @pytest.mark.parametrize("n,parts", [(10, 3), (7, 5), (1000, 2), (5, 8), (1, 2)])
-@pytest.mark.parametrize("kind", DISTRIBUTIONS)
+@pytest.mark.parametrize("kind", Distribution.texts())
 def test_every_distribution_is_a_permutation_that_fills_the_chunks(kind, n, parts):
     cost = (np.arange(n) * 7) % 5
     order = launch_order(kind, n, parts, cost=cost)

@@ -12,9 +12,11 @@ from warpfree.io.vtk import read_pvd, read_snapshot
 from warpfree.scene_loader import load_scene, value_text
 
 
-def smallest_sets(scene: str) -> list[str]:
-    """``--set`` arguments of a scene's smallest run."""
-    return [a for k, v in load_scene(scene).SMALLEST.items() for a in ("--set", f"{k}={value_text(v)}")]
+def smallest_sets(scene: str, without: tuple = ()) -> list[str]:
+    """``--set`` arguments of a scene's smallest run, but for the parameters ``without`` (a caller that sets them
+    itself: a name set twice is refused)."""
+    return [a for k, v in load_scene(scene).SMALLEST.items() if k not in without
+            for a in ("--set", f"{k}={value_text(v)}")]
 
 
 def snapshot_differences(a: Path, b: Path) -> list[str]:

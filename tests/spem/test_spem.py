@@ -12,10 +12,12 @@ import pytest
 
 from warpfree import device
 from warpfree.cli import main
-from warpfree.scene_loader import load_scene
+from warpfree.scene_loader import load_scene, scene_parameters
 from warpfree.errors import ParameterError
-from warpfree.solvers.spem import (C0, PML, SPEMModel, SPEMSolver, staggered_box, staggered_disk, staggered_line,
-                                   support_for_jitter)
+from warpfree.distribution import Distribution
+from warpfree.parameters import Choice
+from warpfree.solvers.spem import (C0, PML, HStaggering, PMLSide, Scheme, Source, SourceKind, SPEMModel, SPEMSolver,
+                                   Waveform, staggered_box, staggered_disk, staggered_line, support_for_jitter)
 from warpfree.time_loop import TimeLoop
 
 
@@ -402,6 +404,10 @@ def test_bad_input_names_the_parameter():
         SPEMModel(box, eps_r=lambda p: np.where(p[:, 0] > 0.3, -1.0, 1.0))
     with pytest.raises(ParameterError, match="^scheme"):
         SPEMModel(box, scheme="fdtd")
+    with pytest.raises(ParameterError, match="^pml.sides"):
+        PML(0.15, sides=("z+",))
+    with pytest.raises(ParameterError, match="^source.kind"):
+        Source([0], Waveform(1e9), kind="sticky")
     with pytest.raises(ParameterError, match="^jitter"):
         staggered_box((0, 0), (0.5, 0.5), 0.05, jitter=0.6)
     with pytest.raises(ParameterError, match="^pml.reflection"):
@@ -566,3 +572,32 @@ def test_em_scenes_write_frames_vtu_plot_and_their_error(tmp_path, scene, settin
     assert frames and len(frames) == len(list((out / "vtk").glob("electric_*.vtu")))
     assert (out / "electric.pvd").is_file() and (out / "magnetic.pvd").is_file()
     assert (out / plot).is_file()
+
+
+@pytest.mark.parametrize("choice,texts", [(Scheme, ["fpm", "cspm", "sph"]), (HStaggering, ["edges", "centres"]),
+                                          (Distribution, ["blocks", "alternating", "random", "neighbours"]),
+                                          (SourceKind, ["hard", "soft"]), (PMLSide, ["x-", "x+", "y-", "y+"])])
+def test_closed_choices_keep_the_texts_runs_record(choice, texts):
+    """run.json and summary.json record a closed choice by its text: the enumerations keep those texts, a member is
+    read back from its text (in any case) and an unknown text is refused naming the parameter, with the choices."""
+    assert issubclass(choice, Choice) and choice.texts() == texts
+    assert all(choice.of("x", text.upper()) is member for text, member in zip(texts, choice))
+    with pytest.raises(ParameterError) as err:
+        choice.of("x", "bogus")
+    assert str(err.value) == f"x: 'bogus' is not a choice: choose from {', '.join(sorted(texts))}"
+
+
+@pytest.mark.parametrize("scene", ["em_cavity_2d", "em_line_1d", "em_plane_wave_2d", "em_waveguide_2d"])
+def test_scene_parameters_are_declared_and_a_bad_choice_is_refused_by_its_name(scene):
+    """Every parameter of the scene's build() has a type and a meaning, every number its allowed interval, and no
+    parameter is free text (a closed choice is an enumeration); a text that is none of a choice's values, given
+    from Python, is refused naming that parameter."""
+    module = load_scene(scene)
+    for name, p in scene_parameters(module).items():
+        assert p.kind is not None and p.kind is not str and p.meaning, name
+        if p.kind in (int, float):
+            assert p.param is not None and p.param.interval is not None, name
+        if p.choice is not None:
+            with pytest.raises(ParameterError) as err:
+                module.build(**{**module.SMALLEST, "frames": False, "vtk": False, name: "bogus"})
+            assert err.value.name == name

@@ -14,23 +14,26 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from warpfree.errors import ParameterError
 from warpfree.galerkin.mls import RCOND_LIMIT, MLSModel
 from warpfree.kernels import mls as mk
 from warpfree.kernels import pic as pk
+from warpfree.parameters import Choice
 from warpfree.reduce import Reduction
 from warpfree.solver import PhaseTimes
 
-from .device_solve import DeviceFieldSolve
+from .device_solve import DeviceFieldSolve, FieldSolve
 from .field import PlasmaPoisson
 from .particles import Particles
 
-__all__ = ["NodeCoupling", "GATHERS", "FIELD_SOLVES"]
+__all__ = ["NodeCoupling", "Gather", "FieldSolve"]
 
-#: the field gathers (``warpfree.solvers.pic.field``)
-GATHERS = ("momentum", "energy")
-#: where the field is solved: the host's SuperLU, or the device (:mod:`.device_solve`; "device" picks the method)
-FIELD_SOLVES = ("host", "device", "cg", "dense")
+
+class Gather(Choice):
+    """How the particles take the field from the nodes (``warpfree.solvers.pic.field``)."""
+
+    MOMENTUM = "momentum", ("nodal fields E_I interpolated with φ_I: no self-force, momentum conserved; energy "
+                            "approximately")
+    ENERGY = "energy", "E(x_p) = -Σ_I u_I ∇φ_I(x_p) (eq 4.5): energy conserved, with a self-force"
 
 
 class NodeCoupling:
@@ -38,12 +41,13 @@ class NodeCoupling:
 
     ``charge`` (nodes, device), ``potential`` (nodes, read to the host when asked for) and ``nodal_field`` hold the
     last solve's; the particles' field goes to ``particles.e_field``. ``background_density``: the uniform immobile
-    charge density. ``field_solve``: "host" (``PlasmaPoisson``'s SuperLU: the charge to the host and the potential
-    back), or the solve on the device (:mod:`.device_solve`: "device" picks its method, or "cg", "dense").
+    charge density. ``gather``: a :class:`Gather`. ``field_solve``: a :class:`FieldSolve`, "host" (``PlasmaPoisson``'s
+    SuperLU: the charge to the host and the potential back), or the solve on the device (:mod:`.device_solve`:
+    "device" picks its method, or "cg", "dense").
     """
 
     def __init__(self, field: PlasmaPoisson, particles: Particles, macro_charge: wp.array, background_density: float,
-                 gather: str, phases: PhaseTimes, field_solve: str = "host"):
+                 gather: Gather, phases: PhaseTimes, field_solve: FieldSolve = FieldSolve.HOST):
         model: MLSModel = field.model
         dev = particles.launcher.device
         self.field = field
@@ -52,7 +56,7 @@ class NodeCoupling:
         self.particles = particles
         self.macro_charge = macro_charge
         self.background_density = background_density
-        self.gather = gather
+        self.gather = Gather.of("gather", gather)
         self.phases = phases
         self.kernels = pk.mls_kernels(*model.settings.kernel_key())
         self.node_set = model.node_set()
@@ -68,13 +72,11 @@ class NodeCoupling:
         self.inv_scale = wp.float64(1.0 / float(np.mean(model.support_np[:, 0])))
         self._flag_max = Reduction(self.launcher, wp.int32, "max")
         self.charge = wp.zeros(model.node_count, dtype=wp.float64, device=dev)
-        if field_solve not in FIELD_SOLVES:
-            raise ParameterError("field_solve", f"must be one of {list(FIELD_SOLVES)}, got {field_solve!r}")
-        self.field_solve = field_solve
+        self.field_solve = field_solve = FieldSolve.of("field_solve", field_solve)
         self.device_solve = None
-        if field_solve != "host":
-            self.device_solve = DeviceFieldSolve(field, background_density, gather == "momentum", self.launcher,
-                                                 "auto" if field_solve == "device" else field_solve)
+        if field_solve is not FieldSolve.HOST:
+            self.device_solve = DeviceFieldSolve(field, background_density, self.gather is Gather.MOMENTUM,
+                                                 self.launcher, field_solve)
             self.potential_wp, self.nodal_field = self.device_solve.potential, self.device_solve.nodal_field
         else:
             self.potential_wp = wp.zeros(model.node_count, dtype=wp.float64, device=dev)
@@ -130,12 +132,12 @@ class NodeCoupling:
                 self.charge_host = charge = self.charge.numpy()
                 self._potential = self.field.solve(charge, self.background_density)
                 self.potential_wp.assign(self._potential)
-                if self.gather == "momentum":
+                if self.gather is Gather.MOMENTUM:
                     self.nodal_field.assign(self.field.nodal_field(self._potential, charge))
         with self.phases("gather"):
             L.launch(self.kernels.particle_field, n, [self.node_set, pa.position32, state.position, self.inv_scale,
                                                        self.fit, self.potential_wp, self.nodal_field,
-                                                       int(self.gather == "momentum"), pa.e_field])
+                                                       int(self.gather is Gather.MOMENTUM), pa.e_field])
 
     @property
     def potential(self) -> np.ndarray:

@@ -32,11 +32,12 @@ from warp.optim.linear import cg, preconditioner
 from warpfree.device import Launcher
 from warpfree.errors import ParameterError
 from warpfree.kernels import pic_field as K
+from warpfree.parameters import Choice
 from warpfree.reduce import Reduction
 
 from .field import PlasmaPoisson
 
-__all__ = ["DeviceFieldSolve", "DENSE_MAX", "CG_TOLERANCE", "bsr_matrix"]
+__all__ = ["FieldSolve", "DeviceFieldSolve", "DENSE_MAX", "CG_TOLERANCE", "bsr_matrix"]
 
 #: most nodes the dense map is made for (3 N² float64: 400 MB at 4 096)
 DENSE_MAX = 4096
@@ -44,6 +45,15 @@ DENSE_MAX = 4096
 CG_TOLERANCE = 1e-13
 #: iterations between the CPU's host checks of the residual (a GPU checks on the device)
 CHECK_EVERY = 10
+
+
+class FieldSolve(Choice):
+    """Where the PIC field is solved each step (and how, on the device)."""
+
+    HOST = "host", "the host's SuperLU factorisation: the charge to the host and the potential back"
+    DEVICE = "device", "on the device, no host copy: conjugate gradients in a periodic box, the dense map between walls"
+    CG = "cg", "on the device by conjugate gradients (a periodic box)"
+    DENSE = "dense", f"on the device by the dense map of the solve (walls, or any box of up to {DENSE_MAX} nodes)"
 
 
 def bsr_matrix(matrix: sp.spmatrix, device: str) -> wsp.BsrMatrix:
@@ -59,22 +69,23 @@ class DeviceFieldSolve:
     """u, the nodal fields E_I and the net charge density from the nodal charge Q, on ``launcher``'s device.
 
     ``field``: the :class:`~.field.PlasmaPoisson` (its matrices and, for ``"dense"``, its factorisation);
-    ``background_density``: ρ_bg; ``momentum``: compute the nodal fields (the momentum gather); ``method``:
-    ``"cg"``, ``"dense"`` or ``"auto"`` (cg in a periodic box, dense between walls).
+    ``background_density``: ρ_bg; ``momentum``: compute the nodal fields (the momentum gather); ``method``: a
+    :class:`FieldSolve` on the device, ``CG``, ``DENSE`` or ``DEVICE`` (cg in a periodic box, dense between walls).
     Outputs (device arrays, overwritten by :meth:`solve`): ``potential`` (N), ``nodal_field`` (N vec2d), ``net`` (1);
     ``iterations``: the last CG solve's count (an int on the CPU, a device array on a GPU).
     """
 
     def __init__(self, field: PlasmaPoisson, background_density: float, momentum: bool, launcher: Launcher,
-                 method: str = "auto"):
-        if method == "auto":
-            method = "dense" if field.walled else "cg"
-        if method not in ("cg", "dense"):
-            raise ParameterError("field_solve", f"the device solve is 'cg', 'dense' or 'auto', got {method!r}")
-        if method == "cg" and field.walled:
+                 method: FieldSolve = FieldSolve.DEVICE):
+        method = FieldSolve.of("field_solve", method)
+        if method is FieldSolve.DEVICE:
+            method = FieldSolve.DENSE if field.walled else FieldSolve.CG
+        if method is FieldSolve.HOST:
+            raise ParameterError("field_solve", "the device solve is 'device', 'cg' or 'dense', got 'host'")
+        if method is FieldSolve.CG and field.walled:
             raise ParameterError("field_solve", "the conjugate gradients solve a periodic box; walls need 'dense'")
         n = field.model.node_count
-        if method == "dense" and n > DENSE_MAX:
+        if method is FieldSolve.DENSE and n > DENSE_MAX:
             raise ParameterError("field_solve", f"the dense map holds 3 N² numbers: {n} nodes are more than "
                                                 f"{DENSE_MAX}; a periodic box takes 'cg'")
         self.field, self.method, self.momentum = field, method, momentum
@@ -88,7 +99,7 @@ class DeviceFieldSolve:
         self.nodal_field = wp.zeros(n, dtype=wp.vec2d, device=dev)
         self.net = wp.zeros(1, dtype=wp.float64, device=dev)
         self._sum = Reduction(launcher, wp.float64, "sum")
-        if method == "dense":
+        if method is FieldSolve.DENSE:
             self._set_up_dense()
         else:
             self._set_up_cg()
@@ -188,7 +199,7 @@ class DeviceFieldSolve:
 
     def solve(self, charge: wp.array) -> None:
         """The potential, nodal fields and net charge density for the nodal charge ``charge`` (device, N)."""
-        if self.method == "dense":
+        if self.method is FieldSolve.DENSE:
             self._solve_dense(charge)
         else:
             self._solve_cg(charge)

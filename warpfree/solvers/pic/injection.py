@@ -26,30 +26,34 @@ import math
 from dataclasses import dataclass
 
 from warpfree.errors import ParameterError, require_finite, require_integer, require_positive
+from warpfree.parameters import Choice
 
 from .species import Species
 
-__all__ = ["Injection", "WALLS"]
+__all__ = ["Injection", "SourceWall"]
 
-#: the walls a source can sit on (y = lower, y = upper)
-WALLS = ("lower", "upper")
+
+class SourceWall(Choice):
+    """The wall a source sits on."""
+
+    LOWER = "lower", "y = y_min, emitting along +y"
+    UPPER = "upper", "y = y_max, emitting along -y"
 
 
 @dataclass(frozen=True)
 class Injection:
-    """A source on ``wall`` ("lower": y = y_min, emitting along +y; "upper": y = y_max, along -y) of ``species``
-    (its ``density`` and ``drift``/``temperature`` describe the source plasma), emitting ``particles_per_step``
-    macro-particles per step on average; ``seed`` for its random positions and velocities (counter-based: the same
-    particles for any thread count and after a resume)."""
+    """A source on ``wall`` (a :class:`SourceWall`: "lower", y = y_min, emitting along +y; "upper", y = y_max, along
+    -y) of ``species`` (its ``density`` and ``drift``/``temperature`` describe the source plasma), emitting
+    ``particles_per_step`` macro-particles per step on average; ``seed`` for its random positions and velocities
+    (counter-based: the same particles for any thread count and after a resume)."""
 
     species: Species
-    wall: str = "lower"
+    wall: SourceWall = SourceWall.LOWER
     particles_per_step: float = 10.0
     seed: int = 0
 
     def __post_init__(self):
-        if self.wall not in WALLS:
-            raise ParameterError("wall", f"an injection wall is one of {list(WALLS)}, got {self.wall!r}")
+        object.__setattr__(self, "wall", SourceWall.of("wall", self.wall))
         require_positive("particles_per_step", self.particles_per_step)
         require_finite("particles_per_step", self.particles_per_step)
         require_integer("seed", self.seed, minimum=0, maximum=2 ** 31 - 1)
@@ -65,7 +69,7 @@ class Injection:
     @property
     def inward(self) -> float:
         """+1 for the lower wall (emits along +y), -1 for the upper."""
-        return 1.0 if self.wall == "lower" else -1.0
+        return 1.0 if self.wall is SourceWall.LOWER else -1.0
 
     @property
     def warm(self) -> bool:

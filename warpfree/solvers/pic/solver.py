@@ -37,10 +37,11 @@ from warpfree.graph import StepGraph
 from warpfree.kernels import pic as pk
 from warpfree.parallel import Partition, world as ranks_of_run
 from warpfree.parallel.halo import host_view
+from warpfree.parameters import Choice
 from warpfree.progress import announced
 from warpfree.solver import HostTable, OutputSet, StepRule, TimeDependentSolver
 
-from .coupling import GATHERS, NodeCoupling
+from .coupling import FieldSolve, Gather, NodeCoupling
 from .field import PlasmaPoisson
 from .history import REPORT, Diagnostics, history_columns
 from .spread import PlasmaSpread
@@ -48,14 +49,20 @@ from .injection import Injection
 from .particles import Particles, PICState
 from .species import ParticleLoad, Species
 
-__all__ = ["PICSolver", "PICState", "HEATING_DT", "HEATING_SPACING"]
+__all__ = ["PICSolver", "PICState", "ParticleWall", "HEATING_DT", "HEATING_SPACING"]
 
 #: ω_pe Δt above which the leapfrog's phase error heats the plasma noticeably (seed 002 §2.2.3: Δt = 0.2/ω_pe)
 HEATING_DT = 0.2
 #: node spacing / λ_D above which finite-grid (aliasing) heating sets in for a warm plasma
 HEATING_SPACING = 2.0
-#: what a wall does with a particle that reaches it
-PARTICLE_WALLS = ("reflect", "absorb")
+
+
+class ParticleWall(Choice):
+    """What a wall (along y) does with a particle that reaches it."""
+
+    REFLECT = "reflect", "reflects it (its normal velocity reversed)"
+    ABSORB = "absorb", "absorbs it (its charge added to the wall's tally)"
+
 #: the units of the output sets' quantities, normalised (:mod:`.species`: ω_pe = λ_D = 1, charge in e, mass in m_e,
 #: density in n_ref): velocities in λ_D ω_pe, the field in m_e λ_D ω_pe²/e, the potential in m_e λ_D² ω_pe²/e, a node's
 #: deposited charge in e n_ref λ_D² (per unit depth); the species index and the particle id are numbers
@@ -73,17 +80,18 @@ class PICSolver(TimeDependentSolver):
     dt: the time step (ω_pe⁻¹ units); ω_pe Δt must be < 2.
     background_density: uniform immobile charge density (e n_ref); default: the one that makes the plasma neutral.
     modes: Fourier modes (mx, my) whose field energy each step records.
-    gather: "momentum" (nodal fields interpolated with φ_I: no self-force, momentum kept on node lattices) or
-    "energy" (eq 4.5, -Σ u_I ∇φ_I: energy kept, a self-force of the order of a neighbour's); see :mod:`.field`.
+    gather: a :class:`~.coupling.Gather`: "momentum" (nodal fields interpolated with φ_I: no self-force, momentum kept
+    on node lattices) or "energy" (eq 4.5, -Σ u_I ∇φ_I: energy kept, a self-force of the order of a neighbour's); see
+    :mod:`.field`.
     magnetic_field: a static uniform B_z (normalised: ω_ce = |B_z| for electrons), pushed by Boris's rotation.
-    particle_walls: what the walls along y (y not periodic) do with a particle that reaches them: "reflect" or
-    "absorb", one for both or (lower, upper).
+    particle_walls: what the walls along y (y not periodic) do with a particle that reaches them: a
+    :class:`ParticleWall` ("reflect" or "absorb"), one for both or (lower, upper).
     injections: wall sources (:class:`~.injection.Injection`); loads may then be empty (a vacuum diode).
     average_from: time from which the nodal potential is averaged over the steps (:meth:`mean_potential`: the
     steady profile of a noisy run); None: not averaged.
-    field_solve: where the field is solved each step (:mod:`.coupling`): "host" (SuperLU, the CPU's fastest: the
-    default on the CPU), "device" (on the device, no host copy: the default on a GPU; :mod:`.device_solve`), or the
-    device's "cg" or "dense".
+    field_solve: where the field is solved each step (a :class:`~.device_solve.FieldSolve`, :mod:`.coupling`): "host"
+    (SuperLU, the CPU's fastest: the default on the CPU), "device" (on the device, no host copy: the default on a GPU;
+    :mod:`.device_solve`), or the device's "cg" or "dense".
     """
 
     name = "pic"
@@ -93,9 +101,10 @@ class PICSolver(TimeDependentSolver):
 
     @announced("PIC solver made: particles loaded and coupled to the nodes")
     def __init__(self, field: PlasmaPoisson, loads: list[ParticleLoad], dt: float,
-                 background_density: float | None = None, modes=((1, 0),), gather: str = "momentum",
-                 magnetic_field: float = 0.0, particle_walls="reflect", injections: list[Injection] = (),
-                 average_from: float | None = None, field_solve: str | None = None, launcher: Launcher | None = None):
+                 background_density: float | None = None, modes=((1, 0),), gather: Gather = Gather.MOMENTUM,
+                 magnetic_field: float = 0.0, particle_walls=ParticleWall.REFLECT, injections: list[Injection] = (),
+                 average_from: float | None = None, field_solve: FieldSolve | None = None,
+                 launcher: Launcher | None = None):
         model: MLSModel = field.model
         super().__init__(model, launcher or model.launcher)
         self.field = field
@@ -103,9 +112,8 @@ class PICSolver(TimeDependentSolver):
         self.injections = list(injections)
         if not self.loads and not self.injections:
             raise ParameterError("loads", "need at least one species (loaded, or injected from a wall)")
-        if gather not in GATHERS:
-            raise ParameterError("gather", f"must be one of {list(GATHERS)}, got {gather!r}")
-        self.gather = gather
+        self.gather = gather = Gather.of("gather", gather)
+        field_solve = None if field_solve is None else FieldSolve.of("field_solve", field_solve)
         self.magnetic_field = wp.float64(require_finite("magnetic_field", magnetic_field))
         self.dt = require_positive("dt", dt)
         space = model.space
@@ -130,9 +138,9 @@ class PICSolver(TimeDependentSolver):
         self.push.box = model.box
         self.push.magnetic_field = self.magnetic_field
         self.push.dt = wp.float64(self.dt)
-        self.push.absorb = wp.array([0, 0] + [int(m == "absorb") for m in self.particle_walls], dtype=wp.int32,
+        self.push.absorb = wp.array([0, 0] + [int(m is ParticleWall.ABSORB) for m in self.particle_walls], dtype=wp.int32,
                                     device=dev)
-        open_boundaries = bool(self.injections) or "absorb" in self.particle_walls
+        open_boundaries = bool(self.injections) or ParticleWall.ABSORB in self.particle_walls
         position = np.concatenate([ld.position for ld in self.loads]) if self.loads else np.zeros((0, 2))
         velocity = np.concatenate([ld.velocity for ld in self.loads]) if self.loads else np.zeros((0, 2))
         index = (np.concatenate([np.full(ld.count, k, np.int32) for k, ld in enumerate(self.loads)]) if self.loads
@@ -163,7 +171,7 @@ class PICSolver(TimeDependentSolver):
                                    self.injections, sources, index.size, self.dt, open_boundaries)
         self.particles.sync_position32()
         if field_solve is None:
-            field_solve = "host" if self.launcher.is_cpu else "device"
+            field_solve = FieldSolve.HOST if self.launcher.is_cpu else FieldSolve.DEVICE
         self.coupling = NodeCoupling(field, self.particles,
                                      wp.array(self.macro_charge_np, dtype=wp.float64, device=dev),
                                      self.background_density, gather, self.phases, field_solve)
@@ -223,12 +231,13 @@ class PICSolver(TimeDependentSolver):
         return self.particles.e_field
 
     @staticmethod
-    def _wall_modes(particle_walls, space) -> tuple[str, str]:
+    def _wall_modes(particle_walls, space) -> tuple[ParticleWall, ParticleWall]:
         modes = (particle_walls, particle_walls) if isinstance(particle_walls, str) else tuple(particle_walls)
-        if len(modes) != 2 or any(m not in PARTICLE_WALLS for m in modes):
-            raise ParameterError("particle_walls", f"one of {list(PARTICLE_WALLS)}, or two of them (lower, upper); "
+        if len(modes) != 2:
+            raise ParameterError("particle_walls", f"one of {ParticleWall.texts()}, or two of them (lower, upper); "
                                                    f"got {particle_walls!r}")
-        if space.periodic[1] and modes != ("reflect", "reflect"):
+        modes = tuple(ParticleWall.of("particle_walls", m) for m in modes)
+        if space.periodic[1] and any(m is not ParticleWall.REFLECT for m in modes):
             raise ParameterError("particle_walls", "the box is periodic along y: it has no walls to absorb particles")
         return modes
 
@@ -365,7 +374,7 @@ class PICSolver(TimeDependentSolver):
         the launches), a field solve with host work (SuperLU, or Warp's CG on a CPU, which checks its residual
         there) or in a distributed run (its particles move between ranks through the host)."""
         solve = self.coupling.device_solve
-        if (self.particles.open_boundaries or solve is None or (solve.method == "cg" and self.launcher.is_cpu)
+        if (self.particles.open_boundaries or solve is None or (solve.method is FieldSolve.CG and self.launcher.is_cpu)
                 or self.spread is not None):
             return None
         with self.launcher.capturing() as push:

@@ -3,10 +3,11 @@ the static model with its PML and derivative coefficients (:mod:`.model`), the l
 sources (:mod:`.solver`, plane waves :mod:`.plane_wave`), the energy-conserving operator pair
 (:mod:`.conservative`), Kronecker-delta nodal values (:mod:`.kronecker`). Kernels: ``warpfree.kernels.spem``."""
 
-from .layouts import StaggeredLayout, staggered_box, staggered_disk, staggered_line
-from .model import C0, EPS0, MU0, PML, SPEMModel, support_for_jitter
+from .layouts import HStaggering, StaggeredLayout, staggered_box, staggered_disk, staggered_line
+from .model import C0, EPS0, MU0, PML, PMLSide, Scheme, SPEMModel, support_for_jitter
 from .plane_wave import PlaneWave
-from .solver import GaussianPulse, Source, SPEMSolver, SPEMState, Waveform
+from .solver import GaussianPulse, Source, SourceKind, SPEMSolver, SPEMState, Waveform
 
-__all__ = ["C0", "EPS0", "MU0", "PML", "GaussianPulse", "PlaneWave", "SPEMModel", "SPEMSolver", "SPEMState", "Source", "StaggeredLayout",
-           "Waveform", "staggered_box", "staggered_disk", "staggered_line", "support_for_jitter"]
+__all__ = ["C0", "EPS0", "MU0", "PML", "PMLSide", "Scheme", "HStaggering", "GaussianPulse", "PlaneWave", "SPEMModel",
+           "SPEMSolver", "SPEMState", "Source", "SourceKind", "StaggeredLayout", "Waveform", "staggered_box",
+           "staggered_disk", "staggered_line", "support_for_jitter"]

@@ -25,19 +25,25 @@ from dataclasses import dataclass
 import numpy as np
 
 from warpfree.errors import ParameterError, require_memory, require_positive
+from warpfree.parameters import Choice
 
 #: the component an H particle carries under Yee's staggering (``StaggeredLayout.h_carries``)
 HX, HY = 0, 1
-#: where the H particles sit in 2D: "edges" (Yee: Hx at the midpoints of the cell sides along y, Hy of those along
-#: x) or "centres" (both components at the cell centres)
-H_STAGGERINGS = ("edges", "centres")
+
+
+class HStaggering(Choice):
+    """Where the H particles sit in 2D, relative to the lattice of E particles."""
+
+    EDGES = "edges", ("Yee's staggering: Hx at the midpoints of the cell sides along y, Hy of those along x, each "
+                      "carrying its one component")
+    CENTRES = "centres", "both components at the cell centres (the layout the thesis's CSPM and SPH are printed for)"
 
 #: memory per particle (E or H) of a SPEM run, bytes: positions, fields, PML, cross-set neighbour lists, derivative
 #: rows and the energy-conserving pair's sparse operators; the peak resident memory of the line, cavity and plane-wave
 #: scenes grows by 2.4-3.4 kB per particle, rounded up
 BYTES_PER_PARTICLE = 4096.0
 
-__all__ = ["HX", "HY", "H_STAGGERINGS", "StaggeredLayout", "staggered_line", "staggered_box", "staggered_disk"]
+__all__ = ["HX", "HY", "HStaggering", "StaggeredLayout", "staggered_line", "staggered_box", "staggered_disk"]
 
 
 @dataclass
@@ -174,12 +180,6 @@ def _check_jitter(jitter: float) -> float:
     return j
 
 
-def _check_staggering(h_staggering: str) -> str:
-    if h_staggering not in H_STAGGERINGS:
-        raise ParameterError("h_staggering", f"must be one of {list(H_STAGGERINGS)}, got {h_staggering!r}")
-    return h_staggering
-
-
 def _edge_points(x_nodes: np.ndarray, y_nodes: np.ndarray, interior: bool = True):
     """Yee's H points on a lattice of nodes: Hx at (x_i, ½(y_j + y_j+1)), Hy at (½(x_i + x_i+1), y_j); with
     ``interior``, not on the box's faces (there Hx, Hy would be the normal field on a wall: zero on a conductor).
@@ -255,7 +255,7 @@ def graded_nodes(lo: float, hi: float, cells: int, grading: float) -> np.ndarray
 
 
 def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int = 0,
-                  grading: float = 1.0, h_staggering: str = "edges") -> StaggeredLayout:
+                  grading: float = 1.0, h_staggering: HStaggering = HStaggering.EDGES) -> StaggeredLayout:
     """2D box: E at the lattice nodes (those on the faces flagged ``on_wall``), H in Yee's staggering
     (``h_staggering="edges"``, the default: Hx at the midpoints of the cell sides along y, Hy along x, none on the
     faces) or at the cell centres (``"centres"``);
@@ -267,11 +267,11 @@ def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int =
     if lo.shape != (2,) or hi.shape != (2,) or np.any(hi <= lo):
         raise ParameterError("upper", f"a 2D box needs lower < upper per axis, got {lower}, {upper}")
     j = _check_jitter(jitter)
-    _check_staggering(h_staggering)
+    h_staggering = HStaggering.of("h_staggering", h_staggering)
     if not (np.isfinite(grading) and 1.0 <= grading <= 3.0):
         raise ParameterError("grading", f"must be in [1, 3] (largest over smallest spacing), got {grading}")
     _require_cells("spacing", np.prod((hi - lo) / spacing), 2, per_axis=(hi - lo) / spacing,
-                   per_cell=3 if h_staggering == "edges" else 2)
+                   per_cell=3 if h_staggering is HStaggering.EDGES else 2)
     cells = np.round((hi - lo) / spacing).astype(int)
     nodes = [graded_nodes(lo[a], hi[a], cells[a], grading) for a in range(2)]
     widths = [np.diff(x) for x in nodes]
@@ -284,7 +284,7 @@ def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int =
     h_spacing = np.maximum(widths[0][cx.ravel()], widths[1][cy.ravel()])
     node_width = [np.maximum(np.r_[w[0], w], np.r_[w, w[-1]]) for w in widths]  # the larger adjacent cell
     carries = None
-    if h_staggering == "edges":
+    if h_staggering is HStaggering.EDGES:
         h, carries, (ix_x, jy_x, iy_y, jx_y) = _edge_points(nodes[0], nodes[1])
         h_spacing = np.r_[np.maximum(node_width[0][ix_x], widths[1][jy_x]),
                           np.maximum(widths[0][iy_y], node_width[1][jx_y])]
@@ -301,7 +301,7 @@ def staggered_box(lower, upper, spacing: float, jitter: float = 0.0, seed: int =
 
 
 def staggered_disk(centre, radius: float, spacing: float, jitter: float = 0.0, seed: int = 0,
-                   h_staggering: str = "edges") -> StaggeredLayout:
+                   h_staggering: HStaggering = HStaggering.EDGES) -> StaggeredLayout:
     """2D disk: lattice nodes (E) farther than Δ/2 from the circle, H points (Yee's side midpoints, the default
     ``h_staggering="edges"``, or the cell centres) farther than Δ/10 (Yee's) or Δ/5 (centres) from the circle (so
     that every E node has H particles on its wall side too), and
@@ -309,10 +309,10 @@ def staggered_disk(centre, radius: float, spacing: float, jitter: float = 0.0, s
     radius = require_positive("radius", radius)
     spacing = require_positive("spacing", spacing)
     j = _check_jitter(jitter)
-    _check_staggering(h_staggering)
+    h_staggering = HStaggering.of("h_staggering", h_staggering)
     c = np.asarray(centre, float)[:2]
     _require_cells("spacing", np.pi * (radius / spacing) ** 2, 2, per_axis=np.full(2, 2.0 * radius / spacing),
-                   per_cell=3 if h_staggering == "edges" else 2)
+                   per_cell=3 if h_staggering is HStaggering.EDGES else 2)
     n = int(np.ceil(radius / spacing)) + 1
     k = np.arange(-n, n + 1)
     gx, gy = np.meshgrid(k * spacing, k * spacing, indexing="ij")
@@ -320,14 +320,14 @@ def staggered_disk(centre, radius: float, spacing: float, jitter: float = 0.0, s
     centres = nodes + 0.5 * spacing
     e_in = nodes[np.hypot(nodes[:, 0], nodes[:, 1]) < radius - 0.5 * spacing]
     carries = None
-    if h_staggering == "edges":
+    if h_staggering is HStaggering.EDGES:
         centres, carries, _ = _edge_points(k * spacing, k * spacing, interior=False)
     # H between the last nodes and the ring, at least ``gap`` spacings inside the circle: cell centres 0.2, Yee's side
     # midpoints 0.1 (measured on the εr = 10 cavity at 10-80 cells per radius: 0.2 -> 0.1 raised the computed step
     # from 0.62, 0.26, 0.21 to 0.66, 0.54, 0.38 of Δ√εr/c at 20, 40, 80 cells and lowered the error by 6-28 %;
     # 0.05 and 0.3 were worse): with fewer H next to the wall the last E nodes' rows become one-sided extrapolations
     # (large coefficients, a small step), with H nearer the ring their own rows lean on the ring particle beside them
-    gap = 0.1 if h_staggering == "edges" else 0.2
+    gap = 0.1 if h_staggering is HStaggering.EDGES else 0.2
     inside = np.hypot(centres[:, 0], centres[:, 1]) < radius - gap * spacing
     h_in = centres[inside]
     carries = None if carries is None else carries[inside]

@@ -28,6 +28,7 @@ from warpfree.device import Launcher, current_launcher
 from warpfree.errors import ParameterError, require_bool, require_integer, require_positive
 from warpfree.kernels import spem as K
 from warpfree.neighbours import NeighbourGrid, NeighbourList, host_rows
+from warpfree.parameters import Choice
 from warpfree.particles import ParticleSet
 from warpfree.progress import announced, group_digits
 from warpfree.space import Space
@@ -35,7 +36,7 @@ from warpfree.space import Space
 from .conservative import ConservativePair, energy_conserving_pair, pattern_reach
 from .layouts import StaggeredLayout
 
-__all__ = ["EPS0", "MU0", "C0", "PML", "SPEMModel", "support_for_jitter"]
+__all__ = ["EPS0", "MU0", "C0", "PML", "PMLSide", "Scheme", "SPEMModel", "support_for_jitter"]
 
 C0 = 299_792_458.0                       # m/s
 MU0 = 4e-7 * math.pi                     # H/m (the classical value; the 2019 SI differs by 1e-10)
@@ -43,6 +44,33 @@ EPS0 = 1.0 / (MU0 * C0 * C0)             # F/m
 
 #: largest admitted condition number of a particle's scaled moment matrix (FPM) or denominator ratio (CSPM)
 CONDITION_LIMIT = 1.0e4
+
+
+class Scheme(Choice):
+    """The derivative of a field at a particle from the particles of the other set."""
+
+    FPM = "fpm", "finite particle method (Liu & Liu 2006): exact for constant and linear fields on any layout"
+    CSPM = "cspm", "the diagonal CSPM ratio (Chen, Beraun & Carney 1999), per axis"
+    SPH = "sph", "the uncorrected SPH derivative Σ_j u_j ∇W ω_j"
+
+
+class PMLSide(Choice):
+    """A side of the interior box that a PML lines."""
+
+    X_LOWER = "x-", "beyond the interior's lower x"
+    X_UPPER = "x+", "beyond the interior's upper x"
+    Y_LOWER = "y-", "beyond the interior's lower y"
+    Y_UPPER = "y+", "beyond the interior's upper y"
+
+    @property
+    def axis(self) -> int:
+        """The axis normal to the side: 0 (x) or 1 (y)."""
+        return 0 if self in (PMLSide.X_LOWER, PMLSide.X_UPPER) else 1
+
+    @property
+    def lower(self) -> bool:
+        """True on the interior's lower side of its axis."""
+        return self in (PMLSide.X_LOWER, PMLSide.Y_LOWER)
 
 
 def support_for_jitter(jitter: float) -> float:
@@ -58,9 +86,12 @@ class PML:
     reflection ``reflection`` ψ (3.26)."""
 
     thickness: float
-    sides: tuple = ("x-", "x+", "y-", "y+")
+    sides: tuple = (PMLSide.X_LOWER, PMLSide.X_UPPER, PMLSide.Y_LOWER, PMLSide.Y_UPPER)
     order: int = 3
     reflection: float = 1e-6
+
+    def __post_init__(self):
+        self.sides = tuple(PMLSide.of("pml.sides", s) for s in self.sides)
 
     def sigma_max(self) -> float:
         """σm = -ln(ψ)(n+1) ε0 c/(2δ) (S/m), eq. 3.26."""
@@ -75,17 +106,14 @@ class PML:
         if not 0.0 < self.reflection < 1.0:
             raise ParameterError("pml.reflection", f"must be in (0, 1) (the target reflection ψ), got {self.reflection}")
         require_integer("pml.order", self.order, minimum=1, maximum=6)  # 3 or 4 usual
-        for s in self.sides:
-            if s not in ("x-", "x+", "y-", "y+"):
-                raise ParameterError("pml.sides", f"each side is one of x-, x+, y-, y+; got {s!r}")
 
     def sigma(self, points: np.ndarray, inner_lower, inner_upper) -> np.ndarray:
         """(N, 2) σx, σy (S/m) at ``points``: graded with the depth ρ beyond the interior box on each lossy side."""
         sm = self.sigma_max()
         out = np.zeros((points.shape[0], 2))
         for side in self.sides:
-            a = 0 if side[0] == "x" else 1
-            rho = (inner_lower[a] - points[:, a]) if side[1] == "-" else (points[:, a] - inner_upper[a])
+            a = side.axis
+            rho = (inner_lower[a] - points[:, a]) if side.lower else (points[:, a] - inner_upper[a])
             rho = np.clip(rho, 0.0, None)  # depth into the layer: 0 inside the interior (not a clamp of a result)
             out[:, a] = np.maximum(out[:, a], sm * (rho / self.thickness) ** self.order)
         return out
@@ -109,7 +137,7 @@ class SPEMModel:
     Parameters
     ----------
     layout: a :class:`~.layouts.StaggeredLayout`.
-    scheme: "fpm" (default), "cspm" (eq. 3.6) or "sph" (uncorrected).
+    scheme: a :class:`Scheme`: FPM (default), CSPM (eq. 3.6) or SPH (uncorrected).
     support: support radius in units of each particle's spacing (default 1.1, module docstring).
     eps_r, mu_r: relative permittivity / permeability: a number or f(points (N, 3)) -> (N,).
     pml: a :class:`PML` or None; ``interior``: (lower, upper) of the interior box the PML surrounds.
@@ -126,12 +154,11 @@ class SPEMModel:
 
     @announced(lambda self, layout, *a, **k: f"EM model made: operators and volumes ({group_digits(layout.n_e)} E, "
                f"{group_digits(layout.n_h)} H particles)")
-    def __init__(self, layout: StaggeredLayout, scheme: str = "fpm", support: float = 1.1, eps_r: Material = 1.0,
+    def __init__(self, layout: StaggeredLayout, scheme: Scheme = Scheme.FPM, support: float = 1.1, eps_r: Material = 1.0,
                  mu_r: Material = 1.0, pml: PML | None = None, interior=None, pec: bool = True,
                  conservative: bool | None = None, pair_order: int = 1, launcher: Launcher | None = None):
         launcher = launcher or current_launcher()
-        if scheme not in K.SCHEMES:
-            raise ParameterError("scheme", f"must be one of {sorted(K.SCHEMES)}, got {scheme!r}")
+        scheme = Scheme.of("scheme", scheme)
         self.support = require_positive("support", support)
         if not 0.75 <= self.support <= 4.0:
             raise ParameterError("support", f"must be in [0.75, 4] spacings (the nearest particles of the other set "
@@ -181,13 +208,13 @@ class SPEMModel:
         self.launcher = launcher
         self.e_rows = NeighbourList(NeighbourGrid(launcher, self.reach, self.space, h.position), e.position)  # E -> H
         self.h_rows = NeighbourList(NeighbourGrid(launcher, self.reach, self.space, e.position), h.position)  # H -> E
-        self.conservative = (scheme == "fpm") if conservative is None else require_bool("conservative", conservative)
+        self.conservative = (scheme is Scheme.FPM) if conservative is None else require_bool("conservative", conservative)
         self.pair_order = require_integer("pair_order", pair_order, minimum=1, maximum=2)
         self.conservation = None
         if yee:
-            if scheme != "fpm":
+            if scheme is not Scheme.FPM:
                 raise ParameterError("scheme", f"Yee's staggering (h_staggering='edges') is built for 'fpm'; "
-                                               f"{scheme!r} is kept on the cell-centred layout it was printed for")
+                                               f"'{scheme}' is kept on the cell-centred layout it was printed for")
             self._own_set_volume(e)
             h.add("volume", self._subset_volumes(h))
             e_operator, h_operator = self._component_operators()
@@ -387,7 +414,7 @@ class SPEMModel:
         L = self.launcher
         coef = wp.zeros(max(rows.n_pairs, 1), dtype=wp.vec3, device=L.device)
         condition = wp.zeros(s.n, dtype=float, device=L.device)
-        L.launch(K.gradient_coefficients, s.n, [K.SCHEMES[self.scheme], self.dim, axis, self.space.box, rows.rows,
+        L.launch(K.gradient_coefficients, s.n, [K.SCHEMES[self.scheme.value], self.dim, axis, self.space.box, rows.rows,
                                                  s.position, s["support"], other.position, other["volume"], coef,
                                                  condition])
         cond = condition.numpy()

@@ -22,21 +22,22 @@ import warp as wp
 
 from warpfree.clock import DeviceClock
 from warpfree.device import Launcher, current_launcher
-from warpfree.distribution import launch_order
+from warpfree.distribution import Distribution, launch_order
 from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.kernels import spem as K
 from warpfree.graph import StepGraph
 from warpfree.parallel import world as ranks_of_run
+from warpfree.parameters import Choice
 from warpfree.particles import ParticleSet
 from warpfree.progress import announced
 from warpfree.solver import OutputSet, State, StepRule, TimeDependentSolver
 
 from .layouts import HX, HY
 from .kronecker import NodalValues
-from .model import SPEMModel
+from .model import Scheme, SPEMModel
 from .plane_wave import DevicePlaneWave, PlaneWave
 
-__all__ = ["Waveform", "GaussianPulse", "Source", "SPEMState", "SPEMSolver"]
+__all__ = ["Waveform", "GaussianPulse", "Source", "SourceKind", "SPEMState", "SPEMSolver"]
 
 #: the units of the output sets' quantities (SI): E_z on the E particles, H_x, H_y on the H particles
 UNITS = {"position": "m", "ez": "V/m", "hx": "A/m", "hy": "A/m"}
@@ -74,15 +75,25 @@ class GaussianPulse:
         return np.exp(-u * u) * np.sin(2.0 * math.pi * self.frequency * (np.asarray(t) - self.delay))
 
 
+class SourceKind(Choice):
+    """How a source drives its E particles."""
+
+    HARD = "hard", "Ez = A f(t) imposed (the particles are not updated by the E phase)"
+    SOFT = "soft", "Ez += A f(t) after the E phase (additive, transparent)"
+
+
 @dataclass
 class Source:
     """E particles ``particles`` (indices) driven by ``waveform`` with per-particle ``amplitude`` (V/m),
-    ``kind`` "hard" or "soft"."""
+    ``kind`` a :class:`SourceKind` (hard or soft)."""
 
     particles: np.ndarray
     waveform: Waveform
     amplitude: np.ndarray | float = 1.0
-    kind: str = "hard"
+    kind: SourceKind = SourceKind.HARD
+
+    def __post_init__(self):
+        self.kind = SourceKind.of("source.kind", self.kind)
 
 
 class SPEMState(State):
@@ -101,8 +112,6 @@ class _DeviceSource:
         idx = np.asarray(source.particles, dtype=np.int64).ravel()
         if idx.size == 0 or idx.min() < 0 or idx.max() >= model.layout.n_e or np.unique(idx).size != idx.size:
             raise ParameterError("source.particles", f"must be distinct indices of E particles (0..{model.layout.n_e - 1})")
-        if source.kind not in ("hard", "soft"):
-            raise ParameterError("source.kind", f"must be 'hard' or 'soft', got {source.kind!r}")
         require_positive("source.frequency", source.waveform.frequency)
         amp = np.broadcast_to(np.asarray(source.amplitude, dtype=np.float64), idx.shape)
         if not np.all(np.isfinite(amp)):
@@ -118,7 +127,7 @@ class _DeviceSource:
                                   device=device)
         self.amplitude = wp.array(amp[mine].astype(np.float32) if mine.size else np.zeros(1, np.float32), dtype=float,
                                   device=device)
-        self.additive = int(source.kind == "soft")
+        self.additive = int(source.kind is SourceKind.SOFT)
         self.signal = source_signal(source.waveform)
 
 
@@ -154,12 +163,14 @@ class SPEMSolver(TimeDependentSolver):
 
     @announced("EM solver made")
     def __init__(self, model: SPEMModel, sources: list[Source] | None = None, ez=None, hx=None, hy=None,
-                 launcher: Launcher | None = None, kronecker: bool = False, distribution: str = "blocks",
+                 launcher: Launcher | None = None, kronecker: bool = False,
+                 distribution: Distribution = Distribution.BLOCKS,
                  courant: float = 0.95):
         super().__init__(model, launcher or model.launcher or current_launcher())
         if not 0.0 < require_finite("courant", courant) <= 1.0:
             raise ParameterError("courant", f"must be in (0, 1] (a fraction of the stable step), got {courant}")
         self.courant = float(courant)
+        distribution = Distribution.of("distribution", distribution)
         e, h, dev = model.electric, model.magnetic, self.launcher.device
 
         def initial(name, value, s):
@@ -186,7 +197,7 @@ class SPEMSolver(TimeDependentSolver):
                 raise ParameterError("sources", f"each source is a Source or a PlaneWave, got {type(s).__name__}")
         held = model.held.copy()
         for s in sources:
-            if isinstance(s, Source) and s.kind == "hard":
+            if isinstance(s, Source) and s.kind is SourceKind.HARD:
                 held[np.asarray(s.particles, dtype=np.int64).ravel()] = True
         self._held_whole = held
         self._dt_max = model.stable_dt()
@@ -257,7 +268,7 @@ class SPEMSolver(TimeDependentSolver):
     @staticmethod
     def _nodal_values(model: SPEMModel, ez0, hx0, hy0):
         """The nodal values of the initial fields (the ``kronecker`` option): E with its PEC particles at 0."""
-        if model.scheme == "fpm":
+        if model.scheme is Scheme.FPM:
             raise ParameterError("kronecker", "FPM's particle values are point values already (its derivative is "
                                               "exact on them); the option is for the 'sph' and 'cspm' schemes")
         free = np.flatnonzero(~model.held)
