@@ -10,7 +10,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from warpfree.cli import main
-from warpfree.scene_loader import load_scene, parse_overrides, scene_parameters, shipped_scenes
+from warpfree.scene_loader import load_scene
 from warpfree.device import Launcher
 from warpfree.errors import ParameterError
 from warpfree.galerkin import assembly
@@ -19,7 +19,6 @@ from warpfree.galerkin.node_layouts import box_sides, grid_nodes, random_grid_no
 from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.galerkin.quadrature import rectangle_cells
 from warpfree.solvers.efg.solver import ElasticitySolver, PoissonSolver
-
 
 
 @pytest.fixture(scope="module")
@@ -424,26 +423,3 @@ def test_resistor_nodes_graded_toward_the_corners_beat_the_regular_grid(tmp_path
     assert g["potential_lines_max_error"] < r["potential_lines_max_error"] / 10
     assert not r["checks"]["normal_current_mean_mismatch"]["passed"]
 
-
-@pytest.mark.parametrize("scene", ["efg_cook", "efg_cylinder", "efg_l_shape", "efg_resistor", "efg_timoshenko"])
-def test_every_parameter_of_a_galerkin_scene_is_declared_and_a_bad_choice_is_refused_by_name(scene, tmp_path, capsys):
-    """Every parameter has a unit, meaning and (numbers) an interval; every closed choice (layout, method,
-    integration, model, basis, weight, interface_condition, linear_solver, preconditioner) is a Choice whose texts
-    read back as its members, none is free text; ``--set <choice>=bogus`` exits 2 with one line naming the parameter
-    and its choices, before anything is written."""
-    path = shipped_scenes()[scene]
-    parameters = scene_parameters(load_scene(path))
-    assert all(p.param is not None and p.param.meaning for p in parameters.values())
-    assert all(p.param.allowed is not None for p in parameters.values() if p.kind in (int, float))
-    assert not [name for name, p in parameters.items() if p.kind is str]
-    choices = {name: p.choice for name, p in parameters.items() if p.choice is not None}
-    assert {"basis", "method", "layout", "integration", "model"} & set(choices)
-    for name, choice in choices.items():
-        for member in choice:
-            assert parse_overrides([f"{name}={member.value}"], parameters)[name] is member
-        out = tmp_path / name
-        assert main(["run", path, "--set", f"{name}=bogus", "--out", str(out), "--no-progress"]) == 2
-        (line,) = capsys.readouterr().err.splitlines()
-        assert line.startswith(f"warpfree: error: {name}: 'bogus' is not a choice: ")
-        assert line.endswith(f"choose from {', '.join(sorted(choice.texts()))}")
-        assert not any(p.name != "run.json" for p in out.glob("*"))

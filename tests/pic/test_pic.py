@@ -10,7 +10,6 @@ from warpfree.device import Launcher
 from warpfree.errors import ParameterError
 from warpfree.galerkin.mls import MLSModel, MLSSettings
 from warpfree.parameters import Choice
-from warpfree.scene_loader import load_scene, scene_parameters
 from warpfree.solvers.pic import (FieldSolve, Gather, ParticleWall, PlasmaPoisson, PICSolver, SourceWall, Species,
                                   lattice_positions, load_species, random_positions)
 from warpfree.solvers.pic.scene_tools import lattice_nodes, periodic_box, walled_box
@@ -416,18 +415,3 @@ def test_closed_choices_keep_the_texts_runs_record(choice, texts):
         choice.of("x", "bogus")
     assert str(err.value) == f"x: 'bogus' is not a choice: choose from {', '.join(sorted(texts))}"
 
-
-@pytest.mark.parametrize("scene", ["pic_diode", "pic_plasma_oscillation", "pic_thermal_plasma", "pic_two_stream"])
-def test_scene_parameters_are_declared_and_a_bad_choice_is_refused_by_its_name(scene):
-    """Every parameter of the scene's build() has a type and a meaning, every number its allowed interval, and no
-    parameter is free text (a closed choice is an enumeration); a text that is none of a choice's values, given
-    from Python, is refused naming that parameter."""
-    module = load_scene(scene)
-    for name, p in scene_parameters(module).items():
-        assert p.kind is not None and p.kind is not str and p.meaning, name
-        if p.kind in (int, float) or p.kind is tuple:
-            assert p.param is not None and p.param.interval is not None, name
-        if p.choice is not None:
-            with pytest.raises(ParameterError) as err:
-                module.build(**{**module.SMALLEST, "frames": False, "vtk": False, name: "bogus"})
-            assert err.value.name == name

@@ -12,14 +12,13 @@ import pytest
 
 from warpfree import device
 from warpfree.cli import main
-from warpfree.scene_loader import load_scene, scene_parameters
+from warpfree.scene_loader import load_scene
 from warpfree.errors import ParameterError
 from warpfree.distribution import Distribution
 from warpfree.parameters import Choice
 from warpfree.solvers.spem import (C0, PML, HStaggering, PMLSide, Scheme, Source, SourceKind, SPEMModel, SPEMSolver,
                                    Waveform, staggered_box, staggered_disk, staggered_line, support_for_jitter)
 from warpfree.time_loop import TimeLoop
-
 
 
 def rows_of(rows_list):
@@ -586,18 +585,3 @@ def test_closed_choices_keep_the_texts_runs_record(choice, texts):
         choice.of("x", "bogus")
     assert str(err.value) == f"x: 'bogus' is not a choice: choose from {', '.join(sorted(texts))}"
 
-
-@pytest.mark.parametrize("scene", ["em_cavity_2d", "em_line_1d", "em_plane_wave_2d", "em_waveguide_2d"])
-def test_scene_parameters_are_declared_and_a_bad_choice_is_refused_by_its_name(scene):
-    """Every parameter of the scene's build() has a type and a meaning, every number its allowed interval, and no
-    parameter is free text (a closed choice is an enumeration); a text that is none of a choice's values, given
-    from Python, is refused naming that parameter."""
-    module = load_scene(scene)
-    for name, p in scene_parameters(module).items():
-        assert p.kind is not None and p.kind is not str and p.meaning, name
-        if p.kind in (int, float):
-            assert p.param is not None and p.param.interval is not None, name
-        if p.choice is not None:
-            with pytest.raises(ParameterError) as err:
-                module.build(**{**module.SMALLEST, "frames": False, "vtk": False, name: "bogus"})
-            assert err.value.name == name
