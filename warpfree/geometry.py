@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     import trimesh
 
 from .errors import ParameterError, require_integer, require_memory, require_positive
+from .parameters import Choice
 from .progress import announced
 
 __all__ = [
@@ -53,13 +54,20 @@ __all__ = [
     "load_mesh",
     "clip_polygon",
     "ccw_polygon",
+    "Side",
 ]
 
 _TOL = 1e-9  # relative tolerance, in lattice cells, for "on the lattice" and "within the shell"
 _RAY_SHIFT = (3.1415926e-7, 2.7182818e-7)  # ray offset in cells (generic: off every lattice-aligned edge)
 _ON_SURFACE = 1e-6  # lattice points this close to the surface (in cells) are not strictly inside
 _PAIR_CHUNK = 100_000  # (triangle, lattice point) pairs processed per vectorised batch
-_SIDES = ("inside", "outside")
+
+
+class Side(Choice):
+    """Which side of a closed surface (a watertight mesh, a closed polygon) wall layers lie on."""
+
+    OUTSIDE = "outside", "not strictly inside: container walls (the fluid is inside)"
+    INSIDE = "inside", "strictly inside: obstacle walls (the fluid is outside)"
 
 
 # ----------------------------------------------------------------------------------------------
@@ -98,12 +106,6 @@ def _origin(origin, default: np.ndarray) -> np.ndarray:
 
 def _layers(layers) -> int:
     return require_integer("layers", layers, minimum=1)
-
-
-def _side(side) -> str:
-    if side not in _SIDES:
-        raise ParameterError("side", f"must be 'inside' or 'outside', got {side!r}")
-    return side
 
 
 def is_mesh(shape) -> bool:
@@ -396,11 +398,11 @@ def shell_lattice(mesh: trimesh.Trimesh, dx, layers, side, origin=None) -> np.nd
     mesh = _check_mesh(mesh)
     dx = require_positive("dx", dx)
     layers = _layers(layers)
-    side = _side(side)
+    side = Side.of("side", side)
     origin = _origin(origin, mesh.bounds[0])
     kmin, shape, tri = _mesh_block(mesh, dx, origin, layers * dx)
     inside = _inside_grid(tri, shape)
-    candidate = inside if side == "inside" else ~inside
+    candidate = inside if side is Side.INSIDE else ~inside
     keep = _near_grid(tri, shape, float(layers), candidate)
     return _lattice(origin, dx, kmin, shape)[keep.ravel()]
 
@@ -530,12 +532,12 @@ def polygon_boundary_layers(polygon, dx, layers, side, origin=None) -> np.ndarra
     polygon = _polygon(polygon)
     dx = require_positive("dx", dx)
     layers = _layers(layers)
-    side = _side(side)
+    side = Side.of("side", side)
     origin = _origin(origin, polygon.min(axis=0))
     pts = _polygon_lattice(polygon, dx, origin, layers * dx)
     inside, dist = _polygon_inside_dist(polygon, pts)
     strictly = inside & (dist > _TOL * dx)
-    on_side = strictly if side == "inside" else ~strictly
+    on_side = strictly if side is Side.INSIDE else ~strictly
     return pts[on_side & (dist <= layers * dx * (1.0 + _TOL))]
 
 

@@ -32,8 +32,9 @@ import warp as wp
 
 from .device import Launcher
 from .errors import ParameterError
+from .parameters import Choice
 
-__all__ = ["State", "HostTable", "OutputSet", "PhaseTimes", "Solver", "StepRule", "TimeDependentSolver", "StaticSolver"]
+__all__ = ["State", "HostTable", "OutputSet", "PhaseTimes", "Solver", "StepRule", "StepKind", "TimeDependentSolver", "StaticSolver"]
 
 
 class HostTable:
@@ -195,26 +196,31 @@ class StepRule:
       multiples of it.
     """
 
-    kind: str
+    kind: "StepKind"
     value: float = math.inf
 
-    KINDS: ClassVar[tuple[str, ...]] = ("variable", "constant", "fixed")
-
     def __post_init__(self):
-        if self.kind not in self.KINDS:
-            raise ValueError(f"StepRule.kind must be one of {self.KINDS}, got {self.kind!r}")
+        object.__setattr__(self, "kind", StepKind.of("StepRule.kind", self.kind))
 
     @classmethod
     def variable(cls) -> "StepRule":
-        return cls("variable")
+        return cls(StepKind.VARIABLE)
 
     @classmethod
     def constant(cls, limit: float) -> "StepRule":
-        return cls("constant", float(limit))
+        return cls(StepKind.CONSTANT, float(limit))
 
     @classmethod
     def fixed(cls, step: float) -> "StepRule":
-        return cls("fixed", float(step))
+        return cls(StepKind.FIXED, float(step))
+
+
+class StepKind(Choice):
+    """How a solver's time step is chosen (:class:`StepRule`)."""
+
+    VARIABLE = "variable", "the solver's stable step at the current state, anew every step"
+    CONSTANT = "constant", "one step for the whole run, the largest stable one that divides the output interval"
+    FIXED = "fixed", "the solver's own step, set where the solver is made"
 
 
 class Solver(ABC):

@@ -29,7 +29,7 @@ from .clock import choose_step, refusal
 from .errors import ParameterError, RunError, RunInterrupted, require_integer, require_positive
 from .io import checkpoint
 from .run import Analysis, OutputOptions, Run, RunDirectory
-from .solver import TimeDependentSolver
+from .solver import StepKind, TimeDependentSolver
 
 __all__ = ["TimeLoop", "Probe"]
 
@@ -91,7 +91,7 @@ class TimeLoop(Run):
     def _chosen_step(self, dt: float | None) -> float | None:
         """The step of the whole run from the solver's rule and the run's ``dt`` (None: a new stable step each step)."""
         unit, rule = self.solver.time_unit, self.rule
-        if rule.kind == "fixed":
+        if rule.kind is StepKind.FIXED:
             if dt is not None and dt != rule.value:
                 raise ParameterError("dt", f"this solver steps by its own Δt = {rule.value:.6g} {unit}, set where the "
                                            f"solver is made; a run cannot take another ({dt:.6g} {unit})")
@@ -101,11 +101,11 @@ class TimeLoop(Run):
                     raise ParameterError(name, f"{span:.6g} {unit} is not a whole number of the solver's steps "
                                                f"Δt = {rule.value:.6g} {unit} ({steps:.6g})")
             return rule.value
-        limit = self.solver.stable_dt() if rule.kind == "variable" else rule.value
+        limit = self.solver.stable_dt() if rule.kind is StepKind.VARIABLE else rule.value
         if dt is None:
             if not math.isfinite(limit):
                 raise ParameterError("dt", "this solver has no stable-step limit: give a fixed dt")
-            if rule.kind == "constant":  # the largest step below the limit that divides the output interval
+            if rule.kind is StepKind.CONSTANT:  # the largest step below the limit that divides the output interval
                 return self.output_interval / math.ceil(self.output_interval / limit - 1e-9)
             return None
         if dt > limit:
@@ -128,7 +128,7 @@ class TimeLoop(Run):
     def next_dt(self) -> float:
         """The step to take now: stable or fixed, shortened to land on the next output time or the end
         (``warpfree.clock.choose_step``, the host twin of the device clock's choice)."""
-        limit = self.solver.stable_dt() if self.rule.kind == "variable" else self.rule.value
+        limit = self.solver.stable_dt() if self.rule.kind is StepKind.VARIABLE else self.rule.value
         fixed = self.dt_fixed or 0.0
         dt, status = choose_step(self.time, self._next_output_time(), self.t_end, fixed, limit)
         refused = refusal(status, fixed, limit, self.solver.time_unit)
@@ -381,7 +381,7 @@ class TimeLoop(Run):
         limit is the solver's, computed on the device every step)."""
         slots = dict(time=self.time, next_output=self._next_output_time(), end=self.t_end,
                      fixed=self.dt_fixed or 0.0)
-        if self.rule.kind != "variable":
+        if self.rule.kind is not StepKind.VARIABLE:
             slots["limit"] = self.rule.value
         clock.set(**slots)
 

@@ -89,7 +89,7 @@ def test_more_ranks_than_cells_are_refused_naming_the_ranks():
     with pytest.raises(ParameterError, match=r"ranks: 5 ranks cannot cut the domain at the support size: it spans "
                                              r"4 cells"):
         Decomposition.build(5, x, None, 0.1, 2, "slabs", domain_lower=(0.0, 0.0, 0.0))
-    with pytest.raises(ParameterError, match="decomposition: must be one of slabs, rcb"):
+    with pytest.raises(ParameterError, match="decomposition: .octree. is not a choice: choose from rcb, slabs"):
         Decomposition.build(2, x, None, 0.1, 2, "octree")
 
 

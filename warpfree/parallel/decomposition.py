@@ -24,10 +24,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from warpfree.errors import ParameterError
+from warpfree.parameters import Choice
 
-__all__ = ["Decomposition", "METHODS", "imbalance"]
+__all__ = ["Decomposition", "CutMethod", "imbalance"]
 
-METHODS = ("slabs", "rcb")
+
+class CutMethod(Choice):
+    """How space is cut between the ranks."""
+
+    SLABS = "slabs", "cuts across one axis, at the work's quantiles"
+    RCB = "rcb", "recursive coordinate bisection over grid cells, each cut across the longest side"
 
 
 def imbalance(costs) -> float:
@@ -46,7 +52,7 @@ class Decomposition:
     upper: np.ndarray
     period: np.ndarray
     dim: int
-    method: str
+    method: CutMethod
     cell: float
 
     @property
@@ -57,12 +63,11 @@ class Decomposition:
     # -- making one -------------------------------------------------------------------------------------
     @classmethod
     def build(cls, size: int, points: np.ndarray, cost: np.ndarray | None, cell: float, dim: int,
-              method: str = "rcb", domain_lower=None, domain_upper=None, periodic=(False, False, False)):
+              method: CutMethod = CutMethod.RCB, domain_lower=None, domain_upper=None, periodic=(False, False, False)):
         """Cut for ``size`` ranks the items at ``points`` (n, 3) with ``cost`` (n,; None: 1 each) into boxes of whole
         cells of width ``cell`` (m), counted from ``domain_lower`` (default: the items' lower corner). Periodic axes
         take their period from ``domain_lower`` .. ``domain_upper``."""
-        if method not in METHODS:
-            raise ParameterError("decomposition", f"must be one of {', '.join(METHODS)}, got {method!r}")
+        method = CutMethod.of("decomposition", method)
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         cost = np.ones(len(points)) if cost is None else np.asarray(cost, dtype=np.float64)
         lo_items = points.min(axis=0) if len(points) else np.zeros(3)
@@ -80,7 +85,7 @@ class Decomposition:
             if period[a] > 0:
                 lower[:, a], upper[:, a] = origin[a], origin[a] + period[a]
         axes = list(range(dim))
-        if method == "slabs":
+        if method is CutMethod.SLABS:
             extent = (hi_items - lo_items)[:dim]
             axes = [int(np.argmax(extent))]
         span = {a: (int(cells[:, a].min()), int(cells[:, a].max()) + 1) if len(points) else (0, 1) for a in axes}
@@ -156,15 +161,15 @@ class Decomposition:
     def from_dict(cls, d: dict) -> "Decomposition":
         """A decomposition from its saved form (a checkpoint's manifest)."""
         return cls(np.array(d["lower"], float), np.array(d["upper"], float), np.array(d["period"], float),
-                   int(d["dim"]), str(d["method"]), float(d["cell"]))
+                   int(d["dim"]), CutMethod.of("method", d["method"]), float(d["cell"]))
 
 
 def _cut(items: np.ndarray, ranks: list[int], cells: np.ndarray, cost: np.ndarray, axes: list[int],
-         lower: np.ndarray, upper: np.ndarray, origin: np.ndarray, cell: float, method: str) -> None:
+         lower: np.ndarray, upper: np.ndarray, origin: np.ndarray, cell: float, method: CutMethod) -> None:
     """Split ``items`` (in the box every rank of ``ranks`` now shares) between the ranks, writing their boxes."""
     if len(ranks) == 1:
         return
-    if method == "slabs":  # every cut across the one axis, at the cost's quantiles
+    if method is CutMethod.SLABS:  # every cut across the one axis, at the cost's quantiles
         axis = axes[0]
         k = len(ranks)
         faces = _quantile_faces(items, cells[:, axis], cost, [j / k for j in range(1, k)])

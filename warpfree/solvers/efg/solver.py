@@ -285,12 +285,12 @@ class EFGSolver(StaticSolver):
     def _own_points(self) -> np.ndarray:
         """The Gauss points this rank integrates: those its box holds (``warpfree.parallel``: cut over the nodes'
         reach, balancing the points)."""
-        from warpfree.parallel import Decomposition
+        from warpfree.parallel import CutMethod, Decomposition
 
         p = np.zeros((self.cells.position.shape[0], 3))
         p[:, :2] = self.cells.position
         reach = float(getattr(self.model, "reach", 0.0) or 2.0 * float(np.max(self.model.spacing)))
-        dec = Decomposition.build(self.world.size, p, None, reach, 2, "rcb")
+        dec = Decomposition.build(self.world.size, p, None, reach, 2, CutMethod.RCB)
         return np.flatnonzero(dec.owner(p) == self.world.rank)
 
     def _pieces(self, sets: list[OutputSet]) -> list[OutputSet]:

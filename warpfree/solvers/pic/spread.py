@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from warpfree.errors import ParameterError
-from warpfree.parallel import Decomposition, Partition, World
+from warpfree.parallel import CutMethod, Decomposition, Partition, World
 
 __all__ = ["PlasmaSpread"]
 
@@ -32,7 +32,7 @@ class PlasmaSpread:
     """The decomposition of a plasma over ``world``'s ranks: the particles' :class:`~warpfree.parallel.Partition`
     (global ids: the particles' ids) and the nodes each rank's box owns."""
 
-    def __init__(self, world: World, model, positions: np.ndarray, method: str = "rcb"):
+    def __init__(self, world: World, model, positions: np.ndarray, method: CutMethod = CutMethod.RCB):
         self.world = world
         space = model.space
         self.depth = float(model.reach) * (1.0 + 1e-9)

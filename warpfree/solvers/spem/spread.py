@@ -15,7 +15,7 @@ import numpy as np
 import warp as wp
 
 from warpfree.neighbours import host_rows
-from warpfree.parallel import Decomposition, Partition, World
+from warpfree.parallel import CutMethod, Decomposition, Partition, World
 from warpfree.parallel.halo import take_rows
 
 __all__ = ["FieldSpread"]
@@ -37,7 +37,7 @@ class FieldSpread:
     """The decomposition of an :class:`~warpfree.solvers.spem.model.SPEMModel` over ``world``'s ranks, the E and H
     sets' :class:`~warpfree.parallel.Partition` (``electric``, ``magnetic``) and the model's rows taken for them."""
 
-    def __init__(self, world: World, model, method: str = "rcb"):
+    def __init__(self, world: World, model, method: CutMethod = CutMethod.RCB):
         self.world = world
         self.model = model
         xe = model.layout.e_position.astype(np.float64)

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from warpfree.errors import ParameterError
-from warpfree.parallel import Decomposition, Partition, World, imbalance
+from warpfree.parallel import CutMethod, Decomposition, Partition, World, imbalance
 
 __all__ = ["FluidSpread", "MOVING_FIELDS", "STEP_FIELDS"]
 
@@ -41,11 +41,11 @@ class FluidSpread:
     Parameters
     ----------
     world, model: the ranks and the (whole) model, which every rank builds.
-    method: "rcb" or "slabs" (:class:`~warpfree.parallel.Decomposition`).
+    method: CutMethod.RCB or CutMethod.SLABS (:class:`~warpfree.parallel.Decomposition`).
     rebalance: cut anew at a rebuild when the ranks' work has max/mean above this (>= 1; ``inf``: never).
     """
 
-    def __init__(self, world: World, model, method: str = "rcb", rebalance: float = 1.2):
+    def __init__(self, world: World, model, method: CutMethod = CutMethod.RCB, rebalance: float = 1.2):
         if not rebalance >= 1.0:
             raise ParameterError("rebalance", f"must be >= 1 (max/mean of the ranks' work), got {rebalance!r}")
         P = model.params

@@ -28,7 +28,7 @@ import warp as wp
 
 from warpfree.device import current_launcher
 from warpfree.errors import ParameterError, require_integer, require_memory, require_positive
-from warpfree.geometry import ccw_polygon, is_mesh
+from warpfree.geometry import Side, ccw_polygon, is_mesh
 from warpfree.neighbours import NeighbourGrid, NeighbourList
 from warpfree.particles import to_vec3
 from .solids import Solids
@@ -42,15 +42,13 @@ MERGE = 0.6
 BAND = 0.05
 
 
-def surface_layers(shape, dx: float, layers: int, side: str) -> np.ndarray:
+def surface_layers(shape, dx: float, layers: int, side: Side) -> np.ndarray:
     """Boundary particles along the surface of ``shape`` ((M, 2) polygon or watertight planar-faced trimesh
     mesh), ``layers`` layers on ``side`` ("outside": container walls; "inside": obstacle walls), layer k at
     (k + 1/2) ``dx`` from the surface (m). Returns (N, 2) for a polygon, (N, 3) for a mesh."""
     dx = require_positive("dx", dx)
     layers = require_integer("layers", layers, minimum=1)
-    if side not in ("outside", "inside"):
-        raise ParameterError("side", f"must be 'outside' or 'inside', got {side!r}")
-    sign = 1.0 if side == "outside" else -1.0
+    sign = 1.0 if Side.of("side", side) is Side.OUTSIDE else -1.0
     if is_mesh(shape):
         if not shape.is_watertight:
             raise ParameterError("mesh", "must be watertight (closed) to have an inside and an outside")
