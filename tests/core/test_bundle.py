@@ -77,7 +77,9 @@ def make_bundle(tmp_path: Path, wheels: list[Path], form: str, part_size: int | 
     build.require_out(out, overwrite=False)
     manifest = {"format": build.FORMAT, "warpfree": warpfree.__version__, "form": form,
                 "target": {"python": build.host_python(), "machine": os.uname().machine, "platforms": []},
-                "source": {"archive": "repo.tar.gz"}, "selection": {"have": []}}
+                "source": {"archive": "repo.tar.gz"}, "selection": {"have": []},
+                "packages": [{"name": w.name.split("-")[0], "version": w.name.split("-")[1], "wheel": w.name}
+                             for w in wheels]}
     options = {"xz_over": 64 << 10, "preset": "0", **options}
     build.assemble(out, tmp_path / "work", wheels, src, manifest, part_size=part_size, **options)
     return out

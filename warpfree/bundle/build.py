@@ -196,8 +196,6 @@ def default_source() -> Path:
 def source_tree(source: Path, work: Path) -> tuple[Path, dict]:
     """The files of the source checkout copied to ``work/src`` (a git checkout: its committed tree, ``git archive
     HEAD``), and what they are (commit, whether the working tree had other changes)."""
-    if not (source / "pyproject.toml").is_file():
-        raise ParameterError("--source", f"{source} has no pyproject.toml: give warpfree's source checkout")
     dest = work / "src"
     if dest.exists():
         shutil.rmtree(dest)
@@ -558,6 +556,8 @@ def build(out: Path, target: Target, *, form: str = "wheels", have: list[str] = 
                                            "wheel is installed as it was published")
     xz_preset(preset)
     source = Path(source) if source else default_source()
+    if not (source / "pyproject.toml").is_file():
+        raise ParameterError("--source", f"{source} has no pyproject.toml: give warpfree's source checkout")
     out, work = Path(out).resolve(), Path(work or f"{out}-work").resolve()
     require_out(out, overwrite)
     work.mkdir(parents=True, exist_ok=True)

@@ -261,14 +261,19 @@ def _query(python: str, code: str) -> str:
     return subprocess.run([python, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
 
 
-def require_present(python: str, names: list[str]) -> None:
-    """The packages the bundle left out because the target has them (``--have``) are there for ``python``."""
+def require_present(python: str, names: list[str], new_venv: bool = False) -> None:
+    """The packages the bundle left out because the target has them (``--have``) are there for ``python`` (in a new
+    venv: from its base Python, which is not the environment this script runs in when that is a venv)."""
     if not names:
         return
     code = ("import importlib.metadata as m, json, sys\nout = []\nfor n in sys.argv[1:]:\n    try: m.version(n)\n"
             "    except m.PackageNotFoundError: out.append(n)\nprint(json.dumps(out))")
     missing = json.loads(subprocess.run([python, "-c", code, *names], capture_output=True, text=True,
                                         check=True).stdout)
+    if missing and new_venv and sys.prefix != sys.base_prefix:
+        raise Refused(f"a new venv does not see {', '.join(missing)}, which the bundle left out (built with --have): "
+                      f"this Python runs in the environment {sys.prefix}, and a venv made from it sees only its base "
+                      f"Python's packages; give --here to install into {sys.prefix}")
     if missing:
         raise Refused(f"this Python lacks {', '.join(missing)}, which the bundle left out (built with --have): install "
                       "them, run this with a Python that has them, or give --here inside the environment that has "
@@ -284,11 +289,13 @@ def clean_pip_env() -> dict:
 
 
 def install_wheels(python: str, wheels: str, manifest: dict) -> None:
-    """``pip install --no-index --find-links wheels warpfree==VERSION`` with ``python``."""
-    cmd = [python, "-m", "pip", "install", "--no-index", "--find-links", wheels, "--disable-pip-version-check",
-           f"warpfree=={manifest['warpfree']}"]
-    if _run(cmd, env=clean_pip_env()) != 0:
-        raise Refused("pip could not install from the bundle's wheels (its message is above)")
+    """``pip install --no-index --find-links wheels warpfree==VERSION`` with ``python``, then warpfree's own wheel again
+    (``--force-reinstall --no-deps``: a bundle of the same version number replaces an earlier install)."""
+    pip = [python, "-m", "pip", "install", "--no-index", "--find-links", wheels, "--disable-pip-version-check"]
+    own = [os.path.join(wheels, p["wheel"]) for p in manifest["packages"] if p["name"] == "warpfree"]
+    for cmd in (pip + [f"warpfree=={manifest['warpfree']}"], pip + ["--force-reinstall", "--no-deps", *own]):
+        if _run(cmd, env=clean_pip_env()) != 0:
+            raise Refused("pip could not install from the bundle's wheels (its message is above)")
 
 
 def site_packages(python: str) -> str:
@@ -389,12 +396,19 @@ def main(argv: list[str] | None = None) -> int:
                       "${PYTHONPATH:+:$PYTHONPATH}   # then: python -m warpfree")
             return 0
         check_target(manifest)
+        made = False
         if args.here:
             python, venv = sys.executable, sys.prefix
         else:
             venv = os.path.abspath(args.venv)
+            made = not os.path.exists(venv)
             python = make_venv(venv, with_pip=manifest["form"] == "wheels")
-        require_present(python, manifest["selection"]["have"])
+        try:
+            require_present(python, manifest["selection"]["have"], new_venv=made)
+        except Refused:
+            if made:  # the venv made a moment ago goes with the refusal
+                shutil.rmtree(venv, ignore_errors=True)
+            raise
         work = tempfile.mkdtemp(prefix=".warpfree-bundle-", dir=venv)
         try:
             unpacked = os.path.join(work, "payload")
