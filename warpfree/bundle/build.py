@@ -68,7 +68,8 @@ class BundleError(RuntimeError):
 
 # -- options -------------------------------------------------------------------------------------------------------
 def parse_size(text: str, option: str = "--part-size") -> int:
-    """Bytes from ``55M`` (MiB), ``64MiB``, ``60MB`` (10^6), ``1G`` or a plain count; ParameterError naming ``option``."""
+    """Bytes from ``55M`` (MiB), ``64MiB``, ``60MB`` (10^6), ``1G`` or a plain count; ParameterError naming
+    ``option``."""
     match = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*([A-Za-z]*)\s*", str(text))
     unit = match.group(2).upper() if match else None
     if not match or unit not in UNITS:
@@ -254,12 +255,11 @@ def repo_archive(src: Path, path: Path) -> None:
 
 
 # -- resolution and selection --------------------------------------------------------------------------------------
-def _markers():
+def _requirement_class():
+    """packaging's Requirement (from pip's own copy where packaging is not installed)."""
     try:
-        from packaging.markers import Marker
         from packaging.requirements import Requirement
-    except ImportError:  # pip carries packaging
-        from pip._vendor.packaging.markers import Marker  # noqa: F401
+    except ImportError:
         from pip._vendor.packaging.requirements import Requirement
     return Requirement
 
@@ -278,7 +278,7 @@ def select(items: list[dict], roots: list[str], have: list[str], target: Target)
     each item (markers evaluated for ``target``) without passing through a package in ``have``. Also the names a
     marker asks for on the target that the resolution lacks (pip evaluated markers for this Python, not the
     target's)."""
-    Requirement = _markers()
+    Requirement = _requirement_class()
     environment = target.marker_environment()
     by_name = {normalise(item["metadata"]["name"]): item for item in items}
     have = set(have)
@@ -512,16 +512,18 @@ def write_bundle(stage: Path, out: Path, manifest: dict, part_size: int | None) 
 
 
 def readme(manifest: dict) -> str:
-    target = manifest["target"]
-    parts = manifest["parts"]
-    return f"""warpfree {manifest['warpfree']} offline bundle ({manifest['form']} form) for Python {target['python']} on \
-{target['machine']} ({', '.join(target['platforms'][:1]) or 'the building machine'})
+    target, parts = manifest["target"], manifest["parts"]
+    python = f"python{target['python']}"
+    where = ", ".join(target["platforms"][:1]) or "the building machine"
+    files = f"{len(parts)} part{'s' if len(parts) > 1 else ''}, {install.MANIFEST}, {INSTALLER}"
+    return f"""warpfree {manifest['warpfree']} offline bundle ({manifest['form']} form) for Python {target['python']} \
+on {target['machine']} ({where})
 
-Copy every file of this folder ({len(parts)} part{'s' if len(parts) > 1 else ''}, {install.MANIFEST}, {INSTALLER}) into one
-folder on the target, then run there, with the Python that will run warpfree:
+Copy every file of this folder ({files})
+into one folder on the target, then run there, with the Python that will run warpfree:
 
-    python{target['python']} {INSTALLER}                 # verify, install into ./warpfree-venv, warpfree validate --quick
-    python{target['python']} {INSTALLER} --verify-only   # only check the parts against {install.MANIFEST}
+    {python} {INSTALLER}                # verify, install into ./warpfree-venv, warpfree validate --quick
+    {python} {INSTALLER} --verify-only  # only check the parts against {install.MANIFEST}
     python{target['python']} {INSTALLER} --help
 
 Packages left out because the target has them: {', '.join(manifest['selection']['have']) or 'none'}.

@@ -3,10 +3,10 @@
 This file is shipped in every bundle as ``install_bundle.py`` and needs only the Python standard library: run it with
 the Python that will run warpfree (the bundle's target version), in the folder that holds the bundle's parts::
 
-    python3 install_bundle.py                       # verify, unpack, install into ./warpfree-venv, warpfree validate --quick
-    python3 install_bundle.py --verify-only         # check every part against manifest.json, install nothing
-    python3 install_bundle.py --here                # into the environment of this Python (a venv or conda env)
-    python3 install_bundle.py --check gpu           # afterwards the one-shot GPU check (bench/core/gpu_check.py)
+    python3 install_bundle.py                   # verify, unpack, install into ./warpfree-venv, validate --quick
+    python3 install_bundle.py --verify-only     # check every part against manifest.json, install nothing
+    python3 install_bundle.py --here            # into the environment of this Python (a venv or conda env)
+    python3 install_bundle.py --check gpu       # afterwards the one-shot GPU check (bench/core/gpu_check.py)
 
 In order: the parts are checked against ``manifest.json`` (present, size, sha256); joined as one stream and unpacked
 (no joined copy is written); every unpacked file is checked against the manifest; files shipped compressed
