@@ -30,6 +30,7 @@ Commands:
   run       run a scene: a shipped scene's name or a path to a scene file (a Python module with build(**params)
             returning a TimeLoop or StaticRun)
   validate  run every validation case (--quick: at a short size) and print and write its table of checks
+  bundle    build an offline bundle for a machine with no package index (warpfree bundle build --help)
 
 Example:
   warpfree run dam_break_2d --set dx=0.02 --out runs/db --threads 2
@@ -94,6 +95,10 @@ def build_parser() -> argparse.ArgumentParser:
                             "max(|value|, tolerance)")
     check.add_argument("--threads", type=int, default=None, help="CPU threads (default: all cores)")
     check.add_argument("--device", default="cpu", help="cpu (default), cuda or cuda:N")
+    from .bundle.build import add_arguments as add_bundle_arguments
+
+    add_bundle_arguments(sub.add_parser("bundle", help="build or verify an offline bundle",
+                                        description="Offline bundles for a machine with no package index."))
     return parser
 
 
@@ -414,6 +419,10 @@ def main(argv: list[str] | None = None) -> int:
             return run_command(args)
         if args.command == "validate":
             return validate_command(args)
+        if args.command == "bundle":
+            from .bundle.build import bundle_command
+
+            return bundle_command(args)
     except ParameterError as err:
         _say(f"warpfree: error: {err}")
         return 2
