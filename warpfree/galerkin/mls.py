@@ -35,9 +35,11 @@ from warpfree.space import Space
 
 from .shapes import ShapeData, ShapeModel, material_array, points2d, vec3_points
 
-__all__ = ["MLSSettings", "MLSModel", "BASES", "WEIGHTS", "RCOND_LIMIT"]
+__all__ = ["MLSSettings", "MLSModel", "BASES", "DEGREES", "WEIGHTS", "RCOND_LIMIT"]
 
 BASES = {"linear": 3, "quadratic": 6}
+#: the polynomial degree each basis reproduces exactly
+DEGREES = {"linear": 1, "quadratic": 2}
 WEIGHTS = {"cubic_spline": 0, "quartic": 1, "gaussian": 2, "singular": 3}
 SUPPORTS = ("circular", "rectangular")
 
@@ -265,6 +267,13 @@ class MLSModel(ShapeModel):
                                             f"{counts[i]} nodes, is ill-conditioned (scaled pivot {rcond[i]:.1e} < "
                                             f"{RCOND_LIMIT:.0e}; nodes on a line?) at {bad.size} point(s): raise "
                                             f"d_max (now {self.settings.d_max}) or move nodes")
+
+    @property
+    def consistency_order(self) -> int:
+        """One above the basis's degree p (``warpfree.galerkin.consistent_integration``): at order p the Galerkin
+        equations of the solution's degree-(p + 1) part stay off by O(h^p) summed along the boundary, a flux error
+        that a natural boundary passes to the solution (an L2 rate of p, not p + 1)."""
+        return DEGREES[self.settings.basis] + 1
 
     def describe(self) -> dict:
         """The model for ``summary.json``: node count, basis, weight, d_max, support shape and radii."""
