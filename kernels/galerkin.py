@@ -14,6 +14,7 @@ import warp as wp
 
 from .assembly import Loads, Triplets, write_load, write_triplet
 from .neighbours import NeighbourRows
+from .space import Box2d, offset2d
 
 
 @wp.struct
@@ -97,18 +98,35 @@ def corrected_gradients(
     first: int,
     rows: NeighbourRows,
     dphi: wp.array(dtype=wp.vec2d),
+    points: wp.array(dtype=wp.vec2d),
     point_material: wp.array(dtype=wp.int32),
     materials: int,
-    correction: wp.array(dtype=wp.vec2d),
+    nodes: wp.array(dtype=wp.vec2d),
+    spacing: wp.array(dtype=wp.float64),
+    box: Box2d,
+    terms: int,
+    coefficient: wp.array(dtype=wp.vec2d),
     out: wp.array(dtype=wp.vec2d),
 ):
-    """∇ψ_I(x_g) = ∇φ_I(x_g) + ξ_{I,m} at every entry of point g's row, m the point's material (variationally
-    consistent integration; one correction per node and material region, ``materials`` regions)."""
+    """∇ψ_I(x_g) = ∇φ_I(x_g) + Σ_p c_{I,m,p} q_p(r) at every entry of point g's row (variationally consistent
+    integration): m the point's material (``materials`` regions), r = (x_g - x_I)/h_I (minimum image, ``box``),
+    q = (1, r_x, r_y, r_x², r_x r_y, r_y²) of which the first ``terms`` (1, 3 or 6), ``coefficient`` (c per node,
+    region and term: index (I·materials + m)·terms + p). float64."""
     g = first + wp.tid()
     start = rows.start[g]
     m = point_material[g]
+    x = points[g]
     for a in range(rows.count[g]):
-        out[start + a] = dphi[start + a] + correction[rows.index[start + a] * materials + m]
+        node = rows.index[start + a]
+        base = (node * materials + m) * terms
+        value = dphi[start + a] + coefficient[base]
+        if terms > 1:
+            r = offset2d(box, x, nodes[node]) / spacing[node]
+            value = value + r[0] * coefficient[base + 1] + r[1] * coefficient[base + 2]
+            if terms > 3:
+                value = value + (r[0] * r[0]) * coefficient[base + 3] + (r[0] * r[1]) * coefficient[base + 4] \
+                    + (r[1] * r[1]) * coefficient[base + 5]
+        out[start + a] = value
 
 
 @wp.kernel

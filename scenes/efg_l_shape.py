@@ -4,8 +4,9 @@ The manufactured case of ``warpfree/validation/efg_l_shape``: -Δu = s on the L 
 u prescribed on the outer sides (Lagrange multipliers), the flux ∂u/∂n on the two re-entrant sides (3 Gauss
 points per node spacing). Regular nodes at spacing 1/``n``, one background cell per node spacing with ``gauss`` x
 ``gauss`` points (None: the basis's, ``warpfree.galerkin.quadrature.CELL_ORDER``), the cubic-spline weight,
-consistent integration (its quadratic form for the quadratic basis). Writes into ``summary.json`` the relative L2
-error (3 x 3 Gauss points on a 40 x 40 grid per unit square) and, with ``refinements`` > 0 (2 by default), the
+consistent integration of order ``consistency`` (None: the model's, one above the basis's degree: 2 for the
+linear basis, 3 for the quadratic; ``warpfree.galerkin.consistent_integration``). Writes into ``summary.json`` the
+relative L2 error (3 x 3 Gauss points on a 40 x 40 grid per unit square) and, with ``refinements`` > 0 (2 by default), the
 errors at spacings 1/(n·2^-k) ..., the rates between them, ``checks``: the finest rate against the order 3 of MLS on
 regular nodes (:func:`l_shape_checks`), and ``convergence.png`` (the errors against the order-3 line, the rates
 with the tolerance band below). The domain is the unit-free L of the manufactured case (lengths in its units).
@@ -54,9 +55,10 @@ def l_shape_checks(rates: list[float]) -> dict:
               "falls off is a quadrature defect, README)")}
 
 
-def l_shape_solver(n: int, basis: MLSBasis = MLSBasis.LINEAR, d_max: float = 2.0,
-                   gauss: int | None = None) -> PoissonSolver:
-    """The case's EFG solver (not yet solved) at node spacing 1/n."""
+def l_shape_solver(n: int, basis: MLSBasis = MLSBasis.LINEAR, d_max: float = 2.0, gauss: int | None = None,
+                   consistency: int | None = None) -> PoissonSolver:
+    """The case's EFG solver (not yet solved) at node spacing 1/n; ``consistency``: the order of consistent
+    integration (None: the model's)."""
     order = cell_order(basis, gauss)
     require_memory("cells", 3.0 * (n + 1.0) ** 2, BYTES_PER_NODE, "nodes")
     g = np.arange(2 * n + 1) / n
@@ -77,7 +79,7 @@ def l_shape_solver(n: int, basis: MLSBasis = MLSBasis.LINEAR, d_max: float = 2.0
     flux = lambda p, normal: np.sum(exact_gradient(p) * normal, axis=1)[:, None]  # noqa: E731
     natural = [Natural(segment_points(np.c_[2 - t[:-1], np.ones(n)], np.c_[2 - t[1:], np.ones(n)], 3), flux),
                Natural(segment_points(np.c_[np.ones(n), 1 + t[:-1]], np.c_[np.ones(n), 1 + t[1:]], 3), flux)]
-    return PoissonSolver(model, cells, source=source, essential=essential, natural=natural)
+    return PoissonSolver(model, cells, source=source, essential=essential, natural=natural, consistency=consistency)
 
 
 def l2_error(solver: PoissonSolver) -> float:
@@ -96,23 +98,26 @@ def build(n: Annotated[int, Param("", "node spacings per unit length of the L (s
           basis: Basis = MLSBasis.LINEAR, d_max: SupportScale = 2.0, gauss: CellGauss = None,
           refinements: Annotated[int, Param("", "also solve at n/2, n/4, ..., this many coarser levels, for the rates",
                                             "[0, inf)")] = 2,
+          consistency: Annotated[int | None, Param("", "order of the consistent integration (none: one above the "
+                                                       "basis's degree)", "[1, 3]")] = None,
           frames: Frames = True, vtk: Vtk = True) -> StaticRun:
     """``n``: node spacings per unit length (the L is 2 x 2); ``refinements``: also solve at n/2, n/4, ... (that
-    many coarser levels, each a whole number of at least 2) for the rates."""
+    many coarser levels, each a whole number of at least 2) for the rates; ``consistency``: the order of consistent
+    integration (None: one above the basis's degree)."""
     gauss = cell_order(basis, gauss)
     params = dict(locals())
     if n >> refinements < 2 or n % (1 << refinements):
         raise ParameterError("refinements", f"n = {n} halved {refinements} times must stay a whole number of at "
                                             f"least 2 spacings per unit")
     with reported_as(**NAMES):
-        solver = l_shape_solver(n, basis, d_max, gauss)
+        solver = l_shape_solver(n, basis, d_max, gauss, consistency)
 
     def accuracy(run, out_dir):
         result = {"l2_error": l2_error(run.solver), "n": n}
         if refinements:
             coarse = []
             for k in range(refinements, 0, -1):
-                level = l_shape_solver(n >> k, basis, d_max, gauss)
+                level = l_shape_solver(n >> k, basis, d_max, gauss, consistency)
                 level.solve()
                 coarse.append({"n": n >> k, "l2_error": l2_error(level)})
             errors = [c["l2_error"] for c in coarse] + [result["l2_error"]]

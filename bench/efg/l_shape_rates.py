@@ -2,16 +2,17 @@
 re-entrant sides, per basis and Gauss rule of the background cells.
 
 What it measures
-    The case ``warpfree.validation.efg_l_shape`` as ``scenes/efg_l_shape.py`` builds it: -Δu = s on the L [0, 2]² minus (1, 2]², smooth u, u prescribed on
-    the outer sides (Lagrange multipliers), the flux ∂u/∂n on the two re-entrant sides, consistent integration
-    (quadratic correction for the quadratic basis). Regular nodes at spacing h = 1/n (n = 4, 8,
-    16, 32), one background cell per node spacing with ``order`` x ``order`` Gauss points, the cubic-spline weight.
-    Error: the relative L2 error over the L (3 x 3 Gauss points on a 40 x 40 grid per unit square); the rate
-    between successive levels. Cases: the linear basis at d_max 2.0 and 3.5, the quadratic at 2.5, each at 2 x 2
-    and 3 x 3 points (``--orders`` to change).
+    The case ``warpfree.validation.efg_l_shape`` as ``scenes/efg_l_shape.py`` builds it: -Δu = s on the L
+    [0, 2]² minus (1, 2]², smooth u, u prescribed on the outer sides (Lagrange multipliers), the flux ∂u/∂n on the
+    two re-entrant sides, consistent integration of the solver's default order (one above the basis's degree: 2
+    linear, 3 quadratic) and, for comparison, of the basis's own order (1 linear, 2 quadratic). Regular nodes at
+    spacing h = 1/n (n = 4, 8, 16, 32), one background cell per node spacing with ``order`` x ``order`` Gauss
+    points, the cubic-spline weight. Error: the relative L2 error over the L (3 x 3 Gauss points on a 40 x 40 grid
+    per unit square); the rate between successive levels. Cases: the linear basis at d_max 2.0, 2.5 and 3.5, the
+    quadratic at 2.5, each at 2 x 2 and 3 x 3 points (``--orders`` to change).
 
 Usage
-    python bench/efg/l_shape_rates.py             # ~1 min on 2 cores
+    python bench/efg/l_shape_rates.py             # ~2 min on 2 cores
     python bench/efg/l_shape_rates.py --quick     # n = 4, 8, 16
 Writes bench/results/l_shape_rates[_quick].{json,md}.
 """
@@ -31,8 +32,9 @@ import common  # noqa: E402
 #: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
 RUN_ALL = [[]]
 
-#: (basis, d_max) of the cases
-CASES = (("linear", 2.0), ("linear", 3.5), ("quadratic", 2.5))
+#: (basis, d_max, consistency order: None the solver's default) of the cases
+CASES = (("linear", 2.0, None), ("linear", 2.5, None), ("linear", 2.5, 1), ("linear", 3.5, None),
+         ("linear", 3.5, 1), ("quadratic", 2.5, None), ("quadratic", 2.5, 2))
 
 
 def main() -> None:
@@ -47,23 +49,27 @@ def main() -> None:
     warpfree.device.use("cpu", 2)
     levels = [4, 8, 16] if args.quick else [4, 8, 16, 32]
     rows = []
-    for basis, d_max in CASES:
+    for basis, d_max, consistency in CASES:
         for order in args.orders:
             errors = []
             for n in levels:
-                solver = efg_l_shape.l_shape_solver(n, basis, d_max, order)
+                solver = efg_l_shape.l_shape_solver(n, basis, d_max, order, consistency)
                 solver.solve()
                 errors.append(efg_l_shape.l2_error(solver))
             rates = np.log2(np.asarray(errors[:-1]) / np.asarray(errors[1:])).tolist()
-            rows.append(dict(basis=basis, d_max=d_max, order=order, errors=errors, rates=rates))
-            print(f"  {basis} d_max {d_max} {order}x{order}: errors {['%.2e' % e for e in errors]}, "
-                  f"rates {np.round(rates, 2).tolist()}", flush=True)
+            rows.append(dict(basis=basis, d_max=d_max, order=order, consistency=solver.consistency_order,
+                             default=consistency is None, errors=errors, rates=rates))
+            print(f"  {basis} d_max {d_max} {order}x{order} consistency {solver.consistency_order}: errors "
+                  f"{['%.2e' % e for e in errors]}, rates {np.round(rates, 2).tolist()}", flush=True)
     md = ["## EFG on an L with flux on the re-entrant sides: relative L2 error and rate per refinement", "",
           f"Node spacing 1/n, n = {', '.join(map(str, levels))}; one background cell per node spacing; consistent "
-          "integration; the exact solution is smooth.", "",
-          "| basis | d_max | Gauss points | errors | rates |", "| --- | --: | --: | --- | --- |"]
+          "integration of the order given (the default: one above the basis's degree); the exact solution is "
+          "smooth.", "",
+          "| basis | d_max | Gauss points | consistency order | errors | rates |",
+          "| --- | --: | --: | --: | --- | --- |"]
     for r in rows:
-        md.append(f"| {r['basis']} | {r['d_max']:g} | {r['order']}x{r['order']} | "
+        label = f"{r['consistency']}" + (" (default)" if r["default"] else "")
+        md.append(f"| {r['basis']} | {r['d_max']:g} | {r['order']}x{r['order']} | {label} | "
                   f"{', '.join('%.2e' % e for e in r['errors'])} | {', '.join('%.2f' % a for a in r['rates'])} |")
     common.write_results("l_shape_rates", {"levels": levels, "rows": rows}, "\n".join(md), quick=args.quick)
 

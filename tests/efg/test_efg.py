@@ -190,8 +190,8 @@ def _beam(**kw):
 
 def test_timoshenko_tip_deflection_and_energy_norm_convergence(tmp_path):
     """Issue: tip within 0.5 % of 8.900e-3 with at most 1000 regular nodes; energy-norm rate >= 1 over 4
-    refinements. Measured 2026-11-23: 637 nodes -3.7e-4; errors 3.3e-2, 1.7e-2, 3.9e-3, 1.4e-3 (52 ... 2425
-    nodes), fitted rate 1.69."""
+    refinements. Measured (consistent integration of order 2): 637 nodes -1.9e-4; errors 2.1e-2, 1.4e-2, 2.4e-3,
+    1.2e-3 (52 ... 2425 nodes), fitted rate 1.62."""
     run = _beam(refinements=4)
     summary = run.run(str(tmp_path), progress=False)
     beam = summary["analysis"]["beam"]
@@ -203,7 +203,7 @@ def test_timoshenko_tip_deflection_and_energy_norm_convergence(tmp_path):
 
 
 def test_timoshenko_random_nodes_and_plain_quadrature_stay_within_the_tolerance(tmp_path):
-    """Random layout (one node per sub-cell), 637 nodes: tip +3.8e-4 consistent; plain Gauss quadrature +1.7e-3."""
+    """Random layout (one node per sub-cell), 637 nodes: tip -4.5e-5 consistent; plain Gauss quadrature +1.7e-3."""
     for integration in ("consistent", "gauss"):
         run = _beam(layout="random", integration=integration, seed=1)
         summary = run.run(str(tmp_path / integration), progress=False)
@@ -265,9 +265,9 @@ def test_open_boundary_is_refused_for_consistent_integration(launcher):
 
 def test_cylinder_radial_displacement_matches_plane_strain_lame(tmp_path):
     """Issue: u_r(10) within 0.5 % of 0.079167 (plane strain; the thesis's eq 5.3 is plane stress, 0.080815).
-    Measured 2026-11-23 (mean over the nodes on each arc), 17 x 17 polar nodes (default): inner -9.0e-5, outer
-    -6.6e-5, energy-norm error 5.6e-3;
-    random layout (seed 1): -3.4e-4, -1.7e-4, 2.3e-2."""
+    Measured (mean over the nodes on each arc; consistent integration of order 2), 17 x 17 polar nodes (default):
+    inner -1.6e-4, outer -1.2e-4, energy-norm error 4.8e-3; random layout (seed 1): +2.1e-4, +4.9e-4, 1.3e-2
+    (order 1: -9.0e-5, -6.6e-5, 5.6e-3; random -3.4e-4, -1.7e-4, 2.3e-2)."""
     scene = load_scene("efg_cylinder")
     for layout, energy in (("regular", 1e-2), ("random", 5e-2)):
         summary = scene.build(layout=layout, seed=1, frames=layout == "regular", vtk=False).run(
@@ -281,7 +281,8 @@ def test_cylinder_radial_displacement_matches_plane_strain_lame(tmp_path):
 
 def test_cook_membrane_converges_to_the_fem_reference(tmp_path):
     """Issue: converges to a fine-mesh FEM reference (ours: Q9 16²..512², Richardson, u_y(48, 60) = 0.0958439).
-    Measured 2026-11-23: 81, 289, 1089 regular nodes -2.4 %, -1.0 %, -0.56 % (default 1089)."""
+    Measured (consistent integration of order 2): 81, 289, 1089 regular nodes -2.4 %, -0.98 %, -0.56 % (default
+    1089); u_y(48, 52) -0.60 %, +0.03 %, -0.018 %."""
     scene = load_scene("efg_cook")
     summary = scene.build(refinements=2, frames=False, vtk=False).run(str(tmp_path), progress=False)
     levels = summary["analysis"]["convergence"]["levels"] + [summary["analysis"]["cook"]]
@@ -325,7 +326,7 @@ def test_resistor_potential_and_field_against_the_fem_reference_and_truncation_m
     """Seed 002 §6.2's accuracy: potential within 0.2 %, field within 7 % of a fine FEM reference, no spurious
     oscillation at the interface, the normal current continuous within 0.1 % away from the corners; the scene
     reports each against its tolerance (``checks``). Measured at the defaults (7 153 nodes graded toward the corners,
-    quadratic basis): potential 3.5e-5 V on the lines, |E| 0.057 % largest, normal current 0.071 % mean over
+    quadratic basis): potential 6.0e-5 V on the lines, |E| 0.056 % largest, normal current 0.071 % mean over
     x 1.1-1.9 mm (0.43 % largest); without domain truncation |E| misses by 31 % and the normal current by
     1 - σ1/σ2 = 39 %."""
     scene = load_scene("efg_resistor")

@@ -38,7 +38,7 @@ from warpfree.space import Space
 from .shapes import ShapeData, ShapeModel, material_array, points2d, vec3_points
 
 __all__ = ["MLSSettings", "MLSModel", "MLSBasis", "MLSWeight", "SupportShape", "Basis", "Weight", "SupportScale",
-           "BASES", "WEIGHTS", "RCOND_LIMIT"]
+           "BASES", "DEGREES", "WEIGHTS", "RCOND_LIMIT"]
 
 
 class MLSBasis(Choice):
@@ -66,6 +66,8 @@ class SupportShape(Choice):
 
 #: basis terms m by basis
 BASES = {MLSBasis.LINEAR: 3, MLSBasis.QUADRATIC: 6}
+#: the polynomial degree each basis reproduces exactly
+DEGREES = {MLSBasis.LINEAR: 1, MLSBasis.QUADRATIC: 2}
 #: the weight ids of the kernels (``kernels/mls.py``)
 WEIGHTS = {MLSWeight.CUBIC_SPLINE: 0, MLSWeight.QUARTIC: 1, MLSWeight.GAUSSIAN: 2, MLSWeight.SINGULAR: 3}
 
@@ -296,6 +298,13 @@ class MLSModel(ShapeModel):
                                             f"{counts[i]} nodes, is ill-conditioned (scaled pivot {rcond[i]:.1e} < "
                                             f"{RCOND_LIMIT:.0e}; nodes on a line?) at {bad.size} point(s): raise "
                                             f"d_max (now {self.settings.d_max}) or move nodes")
+
+    @property
+    def consistency_order(self) -> int:
+        """One above the basis's degree p (``warpfree.galerkin.consistent_integration``): at order p the Galerkin
+        equations of the solution's degree-(p + 1) part stay off by O(h^p) summed along the boundary, a flux error
+        that a natural boundary passes to the solution (an L2 rate of p, not p + 1)."""
+        return DEGREES[self.settings.basis] + 1
 
     def describe(self) -> dict:
         """The model for ``summary.json``: node count, basis, weight, d_max, support shape and radii."""

@@ -97,6 +97,13 @@ class ShapeModel(ABC):
     def describe(self) -> dict:
         """The model's parameters and counts, for ``summary.json``."""
 
+    @property
+    def consistency_order(self) -> int:
+        """The order n of the variationally consistent integration the solvers use with this model
+        (``warpfree.galerkin.consistent_integration``: the Galerkin equations of every field of degree n exact):
+        1, the constant correction, unless the model raises it (MLS: one above its basis's degree)."""
+        return 1
+
     def evaluate(self, nodal, shape: ShapeData, components: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """(u^h (n, components), ∇u^h (n, components, 2)) at the points of ``shape`` from nodal parameters
         ``nodal`` (node count × components, node-major: u_{cI+k})."""

@@ -30,7 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from warpfree.errors import ParameterError, require_finite, require_positive
+from warpfree.errors import ParameterError, require_finite, require_integer, require_positive
 from warpfree.parallel import world as ranks_of_run
 from warpfree.parallel.petsc_system import PETScSystem, Preconditioner, require_petsc
 from warpfree.parameters import Choice
@@ -38,8 +38,7 @@ from warpfree.solver import OutputSet, StaticSolver
 from warpfree.sparse import FactorisedSystem, PrescribedValues
 
 from warpfree.galerkin import assembly
-from warpfree.galerkin.consistent_integration import consistent_test_gradients, quadratic_consistent_test_gradients
-from warpfree.galerkin.mls import MLSBasis
+from warpfree.galerkin.consistent_integration import ORDERS, consistent_test_gradients
 from warpfree.galerkin.nodal_integration import SmoothingCells, smoothed_shape
 from warpfree.galerkin.quadrature import BoundaryPoints, QuadraturePoints
 from warpfree.galerkin.shapes import ShapeData, ShapeModel
@@ -116,15 +115,16 @@ class EFGSolver(StaticSolver):
     materials, which then needs every piece's ``material``); method: "lagrange",
     "penalty" or "direct" (module ``boundary``); penalty: α as a multiple of the largest diagonal entry of K per
     unit boundary weight; integration: "consistent" (test gradients corrected so that the discrete divergence
-    theorem holds, ``consistent_test_gradients``: linear fields exact; needs essential + natural + free to
-    cover the whole boundary), "gauss" (plain Gauss quadrature, the thesis's) or "scni" (stabilized conforming
-    nodal integration, ``warpfree.galerkin.nodal_integration``: ``cells`` are then
+    theorem holds, ``consistent_test_gradients``: the Galerkin equations of every polynomial field of degree
+    ``consistency`` exact, by default the model's ``consistency_order``, for MLS one above its basis's degree; needs
+    essential + natural + free to cover the whole boundary), "gauss" (plain Gauss quadrature, the thesis's) or
+    "scni" (stabilized conforming nodal integration, ``warpfree.galerkin.nodal_integration``: ``cells`` are then
     :class:`~warpfree.galerkin.nodal_integration.SmoothingCells`, one per node, and the strains at the nodes are
     cell averages; linear fields exact; one material, no interfaces); interface_condition: "nitsche"
     (the interface term of the weak form that domain truncation drops, its symmetric partner and a penalty
     ``nitsche_penalty`` · k_max / h: a conforming interface, ``boundary_terms.interface_matrix``) or "none" (truncation
     alone, seed 002's); linear_solver, preconditioner: :meth:`set_linear_solver` (SuperLU in one process, PETSc
-    over several ranks).
+    over several ranks); consistency: the order of consistent integration (None: the model's).
     """
 
     distributes = True
@@ -138,7 +138,8 @@ class EFGSolver(StaticSolver):
                  penalty: float = 1e7, cell_material=None, free: list | None = None,
                  interfaces: list[Interface] | None = None, integration: Integration = Integration.CONSISTENT,
                  interface_condition: InterfaceCondition = InterfaceCondition.NITSCHE, nitsche_penalty: float = 20.0,
-                 linear_solver: LinearSolver = LinearSolver.AUTO, preconditioner: Preconditioner = Preconditioner.AUTO):
+                 linear_solver: LinearSolver = LinearSolver.AUTO, preconditioner: Preconditioner = Preconditioner.AUTO,
+                 consistency: int | None = None):
         super().__init__(model, model.launcher)
         method = EssentialMethod.of("method", method)
         if method is EssentialMethod.DIRECT and not model.settings.interpolating:
@@ -175,7 +176,10 @@ class EFGSolver(StaticSolver):
         self.matrix: sp.csr_matrix | None = None
         self.load: np.ndarray | None = None
         self.multipliers = np.zeros(0)
-        self.correction: np.ndarray | None = None  # ξ_I of consistent integration (N, 2)
+        self.correction: np.ndarray | None = None  # the constant part of consistent integration's correction
+        #: the degree of the fields whose Galerkin equations consistent integration makes exact
+        self.consistency_order = model.consistency_order if consistency is None else require_integer(
+            "consistency", consistency, minimum=ORDERS[0], maximum=ORDERS[-1])
         self.world = ranks_of_run()
         self.set_linear_solver(linear_solver, preconditioner)
         if self.world.distributed and integration is Integration.SCNI:
@@ -253,12 +257,10 @@ class EFGSolver(StaticSolver):
                 pieces = self._boundary_pieces(essential, natural)
                 self._check_closed(pieces)
                 self._check_nodes_inside([p for _, p, _ in pieces])
-                quadratic = getattr(getattr(model, "settings", None), "basis", None) is MLSBasis.QUADRATIC
-                correct = quadratic_consistent_test_gradients if quadratic else consistent_test_gradients
                 regions = 1 if self.point_material is None else int(self.point_material.max()) + 1
-                test, self.correction = correct(
+                test, self.correction = consistent_test_gradients(
                     model, self.shape, self._points.weight, [(sh, p.weight, p.normal, r) for sh, p, r in pieces],
-                    self._material, regions=regions, total=total)
+                    self.consistency_order, self._material, regions=regions, total=total)
         with self.phases("assembly"):
             K = self._total_matrix(self.stiffness(self.shape, test))
             if self.interfaces and self.interface_condition is InterfaceCondition.NITSCHE:

@@ -8,7 +8,10 @@ Laplace functions interpolate) and :meth:`describe`; and, NEM's own,
 :meth:`integration_cells`: Gauss points on the Delaunay triangles (the thesis: 3 points per triangle, degree 2), and
 :meth:`smoothing_cells`: the nodes' Voronoi cells for stabilized conforming nodal integration
 (``warpfree.galerkin.nodal_integration``), the integration under which NEM converges (the Laplace gradients jump
-across circumcircles inside the triangles, which no fixed triangle rule follows).
+across circumcircles inside the triangles, which no fixed triangle rule follows). Consistent integration on the
+triangles stays at order 1 (the shape model's default ``consistency_order``): its correction is already a fixed
+fraction of the gradients at every level, and a second-order one fitted to the same points only adds to that bias
+(the Timoshenko beam, 637 / 2425 regular nodes: tip error +0.45 / +0.57 % at order 1, +4.1 / +3.5 % at order 2).
 
 Shape functions: Laplace / non-Sibsonian (Belikov et al. 1997; Sukumar et al. 2001), seed 003 eqs 3.45-3.46,
 
