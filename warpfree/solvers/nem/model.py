@@ -1,4 +1,4 @@
-"""The NEM model: nodes, their Delaunay triangulation and Laplace shape functions at any set of points (seed 003 §3.4).
+"""The NEM model: nodes, their Delaunay triangulation and Laplace shape functions at any set of points (Rocha 2012, §3.4).
 
 A :class:`NEMModel` is a :class:`~warpfree.galerkin.shapes.ShapeModel`, as the MLS model is, for the EFG solvers
 (``warpfree.solvers.efg.solver``): it has ``launcher``, ``node_count``, ``nodes_np``, ``spacing`` (per node),
@@ -10,7 +10,7 @@ Laplace functions interpolate) and :meth:`describe`; and, NEM's own,
 (``warpfree.galerkin.nodal_integration``), the integration under which NEM converges (the Laplace gradients jump
 across circumcircles inside the triangles, which no fixed triangle rule follows).
 
-Shape functions: Laplace / non-Sibsonian (Belikov et al. 1997; Sukumar et al. 2001), seed 003 eqs 3.45-3.46,
+Shape functions: Laplace / non-Sibsonian (Belikov et al. 1997; Sukumar et al. 2001), Rocha (2012), eqs 3.45-3.46,
 
     φ_i(x) = α_i / Σ_j α_j,   α_i = s_i / h_i,
 
@@ -273,7 +273,7 @@ class NEMModel(ShapeModel):
 
     def integration_cells(self, degree: int = 2) -> QuadraturePoints:
         """Gauss points on the kept Delaunay triangles (``triangle_cells``): degree 2 = 3 points per triangle, the
-        thesis's rule (seed 003 §4.1.4); degree 1-5."""
+        thesis's rule (Rocha 2012, §4.1.4); degree 1-5."""
         return triangle_cells(self.nodes_np, self.triangles, degree)
 
     def smoothing_cells(self, order: int = 1) -> SmoothingCells:
