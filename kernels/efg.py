@@ -1,4 +1,4 @@
-"""EFG kernels (seeds 003 and 002): the boundary-condition and interface terms of the Galerkin systems, every Gauss
+"""EFG kernels (Rocha 2012; Marques 2008): the boundary-condition and interface terms of the Galerkin systems, every Gauss
 point writing its own slots (race-free, bitwise for any thread count): Lagrange-multiplier coupling, the penalty
 method's boundary mass, the symmetric Nitsche terms on material interfaces.
 
@@ -32,7 +32,7 @@ def multiplier_coupling(
     slot_start: wp.array(dtype=wp.int32),
     out: Triplets,
 ):
-    """G_{(cI+k),(cK+k)} += -w_g φ_I(x_g) N_K(x_g) (seed 003 eq 3.36) on an essential boundary: each boundary Gauss
+    """G_{(cI+k),(cK+k)} += -w_g φ_I(x_g) N_K(x_g) (Rocha 2012, eq. 3.36) on an essential boundary: each boundary Gauss
     point lies on one piece (:class:`MultiplierPieces`). Row: unknown of node I; column: multiplier unknown."""
     g = first + wp.tid()
     rows = shape.rows

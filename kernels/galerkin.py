@@ -40,7 +40,7 @@ def conduction_stiffness(
     slot_start: wp.array(dtype=wp.int32),
     out: Triplets,
 ):
-    """K_IJ += w_g k_g ∇ψ_I·∇φ_J (seed 002 eq 3.9 with the material's k; ``weight`` holds w_g |J| k_g); ∇ψ: the test
+    """K_IJ += w_g k_g ∇ψ_I·∇φ_J (Marques 2008, eq. 3.9 with the material's k; ``weight`` holds w_g |J| k_g); ∇ψ: the test
     gradients (corrected for consistent integration, or ∇φ itself)."""
     g = first + wp.tid()
     start = rows.start[g]
@@ -66,7 +66,7 @@ def elastic_stiffness(
     slot_start: wp.array(dtype=wp.int32),
     out: Triplets,
 ):
-    """K_IJ += w_g B̂_Iᵀ D B_J (seed 003 eq 3.35), B_I = [[φ,x 0] [0 φ,y] [φ,y φ,x]], B̂ from the test gradients
+    """K_IJ += w_g B̂_Iᵀ D B_J (Rocha 2012, eq. 3.35), B_I = [[φ,x 0] [0 φ,y] [φ,y φ,x]], B̂ from the test gradients
     ``test_dphi``; unknowns (u_x, u_y) of node I at 2I, 2I + 1; four slots per node pair."""
     g = first + wp.tid()
     start = rows.start[g]
@@ -140,7 +140,7 @@ def point_loads(
     out: Loads,
 ):
     """f_{cI + k} += φ_I(x_g) v_{g,k} for k < ``components`` (``value`` holds w_g times the source, flux or
-    traction component k at index components·g + k): seed 003 eq 3.36 f_I, seed 002 eq 3.9 b_j."""
+    traction component k at index components·g + k): Rocha (2012), eq. 3.36 f_I, Marques (2008), eq. 3.9 b_j."""
     g = first + wp.tid()
     start = rows.start[g]
     n = rows.count[g]
@@ -162,7 +162,7 @@ def evaluate_field(
     value: wp.array(dtype=wp.float64),
     gradient: wp.array(dtype=wp.vec2d),
 ):
-    """u^h_k(x_i) = Σ_I φ_I(x_i) u_{cI+k} and its gradient Σ_I ∇φ_I u_{cI+k} (seed 003 eq 3.28), k < components."""
+    """u^h_k(x_i) = Σ_I φ_I(x_i) u_{cI+k} and its gradient Σ_I ∇φ_I u_{cI+k} (Rocha 2012, eq. 3.28), k < components."""
     i = first + wp.tid()
     start = rows.start[i]
     n = rows.count[i]
@@ -219,7 +219,7 @@ def conduction_rows(
     weight: wp.array(dtype=wp.float64),
     values: wp.array(dtype=wp.float64),
 ):
-    """Row I of K_IJ = Σ_g w_g ∇ψ_I(x_g)·∇φ_J(x_g) (seed 002 eq 3.9): node I gathers the Gauss points g in its
+    """Row I of K_IJ = Σ_g w_g ∇ψ_I(x_g)·∇φ_J(x_g) (Marques 2008, eq. 3.9): node I gathers the Gauss points g in its
     support (``gather.entries``: the row entries that hold I, in Gauss-point order; ``gather.entry_point``: entry -> g)
     and adds each pair into its slot of the CSR pattern (:class:`NodeGather`)."""
     i = first + wp.tid()
@@ -250,7 +250,7 @@ def elastic_rows(
     material: wp.array(dtype=wp.mat33d),
     values: wp.array(dtype=wp.mat22d),
 ):
-    """Block row I of K_IJ = Σ_g w_g B̂_Iᵀ D_g B_J (seed 003 eq 3.35), 2 x 2 blocks (row: component of the test node
+    """Block row I of K_IJ = Σ_g w_g B̂_Iᵀ D_g B_J (Rocha 2012, eq. 3.35), 2 x 2 blocks (row: component of the test node
     I, column: of the trial node J), gathered as in :func:`conduction_rows`."""
     i = first + wp.tid()
     pattern_cols = gather.pattern_cols

@@ -1,4 +1,4 @@
-"""MLS kernels (seeds 003 and 002), shared by EFG and PIC: node supports, support rows, moment accumulation, fits and
+"""MLS kernels (Rocha 2012; Marques 2008), shared by EFG and PIC: node supports, support rows, moment accumulation, fits and
 shape functions.
 
 Precision: float64 for everything the MLS algebra touches (positions ``wp.vec2d``, moment matrices, shape
@@ -7,7 +7,7 @@ functions, stiffness). The moment matrix A(x) = Σ_I w_I p_I p_Iᵀ is ill-condi
 is lost at the 1e-4 level and linear reproduction fails outright near collinear nodes. Float32 ``wp.vec3``
 copies of the node positions serve only the ``wp.HashGrid`` query, whose candidates are tested in float64.
 
-MLS (seed 003 eqs 3.22-3.29; seed 002 eqs 3.10-3.19), evaluated in the γ-form (Belytschko et al. 1996) with the
+MLS (Rocha 2012, eqs 3.22-3.29; Marques 2008, eqs 3.10-3.19), evaluated in the γ-form (Belytschko et al. 1996) with the
 basis shifted to the evaluation point x and scaled by a length s (an MLS fit with a complete basis does not
 depend on the shift; shifting and scaling keep A near unit size):
 
@@ -20,10 +20,10 @@ at x̄ = x, ∂_a p = e_{1+a}/s for the linear and quadratic bases. A is solved 
 Jacobi-scaled form; the smallest scaled pivot (``rcond``) measures its conditioning (0 for fewer nodes than
 basis terms or collinear nodes with the linear basis).
 
-Weights w(r), r = |x - x_I| / R_I (circular support) or w(|Δx|/R_x) w(|Δy|/R_y) (rectangular, seed 002 eq 3.23):
-cubic spline (seed 003 eq 3.32), quartic (3.30), Gaussian (3.31, shifted to vanish at r = 1: the printed form
+Weights w(r), r = |x - x_I| / R_I (circular support) or w(|Δx|/R_x) w(|Δy|/R_y) (rectangular, Marques 2008, eq. 3.23):
+cubic spline (Rocha 2012, eq. 3.32), quartic (3.30), Gaussian (3.31, shifted to vanish at r = 1: the printed form
 jumps by e^-6.25 there), and the singular weight w(r) = cubic(r) / (r² + ε²) with ε = 1e-8 whose shape functions
-interpolate (seed 002 §3.5: φ_I(x_J) = δ_IJ to ~1e-14; the thesis's singular Schwarz weight is not printed).
+interpolate (Marques 2008, §3.5: φ_I(x_J) = δ_IJ to ~1e-14; the thesis's singular Schwarz weight is not printed).
 
 Units: lengths in the scene's unit; shape functions dimensionless, gradients per length.
 """
@@ -71,16 +71,16 @@ def weight_and_slope(kind: int, r: wp.float64) -> wp.vec2d:
     w = wp.float64(0.0)
     dw = wp.float64(0.0)
     if r < one:
-        if kind == QUARTIC:  # seed 003 eq 3.30
+        if kind == QUARTIC:  # Rocha (2012), eq. 3.30
             w = one - wp.float64(6.0) * r * r + wp.float64(8.0) * r * r * r - wp.float64(3.0) * r * r * r * r
             dw = -wp.float64(12.0) * r + wp.float64(24.0) * r * r - wp.float64(12.0) * r * r * r
-        elif kind == GAUSSIAN:  # seed 003 eq 3.31, shifted: (e^-(r/α)² - e^-1/α²) / (1 - e^-1/α²), α = 0.4
+        elif kind == GAUSSIAN:  # Rocha (2012), eq. 3.31, shifted: (e^-(r/α)² - e^-1/α²) / (1 - e^-1/α²), α = 0.4
             a2 = wp.float64(4.0) / wp.float64(25.0)
             tail = wp.exp(-one / a2)
             e = wp.exp(-r * r / a2)
             w = (e - tail) / (one - tail)
             dw = -wp.float64(2.0) * r / a2 * e / (one - tail)
-        else:  # cubic spline, seed 003 eq 3.32 (also the numerator of the singular weight)
+        else:  # cubic spline, Rocha (2012), eq. 3.32 (also the numerator of the singular weight)
             w, dw = unit_cubic_spline(r)
             if kind == SINGULAR:  # w / (r² + ε²): φ_I(x_I) = 1
                 q = r * r + SINGULAR_EPS2
@@ -134,7 +134,7 @@ def inside_support(params: MLSParams, d: wp.vec2d, support: wp.vec2d) -> bool:
 @wp.func
 def serves(params: MLSParams, d: wp.vec2d, material: int, support: wp.vec2d, node_material: int) -> bool:
     """Does the node at offset d = x - x_I serve the point x of ``material``: x inside its support, and the node of
-    the point's material or of every material (-1: on an interface or in a one-material model; seed 002 §3.3,
+    the point's material or of every material (-1: on an interface or in a one-material model; Marques 2008, §3.3,
     domain truncation)?"""
     if not inside_support(params, d, support):
         return False
@@ -197,7 +197,7 @@ def kth_nearest(
     radius: float,
     distance: wp.array(dtype=wp.float64),
 ):
-    """distance[i]: the distance from node i to its ``rank``-th nearest other node (seed 003 §4.1.1: c_I), or -1
+    """distance[i]: the distance from node i to its ``rank``-th nearest other node (Rocha 2012, §4.1.1: c_I), or -1
     when fewer than ``rank`` nodes lie within ``radius`` (the caller widens it)."""
     i = first + wp.tid()
     best = vec16d()
@@ -247,7 +247,7 @@ def support_rows(
     fill: int,
     rows: NeighbourRows,
 ):
-    """Row i: the nodes whose support holds point i and whose material the point sees (seed 002 §3.3, domain
+    """Row i: the nodes whose support holds point i and whose material the point sees (Marques 2008, §3.3, domain
     truncation: a node of material m serves points of material m; a node with material -1, on an interface or in
     a one-material model, serves every point). ``fill`` 0 counts into ``rows.count``; 1 writes the indices at
     ``rows.start[i]`` in HashGrid order (a gather: thread i writes only row i)."""
@@ -285,8 +285,8 @@ def support_rows_brute(
     fill: int,
     rows: NeighbourRows,
 ):
-    """:func:`support_rows` by testing every node (O(points x nodes)): the reference for the HashGrid search (seed
-    003 compared its k-d tree with brute force the same way). Rows in node order."""
+    """:func:`support_rows` by testing every node (O(points x nodes)): the reference for the HashGrid search (Rocha
+    2012 compared its k-d tree with brute force the same way). Rows in node order."""
     i = first + wp.tid()
     x = points[i]
     m = point_material[i]

@@ -1,11 +1,11 @@
-"""NEM kernels (seed 003 §3.4): Laplace (non-Sibsonian) shape functions from the Delaunay triangulation of the nodes.
+"""NEM kernels (Rocha 2012, §3.4): Laplace (non-Sibsonian) shape functions from the Delaunay triangulation of the nodes.
 
 Precision: float64 throughout (positions ``wp.vec2d``, circumcentres, shape functions): near a boundary edge the
 circumcentres grow like L²/d (d: the distance to the edge, L the spacing) and the gradients lose about log10(L/d)
 digits to cancellation, which float32 (7 digits) could not afford.
 
 Laplace shape functions (Belikov, Ivanov, Kontorovich, Korytnik & Semenov 1997; Sukumar, Moran, Semenov &
-Belikov 2001, IJNME 50:1), seed 003 eqs 3.45-3.46:
+Belikov 2001, IJNME 50:1), Rocha (2012), eqs 3.45-3.46:
 
     φ_i(x) = α_i(x) / Σ_j α_j(x),   α_i = s_i / h_i,   h_i = |x - x_i| / 2
 
@@ -27,7 +27,7 @@ Summed over the corners this keeps Σ_i α_i (x_i - x) = 2 rot(Σ_i (c_out - c_i
 holds to round-off by construction; s_i = 0 for a neighbour co-circular with x's cavity
 (regular grids) without a kink in its gradient.
 
-Gradients (seed 003 §1.2 [INFERENCE], checked against central differences in the tests): the circumcentre c of
+Gradients (Rocha 2012, §1.2 [INFERENCE], checked against central differences in the tests): the circumcentre c of
 (x, p, q) solves (p - x)·∂c/∂x_a = c_a - x_a and (q - x)·∂c/∂x_a = c_a - x_a, so ∂c/∂x_a = w (c - x)_a
 with w = M⁻¹ (1, 1)ᵀ, M = [p - x; q - x]. Since c_out - c_in ∥ t_i, ∇t_i drops out:
 

@@ -1,14 +1,14 @@
-"""PIC kernels (seed 002 ch. 4, PIDC): MLS fits at the particles, charge deposit as a node gather, field gather,
+"""PIC kernels (Marques 2008, ch. 4): MLS fits at the particles, charge deposit as a node gather, field gather,
 leapfrog push. Normalised units (ε0 = 1; charges in e, masses in m_e, lengths and times in the scene's units).
 
 Precision: float64 throughout (positions ``wp.vec2d``, MLS fits, charges, fields): the shape functions come from
 the same ill-conditioned moment matrices as EFG's (``kernels/mls.py``), and the deposit must keep the total
 charge to round-off. Float32 ``wp.vec3`` copies of the positions serve only the ``wp.HashGrid`` queries.
 
-Per step (seed 002 §1.2 of the reference note):
+Per step (Marques 2008, §2.2, ch. 4 and §5.2):
 
 1. :func:`particle_fits`: each particle p queries the node grid and stores the γ-form of its MLS fit (γ, ∂γ,
-   the basis scale) — seed 002 §5.3.2 stores φ and ∇φ per particle; γ is their compact form: φ_I(x_p) =
+   the basis scale) — Marques (2008) stores φ and ∇φ per particle (§5.3.2); γ is their compact form: φ_I(x_p) =
    w_I(x_p) γ_p·p((x_I - x_p)/s_p).
 2. :func:`deposit`: each node I gathers the particles in its support through a HashGrid over the particles (in a
    periodic box, querying at its own periodic copies) and sums Q_I = Σ_p q_p φ_I(x_p) (eq 4.4) — a gather, race-free and bitwise the same for any thread count. Node and
@@ -108,7 +108,7 @@ def mls_kernels(basis_terms: int, weight_kind: int = 0, rectangular: bool = Fals
         fit: wp.array(dtype=MLSFit),
         charge: wp.array(dtype=wp.float64),
     ):
-        """Q_I = Σ_p q_p φ_I(x_p) (seed 002 eq 4.4): node I gathers the particles in its support (``grid``: a HashGrid
+        """Q_I = Σ_p q_p φ_I(x_p) (Marques 2008, eq. 4.4): node I gathers the particles in its support (``grid``: a HashGrid
         over the particles, cell = ``ns.reach``); q_p = ``macro_charge[species[p]]``. In a periodic box the node
         queries at each of its copies whose reach crosses into the box (``query_shift[query_start[I]:...]``, the
         first the node itself) and takes a particle from the copy within reach of it: a side >= 2 reach leaves one
@@ -146,7 +146,7 @@ def mls_kernels(basis_terms: int, weight_kind: int = 0, rectangular: bool = Fals
         interpolate: int,
         field: wp.array(dtype=wp.vec2d),
     ):
-        """E at particle p with its stored fit: ``interpolate`` 0: E(x_p) = -Σ_I u_I ∇φ_I(x_p) (seed 002 eq 4.5, the
+        """E at particle p with its stored fit: ``interpolate`` 0: E(x_p) = -Σ_I u_I ∇φ_I(x_p) (Marques 2008, eq. 4.5, the
         energy-conserving gather); 1: E(x_p) = Σ_I φ_I(x_p) E_I from nodal fields E_I (the momentum-conserving gather,
         ``warpfree.solvers.pic.field``)."""
         i = first + wp.tid()
@@ -236,7 +236,7 @@ def kick(
     dt: wp.float64,
 ):
     """v advanced by Δt without moving the particle (:func:`boris_velocity`); Δt = -Δt/2 gives the leapfrog's
-    half-step start v^{-1/2} (seed 002 §2.2.3)."""
+    half-step start v^{-1/2} (Marques 2008, §2.2.3)."""
     i = first + wp.tid()
     velocity = particles.velocity
     velocity[i] = boris_velocity(velocity[i], table.charge_over_mass[particles.species[i]], field[i], bz, dt)

@@ -20,8 +20,9 @@ All kernels are normalised, ``∫ W dV = 1`` in 1, 2 and 3 dimensions, and vanis
 
       W = β_d [(3-q)⁵ - 6(2-q)⁵₊ + 15(1-q)⁵₊]   β_1 = 1/(120h), β_2 = 7/(478π h²), β_3 = 1/(120π h³)
 
-The seed (004, §5.5) quotes the support ratio κh = 1.2 dx; it also asks for >= 20 neighbours in 2D
-and >= 56 in 3D, which needs h ≈ 1.2–1.3 dx with support 2h. warpfree uses h = 1.3 dx by default.
+Chapter 5 of a Portuguese thesis on SPH fluids (§5.5) quotes the support ratio κh = 1.2 dx; it also asks for
+>= 20 neighbours in 2D and >= 56 in 3D, which needs h ≈ 1.2–1.3 dx with support 2h. warpfree uses h = 1.3 dx by
+default.
 
 Beside them, the one unnormalised cubic spline on a unit support (:func:`unit_cubic_spline`), generic in its
 precision: the SPEM particle weight (float32) and the MLS cubic weight (float64).
@@ -217,7 +218,8 @@ def kernel_grad(kind: int, dim: int, rij: wp.vec3, r: float, h: float) -> wp.vec
 def unit_cubic_spline(q: Any):
     """(W, dW/dq) of the unnormalised cubic spline on the unit support: W = 2/3 - 4q² + 4q³ for q <= 1/2,
     4/3 - 4q + 4q² - 4/3 q³ for 1/2 < q < 1, 0 from 1 on (q = r/R >= 0, R the support radius; W(0) = 2/3). The SPEM
-    weight (seed 000 eq 2.9, float32) and the MLS cubic weight (seed 003 eq 3.32, float64) in the precision of q: its
+    weight (Mendes 2010, eq. 2.9, float32) and the MLS cubic weight (Rocha 2012, eq. 3.32, float64) in the precision of
+    q: its
     constants are built in that type (a float literal such as 4.0 / 3.0 would enter a float64 function as a float32
     constant, and W and dW/dq would then disagree at 1e-7)."""
     w = type(q)(0.0)

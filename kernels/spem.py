@@ -1,6 +1,6 @@
-"""SPEM (seed 000): time-domain Maxwell on two static particle sets, as Warp kernels.
+"""SPEM (Mendes 2010): time-domain Maxwell on two static particle sets, as Warp kernels.
 
-Equations (seed 000, TMz, SI units: E in V/m, H in A/m, x in m, t in s):
+Equations (Mendes 2010, TMz, SI units: E in V/m, H in A/m, x in m, t in s):
 
     ε ∂Ez/∂t = ∂Hy/∂x - ∂Hx/∂y          (3.3)        μ ∂Hx/∂t = -∂Ez/∂y     (3.4)
                                                      μ ∂Hy/∂t =  ∂Ez/∂x     (3.5)
@@ -12,7 +12,7 @@ Two particle sets, E (Ez) and H (Hx, Hy), interleaved in space and staggered in 
 linear in the neighbours' values, ∂u/∂x_a (x_i) ≈ Σ_j g_ij,a u_j, with per-pair coefficients g_ij
 computed once (the particles do not move) by :func:`gradient_coefficients`, three ways:
 
-- ``FPM`` (default): the finite particle method (seed eqs 2.30-2.35; Liu & Liu 2006): the (d+1) moment
+- ``FPM`` (default): the finite particle method (Mendes 2010, eqs 2.30-2.35; Liu & Liu 2006): the (d+1) moment
   equations Σ_j u_j [W_ij, ∂_a W_ij] ω_j = u*_i Σ_j [W_ij, ∂_a W_ij] ω_j + ∂_b u Σ_j (x_j - x_i)_b [W_ij,
   ∂_a W_ij] ω_j solved for (u*_i, ∇u). It needs only the other set's values (the thesis's undefined
   "u_i of the other field", erratum 14, is one of the unknowns) and reproduces constant and linear

@@ -1,4 +1,7 @@
-"""Weakly-compressible SPH kernels (seed 004, chapter 5; Adami 2012 walls; Molteni–Colagrossi δ-SPH).
+"""Weakly-compressible SPH kernels (Monaghan 1992, 1994; Adami 2012 walls; Molteni–Colagrossi δ-SPH).
+
+The scheme follows chapter 5 ("Implementação SPH") of a Portuguese thesis on SPH fluids, whose equations are cited
+as "SPH-fluids thesis, eq. 5-n" (author unknown: docs/references.md).
 
 Precision: float32 (fluid SPH tolerates it; densities vary by ~1%, pressures are O(ρ0 c0²)).
 Units: SI (m, s, kg; pressures in Pa, densities in kg/m³, accelerations in m/s²).
@@ -16,18 +19,18 @@ axes), so a term a scene switches off is not in its compiled code.
 
 Equations (r_ij = x_i - x_j, v_ij = v_i - v_j, ∇W_ij = ∇_i W(r_ij, h)):
 
-- Tait EOS (seed 4-39):         p = B[(ρ/ρ0)^γ - 1],  B = ρ0 c0²/γ, γ = 7
-- continuity (seed 4-37):       dρ_i/dt = Σ_j m_j v_ij·∇W_ij + δ-SPH diffusion D_i
+- Tait EOS (Monaghan 1994):     p = B[(ρ/ρ0)^γ - 1],  B = ρ0 c0²/γ, γ = 7
+- continuity (Monaghan 1992):   dρ_i/dt = Σ_j m_j v_ij·∇W_ij + δ-SPH diffusion D_i
 - δ-SPH (Molteni & Colagrossi 2009, hydrostatic correction in the style of Fourtakas 2019):
       D_i = δ h c0 Σ_{j fluid} V_j ψ_ij·∇W_ij,
       ψ_ij = 2[(ρ_j - ρ_i) - ρ0 g·(x_j - x_i)/c0²] (x_j - x_i)/(r² + 0.01h²)
-- momentum (seed 4-38):         dv_i/dt = -Σ_j m_j (p_i/ρ_i² + p_j/ρ_j² + Π_ij) ∇W_ij + F^visc_i + g
+- momentum (Monaghan 1992):     dv_i/dt = -Σ_j m_j (p_i/ρ_i² + p_j/ρ_j² + Π_ij) ∇W_ij + F^visc_i + g
 - laminar viscosity (Morris 1997): F^visc_i = Σ_j m_j 2μ'/(ρ_i ρ_j) (r_ij·∇W_ij)/(r² + 0.01h²) v_ij, with
   μ' = μ/S, S the term's lattice second moment (``warpfree/solvers/wcsph/model.py``), so that it is exact for
   a linear shear on the lattice
 - artificial viscosity (Monaghan 1992): Π_ij = -α c0 μ_ij/ρ̄_ij, μ_ij = h v_ij·r_ij/(r² + 0.01h²)
   when v_ij·r_ij < 0, else 0
-- Lennard-Jones wall force (seed 5-6, with the printed condition corrected to r < r0):
+- Lennard-Jones wall force (Monaghan 1994; SPH-fluids thesis, eq. 5-6, its printed condition corrected to r < r0):
       Γ_ig = D[(r0/r)^12 - (r0/r)^4] r_ig/r²
   With dynamic boundaries the same force, with r0 < dx, is a safety net that only acts on a fluid
   particle closer to a wall particle than any particle of a settled flow is.
@@ -36,7 +39,7 @@ Equations (r_ij = x_i - x_j, v_ij = v_i - v_j, ∇W_ij = ∇_i W(r_ij, h)):
       ghost velocity for no-slip ṽ_w = 2 v_w - Σ_f v_f W_wf / Σ_f W_wf.
       In the fluid–wall pressure term both pressures enter as max(p, 0): walls push and never pull
       (with suction, free-surface particles running down a wall are glued to it and leak through).
-- leapfrog (seed 5-3 to 5-5) in kick–drift–kick form with Monaghan's predictor for the rates.
+- leapfrog (SPH-fluids thesis, eqs 5-3 to 5-5) in kick–drift–kick form with Monaghan's predictor for the rates.
 - particle shifting (Lind et al. 2012 with the anti-clumping term of Sun et al. 2017), as a shifting velocity
   δu_i added to the particle's motion, with the fields carried along it (an ALE form, so that shifting moves
   particles, not the fluid):
@@ -46,7 +49,7 @@ Equations (r_ij = x_i - x_j, v_ij = v_i - v_j, ∇W_ij = ∇_i W(r_ij, h)):
   the component of δu_i along ∇C_i = Σ_j V_j ∇W_ij (the surface normal there) is removed: particles slide
   along the surface and are never pushed out of it.
 
-Colour function (free surfaces): χ(x) = Σ_j V_j W(|x - x_j|, h), sampled on a grid (seed eq. 5-7).
+Colour function (free surfaces): χ(x) = Σ_j V_j W(|x - x_j|, h), sampled on a grid (SPH-fluids thesis, eq. 5-7).
 """
 
 from dataclasses import dataclass
@@ -128,7 +131,7 @@ class FluidTerms:
     laminar: bool = True             # Morris laminar viscosity (μ > 0)
     artificial: bool = False         # Monaghan artificial viscosity (α > 0)
     delta_sph: bool = False          # δ-SPH density diffusion (δ > 0)
-    walls: str = "dynamic"           # "dynamic" (Adami), "lennard_jones" (seed 5-6) or "none"
+    walls: str = "dynamic"           # "dynamic" (Adami), "lennard_jones" (Monaghan 1994) or "none"
     wall_safety: bool = False        # Lennard-Jones safety net of dynamic walls (r0 > 0)
     no_slip: bool = True             # walls enter the laminar viscous term with the ghost velocity
     wall_artificial: bool = False    # artificial viscosity on fluid-wall pairs too (with the ghost velocity)
@@ -154,7 +157,8 @@ def tait_density(p: float, rho0: float, b: float, gamma: float) -> float:
 
 @wp.func
 def lennard_jones(rij: wp.vec3, r2: float, d: float, r0: float) -> wp.vec3:
-    """Seed eq. 5-6: Γ = D[(r0/r)^12 - (r0/r)^4] r_ij/r² (m/s²), for r < r0 (the caller tests it)."""
+    """Lennard-Jones wall force (Monaghan 1994; SPH-fluids thesis, eq. 5-6): Γ = D[(r0/r)^12 - (r0/r)^4] r_ij/r²
+    (m/s²), for r < r0 (the caller tests it)."""
     q2 = r0 * r0 / r2
     q4 = q2 * q2
     q12 = q4 * q4 * q4
@@ -215,8 +219,9 @@ def finish_step(first: int, limits: StepLimits, report: wp.array(dtype=wp.vec4),
                 end_of_step: int):
     """The reduced report into the clock's report slots (float64), the next step's stable Δt into its LIMIT and, at
     the ``end_of_step`` (not for the report at the start), the time moved on and the next step chosen:
-    Δt = min(C h/(max|v| + c0), 0.25 sqrt(h/max|a|), viscous, shifting) (seed 5-12; ``WCSPHSolver.stable_dt``, the
-    same float64 operations; a min keeps the first operand unless the second is smaller, as Python's ``min``)."""
+    Δt = min(C h/(max|v| + c0), 0.25 sqrt(h/max|a|), viscous, shifting) (the CFL condition, SPH-fluids thesis,
+    eq. 5-12; ``WCSPHSolver.stable_dt``, the same float64 operations; a min keeps the first operand unless the second
+    is smaller, as Python's ``min``)."""
     r = report[0]
     v2 = wp.float64(r[1])
     a2 = wp.float64(r[2])
@@ -358,9 +363,9 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
 
     @wp.kernel(module="unique")
     def drift(first: int, c: FluidConstants, f: FluidArrays, clock: wp.array(dtype=wp.float64)):
-        """First half kick and drift (seed 5-3): v ← v + ½Δt a, ρ ← ρ + ½Δt dρ/dt, x ← x + Δt v (wrapped into
-        the periodic box); then the predictor for the rate evaluation (Monaghan 1994): v* = v + ½Δt a,
-        ρ* = ρ + ½Δt dρ/dt, p* = EOS(ρ*). Δt from the device clock (``kernels/clock.py``)."""
+        """First half kick and drift (SPH-fluids thesis, eq. 5-3): v ← v + ½Δt a, ρ ← ρ + ½Δt dρ/dt,
+        x ← x + Δt v (wrapped into the periodic box); then the predictor for the rate evaluation (Monaghan 1994):
+        v* = v + ½Δt a, ρ* = ρ + ½Δt dρ/dt, p* = EOS(ρ*). Δt from the device clock (``kernels/clock.py``)."""
         i = first + wp.tid()
         dt = float(clock[STEP])
         a = f.acceleration[i]
@@ -463,7 +468,7 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
                             dvw = f.ghost_velocity[jw] - vi
                         sh = shifting_sums(c, sh, mj / f.density[j], rij, r2, gw, dvw, f.density[j] - rhoi)
                 if wp.static(lj_walls):
-                    # seed 5-6, only for r < r0: the whole wall model of Lennard-Jones walls, a short-range
+                    # Monaghan 1994, only for r < r0: the whole wall model of Lennard-Jones walls, a short-range
                     # safety net of dynamic ones (r0 < dx there)
                     if r2 < c.lj_r0 * c.lj_r0:
                         a += lennard_jones(rij, r2, c.lj_d, c.lj_r0)
@@ -479,9 +484,9 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
 
     @wp.kernel(module="unique")
     def kick(first: int, c: FluidConstants, f: FluidArrays, clock: wp.array(dtype=wp.float64)):
-        """Second half kick: v ← v + ½Δt a(t+Δt), ρ ← ρ + ½Δt dρ/dt(t+Δt) (seed 5-3/5-4); with shifting, the
-        particle then moves by Δt δu carrying v and ρ along; then the step report of the particle (moved²,
-        |v|², |a|², status), reduced on the device. While a fluid settles, v ← v e^(-γΔt) after the kick."""
+        """Second half kick: v ← v + ½Δt a(t+Δt), ρ ← ρ + ½Δt dρ/dt(t+Δt) (SPH-fluids thesis, eqs 5-3/5-4); with
+        shifting, the particle then moves by Δt δu carrying v and ρ along; then the step report of the particle
+        (moved², |v|², |a|², status), reduced on the device. While a fluid settles, v ← v e^(-γΔt) after the kick."""
         i = first + wp.tid()
         dt = float(clock[STEP])
         f.velocity[i] = f.velocity[i] + (0.5 * dt) * f.acceleration[i]

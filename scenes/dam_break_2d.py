@@ -8,14 +8,14 @@ writes ``front.png`` (the front against the experiments, and its error with the 
 errors into ``summary.json``; its checks (``warpfree.validation.dam_break_2d.front_checks``): |ΔZ| <= 0.45
 against Martin & Moyce over T <= 2.5 and <= 0.15 over T <= 1 (n² = 2), |ΔZ|/Z <= 20 % (n² = 1).
 
-Model: WCSPH (seed 004) with Wendland C2, h = 1.6 dx (the 2D default; the comparison with 1.3 dx: ``bench/results/scene_studies.md``), c0 = 10 sqrt(2 g 2a), Tait γ = 7, laminar
+Model: WCSPH (Monaghan 1994) with Wendland C2, h = 1.6 dx (the 2D default; the comparison with 1.3 dx: ``bench/results/scene_studies.md``), c0 = 10 sqrt(2 g 2a), Tait γ = 7, laminar
 μ = 1e-3 Pa·s, Monaghan artificial viscosity α = 0.1 (as PySPH's dam_break_2d), δ-SPH δ = 0.1 and
-dynamic (Adami 2012) wall particles, three layers, no-slip, with the seed's Lennard-Jones force
+dynamic (Adami 2012) wall particles, three layers, no-slip, with Monaghan's (1994) Lennard-Jones force
 (D = 2gH) as a safety net below r0 = 0.75 dx (``wall_safety``; 0 switches it off).
 
-Time step: seed eq. 5-12, dt = C h/(c0 + max|v|), with C = 0.4, the largest step that keeps the error with a
-margin (the study: ``bench/results/scene_studies.md``). (The seed prints 0.1; DualSPHysics' dam
-break uses 0.2.)
+Time step: the CFL condition dt = C h/(c0 + max|v|), with C = 0.4, the largest step that keeps the error with a
+margin (the study: ``bench/results/scene_studies.md``). (Chapter 5 of a Portuguese thesis on SPH fluids prints
+0.1, its eq. 5-12; DualSPHysics' dam break uses 0.2.)
 """
 
 import os

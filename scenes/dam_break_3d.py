@@ -12,7 +12,7 @@ particles are inside the obstacle (0 throughout).
 Writes frames (an oblique view and a side view), VTU files, and free-surface meshes with
 ``--set surface=true``. z is up.
 
-Time step: seed eq. 5-12, dt = C h/(c0 + max|v|), with C = 0.3, the largest
+Time step: the CFL condition dt = C h/(c0 + max|v|), with C = 0.3, the largest
 number whose end state matches C = 0.2 at h = 1.3 dx (the study: ``bench/results/scene_studies.md``).
 """
 

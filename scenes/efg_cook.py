@@ -1,6 +1,6 @@
 """Cook's membrane by EFG: the top-corner deflection against a fine-mesh FEM reference.
 
-Seed 003 §5.2, Table 5.2.
+Rocha (2012), §5.2, Table 5.2.
 
 The tapered panel (0, 0), (48, 44), (48, 60), (0, 44), unit thickness, clamped on x = 0 (Lagrange multipliers at
 the edge's nodes), a total vertical shear F = 1 spread uniformly over the right edge x = 48, the other edges
@@ -86,7 +86,7 @@ TOLERANCE = {"uy_48_60": 1e-2, "uy_48_52": 2e-3}
 def cook_checks(errors: dict) -> dict:
     """u_y(48, 60) within 1 % and u_y(48, 52) within 0.2 % of the reference (per F = 1, E = 240.565)."""
     basis = {"uy_48_60": "1 % of the reference: the accuracy asked of EFG at 32 cells a side (1089 nodes); the corner "
-                         "(48, 60) carries a traction jump and converges at order ~1 only (seed 003 reports "
+                         "(48, 60) carries a traction jump and converges at order ~1 only (Rocha 2012 reports "
                          "plots, no accuracy)",
              "uy_48_52": "0.2 % of the reference: the accuracy asked of EFG at 32 cells a side (1089 nodes) at the "
                          "loaded edge's middle, away from the corner's traction jump"}
@@ -135,8 +135,8 @@ def build(cells: Annotated[int, Param("", "node spacings along each side of the 
         if out_dir is not None:
             u, _, sig = run.solver.gauss_strain_stress()
             plot_deformed(os.path.join(out_dir, "deformed.png"), run.solver.cells.position, u, sig, magnify,
-                          "EFG Cook's membrane", (5.0, 5.0), stress_unit="Table 5.2 stress unit",
-                          length_unit="Table 5.2 length unit")
+                          "EFG Cook's membrane", (5.0, 5.0), stress_unit="consistent units",
+                          length_unit="consistent units")
         return result
 
     return StaticRun(solver, name="efg_cook", params=params, analyses=[accuracy],
@@ -152,7 +152,7 @@ def _plot_convergence(path, study):
     tolerance = {f"tolerance {TOLERANCE[p] * 100:g} % ({label})": TOLERANCE[p] * 100
                  for p, label in zip(TOLERANCE, errors)}
     plot_against_reference(path, n, {"EFG": [s["uy_48_60"] for s in study]}, study[0]["reference_uy_48_60"], errors,
-                           tolerance, xlabel="nodes", ylabel="u_y(48, 60) / F (Table 5.2 length / force unit)",
+                           tolerance, xlabel="nodes", ylabel="u_y(48, 60) at F = 1 (consistent units)",
                            error_label="|u_y / reference − 1| (%)", logx=True, error_logy=True,
                            title="Cook's membrane: top-corner deflection against the Q9 FEM reference",
                            reference_label="Q9 FEM, Richardson limit")

@@ -1,6 +1,6 @@
 """Thick cylinder under internal pressure by EFG: u_r against the plane-strain Lamé solution.
 
-Seed 003 §5.3, Table 5.3.
+Rocha (2012), §5.3, Table 5.3.
 
 A quarter of the ring a <= r <= b (a = 10, b = 25) with symmetry conditions (u_y = 0 on y = 0, u_x = 0 on x = 0,
 Lagrange multipliers), pressure p = 100 on r = a, r = b free; G0 = 8000, ν = 0.3, E = 2 G0 (1 + ν), plane strain.
@@ -117,12 +117,12 @@ def cylinder_checks(errors: dict, layout: NodePlacement) -> dict:
         exact = errors[f"exact_u_r_{name}"]
         checks[f"u_r_{name}"] = tolerance_check(
             errors[f"u_r_{name}"], RADIAL_TOLERANCE * abs(exact), EXACT, reference=exact,
-            basis="0.5 % of Lamé's u_r: the accuracy asked of EFG on 17 x 17 polar nodes (seed 003 reports u_r only "
+            basis="0.5 % of Lamé's u_r: the accuracy asked of EFG on 17 x 17 polar nodes (Rocha 2012 reports u_r only "
                   "as plots, with 'relatively small differences' from theory)")
     checks["energy_norm_error"] = tolerance_check(
         errors["energy_norm_error"], ENERGY_TOLERANCE[NodePlacement.of("layout", layout)], EXACT,
         basis="the relative energy-norm error asked of linear-basis EFG on 17 x 17 polar nodes: 1 % on the regular "
-              "layout, 5 % with one random node per sub-cell (seed 003 reports no error norm)")
+              "layout, 5 % with one random node per sub-cell (Rocha 2012 reports no error norm)")
     return checks
 
 
@@ -159,7 +159,7 @@ def build(cells_r: Annotated[int, Param("", "node spacings along the radius", "[
             label = "NEM" if model is ShapeFunctions.NEM else "EFG"
             plot_deformed(os.path.join(out_dir, "deformed.png"), run.solver.cells.position, u, sig, magnify,
                           f"{label} thick cylinder", (5.0, 5.0),
-                          stress_unit="Table 5.3 stress unit", length_unit="Table 5.3 length unit")
+                          stress_unit="consistent units", length_unit="consistent units")
             _plot_radial(os.path.join(out_dir, "radial.png"), run.solver, label)
         return {"cylinder": result}
 
@@ -184,7 +184,7 @@ def _plot_radial(path, solver, label: str):
     top.plot(rr, ring.radial_displacement(rr, plane=Plane.STRAIN), "-", color=REFERENCE, lw=1.2,
              label="Lamé, plane strain")
     top.plot(r, u_r, "o", ms=3, mfc="none", color=COMPUTED, label=f"{label}, each node")
-    top.set_ylabel("u_r (Table 5.3 length unit)")
+    top.set_ylabel("u_r (consistent units)")
     top.legend(fontsize=8)
     draw_tolerance(bottom, RADIAL_TOLERANCE * 100, label=f"tolerance ±{RADIAL_TOLERANCE * 100:g} % (arc means)")
     bottom.plot(r, (u_r / ring.radial_displacement(r, plane=Plane.STRAIN) - 1.0) * 100, "o", ms=3, mfc="none",
@@ -193,7 +193,7 @@ def _plot_radial(path, solver, label: str):
     bottom.plot([p["a"], p["b"]], [errors["u_r_inner_rel_error"] * 100, errors["u_r_outer_rel_error"] * 100], "D",
                 ms=7, color="C1", label="mean over each arc's nodes (checked)")
     bottom.axhline(0.0, color="0.5", lw=0.8)
-    bottom.set_xlabel("r (Table 5.3 length unit)")
+    bottom.set_xlabel("r (consistent units)")
     bottom.set_ylabel("u_r / exact − 1 (%)")
     bottom.legend(fontsize=7)
     save_figure(fig, path)

@@ -1,6 +1,6 @@
 """Two-material resistor by EFG: potential, field and interface conditions against a fine FEM reference.
 
-Seed 002 §6.2.
+Marques (2008), §6.2.
 
 An inverted-T conductor (``warpfree/validation/efg_resistor``; the thesis's geometry is lost with its figure): a
 lower bar [0, 3] x [0, 1] mm of aluminium (σ1 = 3.57e7 S/m) and an upper bar [1, 2] x [1, 2] mm of copper (σ2 =
@@ -8,7 +8,7 @@ lower bar [0, 3] x [0, 1] mm of aluminium (σ1 = 3.57e7 S/m) and an upper bar [1
 regions"); V = 1 V on the top face, 0 on the bottom face, the rest insulated; ∇·(σ∇V) = 0. The reference is our Q9
 finite-element solution on 16..256 elements per mm, extrapolated at the corners' singular order.
 
-EFG as in seed 002, with nodes graded toward the singular corners: cells of a regular grid (``per_mm`` per mm) split
+EFG as in Marques (2008), with nodes graded toward the singular corners: cells of a regular grid (``per_mm`` per mm) split
 ``corner_levels`` times toward the two re-entrant corners (``warpfree.galerkin.graded``; a cell while its distance to
 a corner is below ``corner_reach`` × its side), the nodes on the cells' corners, interface nodes shared by both
 materials; the quadratic basis (its quadratic consistency correction, 3 x 3 Gauss points per cell), whose one-sided
@@ -18,15 +18,15 @@ step can hold only two rows of nodes, and the run is refused (raise ``d_max`` or
 (``truncation=True``): a node of one material serves only Gauss points of its own material, so the shape functions
 are discontinuous in gradient across the interface as the field is; cells do not straddle the interface; the
 interface term truncation drops put back by symmetric Nitsche terms (``interface_condition="nitsche"``, penalty
-β k / h with h the nearest node's spacing; "none": seed 002's truncation alone). The electrode potentials by
-Lagrange multipliers (default) or, with the interpolating (singular) weight, by direct substitution (seed 002 §3.5).
+β k / h with h the nearest node's spacing; "none": Marques's (2008) truncation alone). The electrode potentials by
+Lagrange multipliers (default) or, with the interpolating (singular) weight, by direct substitution (Marques 2008, §3.5).
 
 Writes ``lines.png`` (V and |E| along the crossing line x = 1.5 mm against the reference), VTU, and into
 ``summary.json``: the largest potential error on the reference lines (fraction of 1 V), the mean and largest
 relative |E| error on the crossing lines, the normal-current mismatch σ1 E_y(below) / σ2 E_y(above) - 1 and the
 tangential-field mismatch along the interface (x in 1.1..1.9 mm), the conductance against the reference, an
 oscillation measure (the total variation of |E| along the crossing line beyond the reference's), and ``checks``: the
-potential, field, normal-current and tangential-field errors against seed 002's accuracy, each with its tolerance and
+potential, field, normal-current and tangential-field errors against Marques's (2008) accuracy, each with its tolerance and
 pass/fail (:func:`resistor_checks`).
 
 Errors at the defaults, by basis and interface condition: ``bench/results/scene_studies.md``.
@@ -117,7 +117,7 @@ def interface_fields(solver: PoissonSolver):
 
 def tangential_mismatch(e_below: np.ndarray, e_above: np.ndarray) -> np.ndarray:
     """|E_x(below) - E_x(above)| / |E(above)| at each interface point: the relative error of the field above
-    predicted from below by E1t = E2t (seed 002 §6.2.2, Fig. 6.16)."""
+    predicted from below by E1t = E2t (Marques 2008, §6.2.2, Fig. 6.16)."""
     return np.abs(e_below[:, 0] - e_above[:, 0]) / np.hypot(e_above[:, 0], e_above[:, 1])
 
 
@@ -169,8 +169,8 @@ def resistor_errors(solver: PoissonSolver) -> dict:
     return out
 
 
-#: seed 002 §6.2's accuracy (the thesis against its FEM reference), the tolerances of :func:`resistor_checks`
-THESIS = "seed 002 §6.2 (warpfree/validation/efg_resistor/README.md)"
+#: Marques (2008), §6.2's accuracy (the thesis against its FEM reference), the tolerances of :func:`resistor_checks`
+THESIS = "Marques (2008), §6.2 (warpfree/validation/efg_resistor/README.md)"
 
 
 #: the tolerances of :func:`resistor_checks` and why they are what they are
@@ -230,7 +230,7 @@ def build(per_mm: Annotated[int, Param("1/mm", "node spacings per mm away from t
     """``per_mm``: node spacings per mm away from the corners; ``corner_levels``, ``corner_reach``: the cells (and
     nodes) split ``corner_levels`` times toward the re-entrant corners, a cell while its distance to a corner is below
     ``corner_reach`` × its side (0 levels: the regular grid, 13 per mm its 742 nodes, the thesis's 721-node size);
-    ``truncation``: domain truncation at the interface (seed 002 §3.3), else every node serves both materials;
+    ``truncation``: domain truncation at the interface (Marques 2008, §3.3), else every node serves both materials;
     ``gauss``: points per cell side (None: the basis's, ``warpfree.galerkin.quadrature.CELL_ORDER``)."""
     gauss = cell_order(basis, gauss)
     params = dict(locals())

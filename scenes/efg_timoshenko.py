@@ -1,14 +1,14 @@
 """Timoshenko cantilever by EFG: tip deflection and energy-norm error against the exact beam.
 
-Seed 003 §5.1, Table 5.1.
+Rocha (2012), §5.1, Table 5.1.
 
 Beam 0 <= x <= L, -D/2 <= y <= D/2 (E = 3e7, ν = 0.3, D = 12, L = 48, P = 1000, plane stress, unit thickness); the
-exact displacements (seed 003 eqs 5.1a/b, ``warpfree/validation/efg_timoshenko``) are imposed on x = 0 with Lagrange
-multipliers at the nodes of that edge (seed 003 eqs 3.34-3.36), the parabolic shear traction of the exact solution
+exact displacements (Rocha 2012, eqs 5.1a/b, ``warpfree/validation/efg_timoshenko``) are imposed on x = 0 with Lagrange
+multipliers at the nodes of that edge (Rocha 2012, eqs 3.34-3.36), the parabolic shear traction of the exact solution
 on x = L, y = ±D/2 free. EFG as in the thesis: linear basis, cubic-spline weight, d_max = 3.5 (c_I: distance to
 the 4th nearest node, the spacing on a regular grid), background cells of 2 x 2 Gauss points, one cell per node
 spacing; by default with variationally consistent integration (``integration="gauss"``: the thesis's plain
-quadrature). ``layout="random"``: one random node per sub-cell, boundary nodes along their edges (seed 003 §5).
+quadrature). ``layout="random"``: one random node per sub-cell, boundary nodes along their edges (Rocha 2012, §5).
 
 Writes ``deformed.png`` (the Gauss points displaced ×``magnify``, coloured by von Mises stress), ``deflection.png``
 (u_y along the neutral axis against the exact one, and their difference with the tip tolerance), VTU of the Gauss
@@ -94,7 +94,7 @@ def beam_errors(solver: ElasticitySolver) -> dict:
 
 
 #: where the reference comes from
-EXACT = "exact: Timoshenko & Goodier §21, seed 003 eq 5.1b (warpfree/validation/efg_timoshenko/README.md)"
+EXACT = "exact: Timoshenko & Goodier §21; Rocha (2012), eq. 5.1b (warpfree/validation/efg_timoshenko/README.md)"
 #: the tip deflection's tolerance, a fraction of the exact one
 TIP_TOLERANCE = 5e-3
 
@@ -104,7 +104,7 @@ def beam_checks(errors: dict) -> dict:
     return {"tip_deflection": tolerance_check(
         errors["tip_deflection"], TIP_TOLERANCE * abs(beam.TIP_DEFLECTION), EXACT, reference=beam.TIP_DEFLECTION,
         unit="m", basis="0.5 % of the exact deflection: the accuracy asked of linear-basis EFG with at most 1000 "
-                        "regular nodes (seed 003 reports the deflection only as plots, with no stated accuracy)")}
+                        "regular nodes (Rocha 2012 reports the deflection only as plots, with no stated accuracy)")}
 
 
 #: the scene's parameters behind the solver's internal names: an error names what the user set

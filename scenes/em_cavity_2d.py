@@ -1,6 +1,6 @@
 """2D pulse in a circular dielectric cavity: SPEM against the exact Bessel series.
 
-Seed 000 §4.3, the series (4.5).
+Mendes (2010), §4.3, the series (4.5).
 
 A disk of radius r0 = 0.1 m centred at (0.1, 0.1) m, εr = 10, perfectly conducting wall (a ring of E particles
 held at Ez = 0), Ez(r, 0) = 1 - r²/r0², H = 0. Writes ``cavity.png`` (Ez along the radial line x = 0.1 m against
@@ -42,7 +42,7 @@ SMALLEST = {"cells_per_radius": 8, "t_end": 1.0e-9, "output_interval": 0.25e-9}
 QUICK = {}
 
 #: where the reference and the tolerances come from
-SOURCE = "Bessel series (4.5), seed 000 §4.3 (warpfree/validation/em_cavity_2d/README.md)"
+SOURCE = "Bessel series (eq. 4.5), the case of Mendes (2010), §4.3 (warpfree/validation/em_cavity_2d/README.md)"
 
 
 def cavity_checks(result: dict) -> dict:

@@ -1,6 +1,6 @@
 """1D wave from a sine source in the middle of a line: SPEM against the exact wave.
 
-Seed 000 §4.2.
+Mendes (2010), §4.2.
 
 Ω = [0, π] m, perfectly conducting ends (E particles held at 0), a hard source Ez = sin(2π f t), f = 1.8 GHz,
 on the E particle nearest the centre, compared at t = 4.75 ns with sin(ω(t - |x - x_s|/c)) on x in (0.5, 1.5)
@@ -39,7 +39,7 @@ SMALLEST = {"particles_per_wavelength": 10, "t_end": 9.5e-10}
 QUICK = {}
 
 #: where the reference and the tolerances come from
-SOURCE = "exact wave, seed 000 §4.2 (warpfree/validation/em_line_1d/README.md)"
+SOURCE = "exact wave, the case of Mendes (2010), §4.2 (warpfree/validation/em_line_1d/README.md)"
 
 
 def line_checks(result: dict) -> dict:

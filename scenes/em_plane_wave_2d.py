@@ -1,6 +1,6 @@
 """Plane wave in free space, absorbed by a PML on all sides: SPEM against the incident wave (total/scattered field).
 
-Seed 000 §4.5, the case the thesis could not make work.
+Mendes (2010), §4.5, the case the thesis could not make work.
 
 A 3.6 GHz plane wave travelling along +y through a 0.5 m square of vacuum, surrounded by a PML. The thesis forced
 Ez on a line of E particles next to the PML and got stripes: lines of particles with the right amplitude
@@ -55,7 +55,7 @@ SMALLEST = {"particles_per_wavelength": 20, "size": 0.2, "margin": 0.03, "t_end"
 QUICK = {"size": 0.2, "margin": 0.03}
 
 #: where the reference and the tolerances come from
-SOURCE = "analytic incident wave (TF/SF), seed 000 §4.5 (warpfree/validation/em_plane_wave_2d/README.md)"
+SOURCE = "analytic incident wave (TF/SF), the case of Mendes (2010), §4.5 (warpfree/validation/em_plane_wave_2d/README.md)"
 
 
 def plane_wave_checks(result: dict) -> dict:

@@ -1,6 +1,6 @@
 """Parallel-plate waveguide with a PML: SPEM against the exact TM1 signalling solution.
 
-Seed 000 §4.4.
+Mendes (2010), §4.4.
 
 Plates (PEC, held E particles) at x = 0 and x = a = 0.5 m, the wave driven from y = 0 and absorbed by a PML of
 0.1 m beyond y = 0.4 m (backed by PEC). The source imposes Ez = E0 sin(πx/a) s(t) on the E particles of the line
@@ -45,7 +45,7 @@ SMALLEST = {"particles_per_wavelength": 20, "t_end": 1.64e-9}
 QUICK = {}
 
 #: where the reference and the tolerance come from
-SOURCE = "exact TM1 signalling solution, seed 000 §4.4 (warpfree/validation/em_waveguide_2d/README.md)"
+SOURCE = "exact TM1 signalling solution, the case of Mendes (2010), §4.4 (warpfree/validation/em_waveguide_2d/README.md)"
 
 
 def waveguide_checks(result: dict) -> dict:

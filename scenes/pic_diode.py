@@ -3,10 +3,13 @@
 Absorbing walls, electrodes and injection: a cold electron beam injected at the cathode, its steady space-charge
 potential against the beam equations' solution.
 
-Normalised units (ε0 = 1, electron charge -1, mass 1). The cathode at y = 0 (potential 0) emits a cold beam at speed
-``injection_speed`` v0 with particle flux Γ = ``injected_fraction`` Γ_CL, Γ_CL = (4/9) sqrt(2) V^{3/2}/d² the
-Child–Langmuir flux; the anode at y = d (potential V = ``voltage``) absorbs it, and so does the cathode any electron
-turned back. The box is periodic along x (``width``: a slab of the infinite planar diode). No background charge.
+Normalised units: ε0 = 1, electron charge -1, mass 1, lengths in a unit L and times in a unit T (``UNITS``: speeds
+in L/T, potentials in m_e L²/(e T²)). A cold beam has no Debye length: its only scales are the gap d and the voltage
+V, given in these units; at the defaults (``gap`` 1, ``voltage`` 1) L is the gap d and T = d/sqrt(e V/m_e). The
+cathode at y = 0 (potential 0) emits a cold beam at speed ``injection_speed`` v0 with particle flux
+Γ = ``injected_fraction`` Γ_CL, Γ_CL = (4/9) sqrt(2) V^{3/2}/d² the Child–Langmuir flux; the anode at y = d
+(potential V = ``voltage``) absorbs it, and so does the cathode any electron turned back. The box is periodic along
+x (``width``: a slab of the infinite planar diode). No background charge.
 
 Below the space-charge limit the flow becomes steady: measured are the nodal potential averaged over the second
 half of the run, evaluated along y, against the steady monotone profile (``warpfree.validation.pic_diode``: φ'' =
@@ -52,6 +55,12 @@ POTENTIAL_TOLERANCE = 2e-4
 #: the charge balance (in the box = injected - absorbed) holds to round-off (float64 tallies)
 BALANCE_TOLERANCE = 1e-11
 
+#: the units of the outputs (the PIC solver's are λ_D and 1/ω_pe, which a cold beam does not have): lengths in L, times
+#: in T (at the defaults L = d, T = d/sqrt(e V/m_e)), with ε0 = e = m_e = 1
+UNITS = {"position": "L", "velocity": "L/T", "speed": "L/T", "e_field": "m_e L/(e T²)",
+         "potential": "m_e L²/(e T²)", "charge": "ε0 m_e L²/(e T²)"}
+TIME_UNIT = "T"
+
 
 @checked_parameters
 def build(voltage: Annotated[float, Param("m_e λ_D² ω_pe²/e", "anode potential V (the cathode at 0)", "(0, inf)")]
@@ -70,7 +79,7 @@ def build(voltage: Annotated[float, Param("m_e λ_D² ω_pe²/e", "anode potenti
           field_solve: FieldSolveAt = None, frames: Frames = True, vtk: Vtk = True) -> TimeLoop:
     """``voltage`` V and ``gap`` d of the diode; ``injected_fraction``: Γ / Γ_CL; ``injection_speed`` v0; ``width``
     of the periodic slab along x; ``particles_per_step``: macro-particles the cathode emits per step; ``dt``,
-    ``t_end`` in the normalised time unit (the potential is averaged over the second half). ``field_solve``: where
+    ``t_end`` in T (the potential is averaged over the second half). ``field_solve``: where
     the field is solved (None: the host's SuperLU on the CPU, the device on a GPU; ``PICSolver``)."""
     params = dict(locals())
     with reported_as(node_spacing="node_spacing, width, gap"):
@@ -85,6 +94,7 @@ def build(voltage: Annotated[float, Param("m_e λ_D² ω_pe²/e", "anode potenti
     solver = PICSolver(field, [], dt, modes=(), particle_walls=ParticleWall.ABSORB,
                        injections=[Injection(beam, SourceWall.LOWER, particles_per_step)],
                        average_from=0.5 * n_steps * dt, field_solve=field_solve)
+    solver.time_unit = TIME_UNIT
 
     def diode_analysis(run, out_dir):
         s = run.solver
@@ -119,15 +129,16 @@ def build(voltage: Annotated[float, Param("m_e λ_D² ω_pe²/e", "anode potenti
         result["checks"] = diode_checks(result)
         if out_dir is not None:
             write_history(os.path.join(out_dir, "history.csv"), h)
-            plot_history(out_dir, h, s, BALANCE_TOLERANCE, f"± {BALANCE_TOLERANCE:g} (round-off)",
+            plot_history(out_dir, h, s, BALANCE_TOLERANCE, f"± {BALANCE_TOLERANCE:g} (round-off)", units=UNITS,
                          below={"values": balance / max(abs(h["injected_charge"][-1]), 1e-300),
                                 "label": "(Q_box - Q_injected + Q_absorbed) / Q_injected(end)",
                                 "ylabel": "charge balance error", "title": "the charge balance",
-                                "xlabel": "t (normalised: ε0 = e = m_e = 1)"})
+                                "xlabel": f"t ({TIME_UNIT})"})
             plot_profile(os.path.join(out_dir, "profile.png"), y, mean, ref, voltage, POTENTIAL_TOLERANCE,
                          f"± {POTENTIAL_TOLERANCE:g} (the tolerance at 32 node spacings)",
-                         f"diode at Γ = {injected_fraction:g} Γ_CL: mean potential against the steady beam")
-            _phase_space(os.path.join(out_dir, "phase_space.png"), s, y, ref, v0)
+                         f"diode at Γ = {injected_fraction:g} Γ_CL: mean potential against the steady beam",
+                         xlabel=f"y (L; the gap d = {gap:g} L)", ylabel=f"potential φ ({UNITS['potential']})")
+            _phase_space(os.path.join(out_dir, "phase_space.png"), s, y, ref, v0, gap)
         return {"diode": result}
 
     return TimeLoop(solver, t_end=n_steps * dt, output_interval=output_every * dt, name="pic_diode",
@@ -138,7 +149,7 @@ def build(voltage: Annotated[float, Param("m_e λ_D² ω_pe²/e", "anode potenti
                                          # the beam's speed across the gap: v0 at the cathode, sqrt(v0² + 2V) at the
                                          # anode; the potential between the electrodes' 0 and V
                                          frame_range={"velocity_y": (0.0, float(np.sqrt(v0 ** 2 + 2.0 * voltage))),
-                                                      "potential": (0.0, voltage)}))
+                                                      "potential": (0.0, voltage)}, units=UNITS))
 
 
 def diode_checks(result: dict) -> dict:
@@ -160,12 +171,12 @@ def diode_checks(result: dict) -> dict:
     return checks
 
 
-def _phase_space(path, solver, y, steady, v0: float):
+def _phase_space(path, solver, y, steady, v0: float, gap: float):
     """phase_space.png: the electrons' (y, v_y) at the end of the run, and below the space-charge limit the steady
     beam's speed sqrt(v0² + 2 φ(y)) (energy conservation, e = m_e = 1) along the steady potential ``steady``."""
     values = solver.particle_values()
     p, v = values["position"], values["velocity"]
     theory = None if steady is None else (y, np.sqrt(v0 ** 2 + 2.0 * np.asarray(steady)),
                                           "steady beam: v = sqrt(v0² + 2φ(y))")
-    plot_phase_space(path, {"electrons": (p[:, 1], v[:, 1])}, "y (normalised length, gap d = 1)",
-                     "v_y (normalised speed)", f"phase space at t = {solver.t:.3g} (normalised time)", theory)
+    plot_phase_space(path, {"electrons": (p[:, 1], v[:, 1])}, f"y (L; the gap d = {gap:g} L)",
+                     f"v_y ({UNITS['velocity']})", f"phase space at t = {solver.t:.3g} {TIME_UNIT}", theory)

@@ -1,10 +1,10 @@
 """Thermal plasma in a periodic box: energy conservation with electrons and protons moving.
 
-Seed 002 §6.1/6.3.
+Marques (2008), §6.1/6.3.
 
 Normalised units: electrons (charge -1, mass 1, density 1, temperature 1: ω_pe = 1, λ_D = 1) and protons (charge
-+1, mass ``mass_ratio``, density 1, temperature ``ion_temperature``: seed 002 §6.3 has electrons at 10⁴ K and
-protons at 10³ K, so 0.1) in a box of ``box`` Debye lengths (seed 002: 64 × 128), periodic both ways, neutral
++1, mass ``mass_ratio``, density 1, temperature ``ion_temperature``: Marques (2008), §6.3 has electrons at 10⁴ K and
+protons at 10³ K, so 0.1) in a box of ``box`` Debye lengths (Marques 2008: 64 × 128), periodic both ways, neutral
 without a background. EFG nodes on a lattice of ``node_spacing`` λ_D (supports d_max · spacing: about λ_D-sized
 diffuse cells, as the thesis sized them), particles at random positions (``particles_per_node`` of each species
 per node cell) with Maxwell–Boltzmann velocities. Measured: the total-energy drift (the target: below 1 % over 50
@@ -113,7 +113,7 @@ def thermal_checks(result: dict) -> dict:
     """The validated quantities: the total-energy drift (below 1 %) and the momentum (conserved to round-off)."""
     return {"total_energy_drift": tolerance_check(
                 result["total_energy_drift"], ENERGY_DRIFT_TARGET,
-                "energy conservation of a thermal plasma, seed 002 §6.1/6.3 (the scene's target)",
+                "energy conservation of a thermal plasma, the case of Marques (2008), §6.1/6.3 (the scene's target)",
                 basis="the target: below 1 % over 50 plasma periods (QUICK: over 10, a shorter span of the same "
                       "target)"),
             "momentum_change_over_thermal": tolerance_check(

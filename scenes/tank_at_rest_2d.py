@@ -23,7 +23,8 @@ surface level within dx/2, with the settling report, the kinetic energy's larges
 value up to t = 0.5 s and after it, and the probe ``surface_spread`` (in dx): over columns 2 dx wide, 3 dx
 clear of the walls, the highest particle's height, largest minus smallest.
 
-Time step: seed eq. 5-12 with Courant number 0.4, as the dam breaks (the study: ``bench/results/scene_studies.md``).
+Time step: the CFL condition dt = C h/(c0 + max|v|) with C = 0.4, as the dam breaks (the study:
+``bench/results/scene_studies.md``).
 """
 
 import os

@@ -1,4 +1,4 @@
-"""warpfree: meshfree particle methods (WCSPH, SPEM, EFG, PIDC) as data-parallel NVIDIA Warp kernels.
+"""warpfree: meshfree particle methods (WCSPH, SPEM, EFG, PIC) as data-parallel NVIDIA Warp kernels.
 
 The orchestration layer: the solver contract, the run shell and time loop, devices and threads,
 particle sets, neighbours, reductions, sparse assembly, outputs and the CLI. Per-particle work lives in

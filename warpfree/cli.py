@@ -23,7 +23,7 @@ from .parameters import listing, parse_overrides, scene_parameters
 from .scene_loader import load_scene, scene_path, shipped_scenes, summary_line
 from .stop import SIGNAL_NAMES, exit_code
 
-DESCRIPTION = """warpfree: meshfree particle methods (WCSPH fluids, SPEM, EFG, PIDC) as NVIDIA Warp kernels.
+DESCRIPTION = """warpfree: meshfree particle methods (WCSPH fluids, SPEM, EFG, PIC) as NVIDIA Warp kernels.
 
 Commands:
   list      the scenes shipped with warpfree, one line each

@@ -1,4 +1,4 @@
-"""Load distributions: which items each thread's chunk of a launch holds (seed 000 §3.2.2, Figs 3.4-3.7).
+"""Load distributions: which items each thread's chunk of a launch holds (Mendes 2010, §3.2.2, Figs 3.4-3.7).
 
 The launcher (``warpfree.device.Launcher``) splits a launch of n items into contiguous chunks of launch
 indices, one per thread. A kernel that reads its item through an index map, ``i = order[first + tid]``,

@@ -1,4 +1,4 @@
-"""Sparse assembly and linear solves shared by the EFG, PIDC and SPEM solvers.
+"""Sparse assembly and linear solves shared by the EFG, PIC and SPEM solvers.
 
 Assembly. A Warp kernel writes matrix triplets ``(row, col, value)`` and load entries ``(row, value)``
 into per-item slots (:class:`TripletBuffer`, :class:`LoadBuffer`, with the ``@wp.struct`` and

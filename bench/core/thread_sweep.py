@@ -20,10 +20,10 @@ What it measures
     * ``heat`` (on request): the example solver (``scenes/heat_conduction_2d.py``, n = 400: 160 000 particles);
     * ``waveguide`` (on request): SPEM (``scenes/em_waveguide_2d.py`` at 375 particles per wavelength: 51 076 E +
       50 625 H particles, PML included); ``waveguide_alternating``, ``_random``, ``_neighbours``: the same with
-      the thesis's other load distributions (§3.2.2, ``warpfree/distribution.py``); ``jittered_pml_<kind>``
+      Mendes's (2010) other load distributions (§3.2.2, ``warpfree/distribution.py``); ``jittered_pml_<kind>``
       for the four kinds: 30 %-jittered particles with a PML all round (``scenes/em_plane_wave_2d.py`` on a
       0.2 m square: 14 161 E + 14 400 H particles);
-    * ``pic_thermal`` (on request): PIDC's thermal plasma (``scenes/pic_thermal_plasma.py`` on 64 x 64 λ_D: 4 096
+    * ``pic_thermal`` (on request): PIC's thermal plasma (``scenes/pic_thermal_plasma.py`` on 64 x 64 λ_D: 4 096
       nodes, 131 072 particles; work unit particle pushes);
     * any other scene: ``--scene PATH --set name=value ...`` (a ``custom`` case).
 
@@ -86,10 +86,10 @@ CASES = {
     "3d": ("dam_break_3d", {"dx": 0.035}, {"dx": 0.07}),
     "heat": ("heat_conduction_2d", {"n": 400}, {"n": 100}),
     "waveguide": ("em_waveguide_2d", {"particles_per_wavelength": 375}, {"particles_per_wavelength": 60}),
-    # PIDC: the thermal plasma on 64 x 64 Debye lengths (4 096 nodes, 131 072 particles, both species moving)
+    # PIC: the thermal plasma on 64 x 64 Debye lengths (4 096 nodes, 131 072 particles, both species moving)
     "pic_thermal": ("pic_thermal_plasma", {"box": (64.0, 64.0)}, {"box": (16.0, 16.0)}),
 }
-# SPEM's load distributions (seed 000 §3.2.2; ``warpfree/distribution.py``): the waveguide ("waveguide" above is
+# SPEM's load distributions (Mendes 2010, §3.2.2; ``warpfree/distribution.py``): the waveguide ("waveguide" above is
 # "blocks") and a jittered layout with a PML all round (the plane-wave scene on a 0.2 m square, conservative pair)
 for _kind in ("blocks", "alternating", "random", "neighbours"):
     if _kind != "blocks":

@@ -1,7 +1,7 @@
 """EFG benchmarks: the Gauss point -> node search, and assembly throughput against the thread count.
 
 What it measures
-    * ``search`` (seed 003's k-d tree study, done with a hash grid): the rows of the nodes whose support holds
+    * ``search`` (Rocha's (2012) k-d tree study, done with a hash grid): the rows of the nodes whose support holds
       each Gauss point (random nodes, one per sub-cell of an n x n grid of the unit square, d_max = 2, 2 x 2
       Gauss points per cell) for 1e2 .. 1e5 nodes, three ways: the ``wp.HashGrid`` kernel the solver uses,
       the brute-force kernel (every node tested; up to 2e4 nodes) and SciPy's k-d tree (``cKDTree.

@@ -1,4 +1,4 @@
-"""EFG against the natural element method on random nodes (seed 003 §5): error against node count, beam and cylinder.
+"""EFG against the natural element method on random nodes (Rocha 2012, §5): error against node count, beam and cylinder.
 
 What it measures
     For the Timoshenko beam (``scenes/efg_timoshenko.py``) and the thick cylinder (``scenes/efg_cylinder.py``) on

@@ -1,19 +1,19 @@
-"""PIDC (EFG field solve) against a conventional mesh PIC: accuracy against wall time, side by side in one run.
+"""PIC with an EFG field solve against a conventional mesh PIC: accuracy against wall time, side by side in one run.
 
 What it measures
     * ``oscillation``: the cold plasma oscillation (k = 0.5, ``scenes/pic_plasma_oscillation.py``, 4 particles per
-      node cell, Δt = 0.1, 4 periods): the frequency error against the leapfrog value (2/Δt) asin(Δt/2), for PIDC at
+      node cell, Δt = 0.1, 4 periods): the frequency error against the leapfrog value (2/Δt) asin(Δt/2), for EFG at
       node spacings 1/2, 1/4, 1/8 (momentum gather; and the energy gather at 1/2) and for the mesh PIC
       (``bench/pic/mesh_pic.py``: cloud-in-cell deposit and gather, FFT Poisson, 4 particles per cell) on the same box at
       nx = 25 .. 200 (Δx = 0.5 .. 1/16);
     * ``two_stream``: the cold two-stream instability (``scenes/pic_two_stream.py``, 4 particles per node cell and
-      beam, Δt = 0.1, to t = 40): the growth-rate error against ω_p/(2√2), PIDC at node spacings 1, 1/2, 1/4, mesh at
+      beam, Δt = 0.1, to t = 40): the growth-rate error against ω_p/(2√2), EFG at node spacings 1, 1/2, 1/4, mesh at
       Δx = 1 .. 1/8;
     * ``drift`` (on request, minutes): the thermal plasma (``scenes/pic_thermal_plasma.py``) on a 16 x 32 λ_D box to
       20 plasma periods: total-energy drift against particles per node support (4, 8, 16 particles per node cell),
       both gathers.
-    Wall time: the stepping only (PIDC: the solver's timed phases, set-up excluded; mesh: its time loop). Equal-error
-    ratios PIDC/mesh are interpolated log-log between the mesh runs (``common.equal_error_ratio``).
+    Wall time: the stepping only (EFG: the solver's timed phases, set-up excluded; mesh: its time loop). Equal-error
+    ratios EFG/mesh are interpolated log-log between the mesh runs (``common.equal_error_ratio``).
 
 Usage
     python bench/pic/pic_vs_mesh.py [--quick] [--threads N] [--cases oscillation two_stream drift] [--name STEM]
@@ -40,7 +40,7 @@ RUN_ALL = [[], ["--cases", "drift", "--name", "pic_drift"]]
 _THREADS: int | None = None
 
 
-def _pidc(scene: str, key: str, **params) -> tuple[dict, float]:
+def _efg(scene: str, key: str, **params) -> tuple[dict, float]:
     run = common.build_scene(scene, _THREADS, **params)
     with tempfile.TemporaryDirectory() as tmp:
         result = run.run(tmp, progress=False)["analysis"][key]
@@ -49,13 +49,13 @@ def _pidc(scene: str, key: str, **params) -> tuple[dict, float]:
 
 
 def oscillation(quick: bool) -> dict:
-    rows = {"pidc": [], "pidc_energy": [], "mesh": []}
+    rows = {"efg": [], "efg_energy": [], "mesh": []}
     for h in ([0.5, 0.25] if quick else [0.5, 0.25, 0.125]):
-        r, wall = _pidc("pic_plasma_oscillation", "oscillation", node_spacing=h, particles_per_node=2)
-        rows["pidc"].append({"spacing": h, "particles": r["particles"], "error": abs(r["frequency_rel_error"]),
+        r, wall = _efg("pic_plasma_oscillation", "oscillation", node_spacing=h, particles_per_node=2)
+        rows["efg"].append({"spacing": h, "particles": r["particles"], "error": abs(r["frequency_rel_error"]),
                              "signed_error": r["frequency_rel_error"], "wall_s": wall})
-    r, wall = _pidc("pic_plasma_oscillation", "oscillation", node_spacing=0.5, particles_per_node=2, gather="energy")
-    rows["pidc_energy"].append({"spacing": 0.5, "particles": r["particles"], "error": abs(r["frequency_rel_error"]),
+    r, wall = _efg("pic_plasma_oscillation", "oscillation", node_spacing=0.5, particles_per_node=2, gather="energy")
+    rows["efg_energy"].append({"spacing": 0.5, "particles": r["particles"], "error": abs(r["frequency_rel_error"]),
                                 "signed_error": r["frequency_rel_error"], "wall_s": wall})
     lx = 4.0 * math.pi
     for nx in ([25, 50] if quick else [25, 50, 100, 200]):
@@ -63,23 +63,23 @@ def oscillation(quick: bool) -> dict:
                                         lx=lx)
         rows["mesh"].append({"spacing": lx / nx, "particles": m["particles"], "error": abs(m["frequency_error"]),
                              "signed_error": m["frequency_error"], "wall_s": m["wall_s"]})
-    rows["ratio"] = common.equal_error_ratio(rows["pidc"], rows["mesh"])
+    rows["ratio"] = common.equal_error_ratio(rows["efg"], rows["mesh"])
     return rows
 
 
 def two_stream(quick: bool) -> dict:
-    rows = {"pidc": [], "mesh": []}
+    rows = {"efg": [], "mesh": []}
     for h in ([1.0, 0.5] if quick else [1.0, 0.5, 0.25]):
-        r, wall = _pidc("pic_two_stream", "two_stream", node_spacing=h, particles_per_node=2,
+        r, wall = _efg("pic_two_stream", "two_stream", node_spacing=h, particles_per_node=2,
                         length_y=max(4.0, 8.0 * h))
-        rows["pidc"].append({"spacing": h, "particles": r["particles"], "error": abs(r["growth_rate_rel_error"]),
+        rows["efg"].append({"spacing": h, "particles": r["particles"], "error": abs(r["growth_rate_rel_error"]),
                              "signed_error": r["growth_rate_rel_error"], "wall_s": wall})
     lx = 2.0 * math.pi / 0.612
     for nx in ([10, 20] if quick else [10, 20, 40, 80]):
         m = mesh_pic.two_stream(nx=nx, particles_per_cell=4, dt=0.1, t_end=40.0, ny=max(4, int(round(nx * 4 / lx))))
         rows["mesh"].append({"spacing": lx / nx, "particles": m["particles"], "error": abs(m["growth_rate_error"]),
                              "signed_error": m["growth_rate_error"], "wall_s": m["wall_s"]})
-    rows["ratio"] = common.equal_error_ratio(rows["pidc"], rows["mesh"])
+    rows["ratio"] = common.equal_error_ratio(rows["efg"], rows["mesh"])
     return rows
 
 
@@ -91,7 +91,7 @@ def drift(quick: bool) -> dict:
         (2.0, 16, "momentum"), (1.0, 4, "energy"), (1.0, 16, "energy"), (2.0, 16, "energy")]
     rows = []
     for spacing, ppn, gather in configs:
-        r, wall = _pidc("pic_thermal_plasma", "thermal", box=(16.0, 32.0), periods=5.0 if quick else 20.0,
+        r, wall = _efg("pic_thermal_plasma", "thermal", box=(16.0, 32.0), periods=5.0 if quick else 20.0,
                         node_spacing=spacing, particles_per_node=ppn, gather=gather)
         rows.append({"gather": gather, "spacing": spacing, "particles_per_node": ppn,
                      "particles_per_support": r["particles_per_support"], "drift": r["total_energy_drift"],
@@ -102,7 +102,7 @@ def drift(quick: bool) -> dict:
 
 
 def markdown(result: dict) -> str:
-    out = [f"PIDC against mesh PIC, {result['threads']} thread(s)\n"]
+    out = [f"PIC with an EFG field solve against a mesh PIC, {result['threads']} thread(s)\n"]
     for case, label in (("oscillation", "frequency error"), ("two_stream", "growth-rate error")):
         if case not in result:
             continue
@@ -115,8 +115,8 @@ def markdown(result: dict) -> str:
         out.append(f"### {case}\n\n" + common.md_table(["method", "spacing", "particles", label, "wall s"], rows))
         ratio = [[f"{r['error']:.2e}", common.fmt(r["a_s"]), common.fmt(r["b_s"]), common.fmt(r["ratio"])]
                  for r in result[case]["ratio"]]
-        table = common.md_table(["error", "PIDC s", "mesh s", "ratio"], ratio) if ratio else "(no overlap)\n"
-        out.append("PIDC/mesh time at equal error:\n\n" + table)
+        table = common.md_table(["error", "EFG s", "mesh s", "ratio"], ratio) if ratio else "(no overlap)\n"
+        out.append("EFG/mesh time at equal error:\n\n" + table)
     if "drift" in result:
         rows = [[r["gather"], common.fmt(r["spacing"]), r["particles_per_node"], common.fmt(r["particles_per_support"]),
                  f"{r['drift']:.2e}", f"{r['heating_rate_per_period']:+.1e}",

@@ -31,7 +31,7 @@ How
     column ~dx wider and taller than ours).
 
     The two codes do not take the same time step: PySPH's adaptive dt is 0.3 h / c0 (ramped up over 50
-    steps), ours the scene's ``cfl`` x h / (c0 + max|v|) (seed eq. 5-12; the scene's default, reported
+    steps), ours the scene's ``cfl`` x h / (c0 + max|v|) (the CFL condition; the scene's default, reported
     in the table), so the step counts to the same tf differ; particle-steps/s compares the cost of a
     step, the wall-time ratio the cost of the simulation. ``--ours-cfl 0.1 0.3`` adds rows of ours at
     other CFL numbers.

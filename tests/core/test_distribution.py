@@ -1,4 +1,4 @@
-"""The load distributions of seed 000 §3.2.2 as index maps over the launcher's chunks."""
+"""The load distributions of Mendes (2010) §3.2.2 as index maps over the launcher's chunks."""
 
 import numpy as np
 import pytest

@@ -33,7 +33,7 @@ def nodal_values_run(**output):
 
 
 def test_static_solve_through_the_run_shell(tmp_path):
-    """Seed 000 eq. 3.35 solved once: the SPH interpolant of the nodal values reproduces the imposed values at
+    """Mendes (2010) eq. 3.35 solved once: the SPH interpolant of the nodal values reproduces the imposed values at
     every particle (jittered), to the round-off of the float64 solve; the shell writes the summary with the
     solve's phases and throughput, one VTU, one frame, the analysis."""
     run = nodal_values_run()

@@ -323,7 +323,7 @@ def test_node_outside_the_geometry_is_refused(launcher):
 
 
 def test_resistor_potential_and_field_against_the_fem_reference_and_truncation_matters(tmp_path):
-    """Seed 002 §6.2's accuracy: potential within 0.2 %, field within 7 % of a fine FEM reference, no spurious
+    """Marques (2008) §6.2's accuracy: potential within 0.2 %, field within 7 % of a fine FEM reference, no spurious
     oscillation at the interface, the normal current continuous within 0.1 % away from the corners; the scene
     reports each against its tolerance (``checks``). Measured at the defaults (7 153 nodes graded toward the corners,
     quadratic basis): potential 6.0e-5 V on the lines, |E| 0.056 % largest, normal current 0.071 % mean over
@@ -384,7 +384,7 @@ def _layered_error(launcher, n, integration, interface_condition="nitsche"):
 
 
 def test_two_material_layered_conductor_is_exact_with_nitsche_interface(launcher):
-    """Domain truncation alone (seed 002 §3.3) is non-conforming: a node's test function jumps across the
+    """Domain truncation alone (Marques (2008) §3.3) is non-conforming: a node's test function jumps across the
     interface and the weak form's interface term ∫ [φ] σ ∂V/∂n dΓ is dropped, so even a piecewise-linear exact
     solution is missed at O(h). With that term back (symmetric Nitsche, ``interface_condition="nitsche"``, the
     default) and consistent integration per region, it is reproduced to round-off. Measured 2026-11-23 (max error,

@@ -1,4 +1,4 @@
-"""The two-material resistor reference (warpfree/validation/efg_resistor, seed 002 §6.2): the CSVs load, the
+"""The two-material resistor reference (warpfree/validation/efg_resistor, Marques (2008) §6.2): the CSVs load, the
 reference is conservative and converged, satisfies the interface conditions and the maximum principle, and
 ``reference_fem.py`` reproduces it on coarse meshes."""
 

@@ -45,7 +45,7 @@ def gauss_line(a: float, b: float, n: int = 8) -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * (b - a) * (t + 1.0) + a, 0.5 * (b - a) * w
 
 
-# ---------------------------------------------------------------- Timoshenko beam (seed 003 §5.1)
+# ---------------------------------------------------------------- Timoshenko beam (Rocha (2012) §5.1)
 
 E, NU, DEPTH, LENGTH, LOAD = (beam.DEFAULTS[k] for k in ("E", "nu", "D", "L", "P"))
 RNG = np.random.default_rng(3)
@@ -139,7 +139,7 @@ def test_beam_energy_norm():
 
 
 def test_elasticity_matrices_invert_hooke():
-    """D (seed 003 eq 3.37/3.38) against the compliance: plane stress ε = C σ with C the 2D compliance,
+    """D (Rocha (2012) eq 3.37/3.38) against the compliance: plane stress ε = C σ with C the 2D compliance,
     plane strain the same with E' = E/(1-ν²), ν' = ν/(1-ν)."""
     def compliance(E_, nu_):
         return np.array([[1, -nu_, 0], [-nu_, 1, 0], [0, 0, 2 * (1 + nu_)]]) / E_
@@ -149,7 +149,7 @@ def test_elasticity_matrices_invert_hooke():
                                np.eye(3), atol=1e-14)
 
 
-# ---------------------------------------------------------------- Lamé cylinder (seed 003 §5.3)
+# ---------------------------------------------------------------- Lamé cylinder (Rocha (2012) §5.3)
 
 A_IN, B_OUT = cyl.DEFAULTS["a"], cyl.DEFAULTS["b"]
 _r = RNG.uniform(A_IN + 0.5, B_OUT - 0.5, 50)
@@ -228,7 +228,7 @@ def test_cylinder_strain_energy_and_energy_norm(plane):
     assert cyl.strain_energy() == pytest.approx(62.1774, abs=5e-5)
 
 
-# ---------------------------------------------------------------- Cook's membrane (seed 003 §5.2)
+# ---------------------------------------------------------------- Cook's membrane (Rocha (2012) §5.2)
 
 def test_cook_csv_converges_and_matches_the_note():
     header, data = cook.convergence_table()

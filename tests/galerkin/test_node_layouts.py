@@ -31,7 +31,7 @@ def test_grid_nodes_count_order_spacing_and_boundary():
 def test_random_grid_nodes_keep_boundary_nodes_on_the_boundary_and_interior_in_their_sub_cell():
     regular = grid_nodes(LOWER, UPPER, CELLS)
     layout = random_grid_nodes(LOWER, UPPER, CELLS, seed=3)
-    assert layout.position.shape == regular.position.shape  # seed 003 compares equal node counts
+    assert layout.position.shape == regular.position.shape  # Rocha (2012) compares equal node counts
     assert np.array_equal(layout.boundary, regular.boundary) and layout.spacing == regular.spacing
     h = (UPPER - LOWER) / CELLS
     moved = layout.position - regular.position

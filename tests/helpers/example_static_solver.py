@@ -1,6 +1,6 @@
 """A small static solver on the core, for the run-shell tests: nodal values from imposed field values.
 
-SPH values are not nodal values (seed 000 §3.1.5): to make the SPH interpolant equal imposed values
+SPH values are not nodal values (Mendes (2010) §3.1.5): to make the SPH interpolant equal imposed values
 f_i at the particles, solve once M u = f with M_ij = W(|x_i - x_j|, h) V_j (eq. 3.31/3.35, diagonal
 included). Static neighbour list, race-free triplet assembly, one sparse factorisation: the pattern
 of the EFG and SPEM solvers to come.

@@ -158,7 +158,7 @@ def interpolation_matrix(
     h: float,
     t: Triplets,
 ):
-    """M_ij = W(|x_i - x_j|, h) V_j (seed 000 eq. 3.31), one triplet per entry of row i (slot = its CSR position)."""
+    """M_ij = W(|x_i - x_j|, h) V_j (Mendes (2010) eq. 3.31), one triplet per entry of row i (slot = its CSR position)."""
     i = first + wp.tid()
     for c in range(rows.start[i], rows.start[i] + rows.count[i]):
         j = rows.index[c]

@@ -19,7 +19,7 @@ from warpfree.validation.pic_two_stream import GAMMA_MAX, K_V0_FASTEST, growth_r
 
 
 def _random_nodes(space, per_axis, rng):
-    """One random node per sub-cell (seed 003's random layout), inside the periodic box."""
+    """One random node per sub-cell (Rocha (2012)'s random layout), inside the periodic box."""
     lat = lattice_nodes(space, space.length[0] / per_axis)
     h = space.length[:2] / np.array([per_axis, round(space.length[1] / (space.length[0] / per_axis))])
     return lat + (rng.random(lat.shape) * 0.8 + 0.1) * h

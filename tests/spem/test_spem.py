@@ -1,4 +1,4 @@
-"""SPEM (seed 000): derivative coefficients against NumPy and exact linear fields, the stable step against Yee's
+"""SPEM (Mendes (2010)): derivative coefficients against NumPy and exact linear fields, the stable step against Yee's
 limit, the 1D line against the exact wave, a PEC box's resonance against the analytic TM11 frequency, thread
 independence and bad input."""
 
@@ -200,7 +200,7 @@ def test_stable_step_on_uniform_layouts():
 
 
 def test_line_1d_matches_the_exact_wave(tmp_path):
-    """Seed 000 §4.2 at 20 particles per wavelength (the thesis needed 40): mean error 5.5e-3 against the exact
+    """Mendes (2010) §4.2 at 20 particles per wavelength (the thesis needed 40): mean error 5.5e-3 against the exact
     wave on (0.5, 1.5) at t = 4.75 ns (measured 2026-11-23), wavelength error < 0.1 %. Asserted: the required
     1e-2 and 0.1 %."""
     device.use("cpu", 2)
@@ -322,7 +322,7 @@ def test_cavity_series_reproduces_the_initial_profile():
 
 
 def test_circular_cavity_against_the_bessel_series(tmp_path):
-    """Seed 000 §4.3 (εr = 10, r0 = 0.1 m) to t = 5.5 ns, 20 cells per radius, largest mean error over the outputs
+    """Mendes (2010) §4.3 (εr = 10, r0 = 0.1 m) to t = 5.5 ns, 20 cells per radius, largest mean error over the outputs
     (of the peak, over all E particles). Measured: Yee's staggering (the default) 0.25 %, 30 %-jittered 0.63 %;
     cell-centred H 0.38 %, jittered 0.68 %; CSPM 1.9 % (support 1.5, cell-centred), plain SPH 88 % (the thesis:
     about 5 % with plain SPH). The jittered error is 2.6x the uniform one with Yee's staggering (1.8x with
@@ -499,7 +499,7 @@ def test_waveguide_reference_is_the_causal_tm1_solution():
 
 
 def test_waveguide_matches_the_exact_tm1_wave_with_half_the_thesis_density(tmp_path):
-    """Seed 000 §4.4 at 40 particles per wavelength (the thesis: 80), t = 4.1 ns: measured mean error 0.073 % of E0
+    """Mendes (2010) §4.4 at 40 particles per wavelength (the thesis: 80), t = 4.1 ns: measured mean error 0.073 % of E0
     along x = 0.25 m outside the PML (largest 0.29 %; cell-centred H 0.11 %, 0.31 %). Asserted: the thesis's
     0.39 %."""
     device.use("cpu", 2)
@@ -518,7 +518,7 @@ def plane_wave(tmp_path, **kw):
 
 @pytest.mark.parametrize("angle", [0.0, 30.0])
 def test_plane_wave_has_no_stripes_and_matches_the_analytic_wave(tmp_path, angle):
-    """Seed 000 §4.5 (3.6 GHz, 40 particles per wavelength, PML on all sides), on a 0.2 m square to 2 ns:
+    """Mendes (2010) §4.5 (3.6 GHz, 40 particles per wavelength, PML on all sides), on a 0.2 m square to 2 ns:
     measured (Yee's staggering), mean (largest) |Ez - Ez_inc| / A in the total-field box 0.17 % (0.68 %) at 0°,
     0.061 % (0.25 %) at 30°; amplitude spread between neighbouring lines 1e-4 and 4e-5; largest field in the
     scattered region 0.74 % and 0.27 % (Yee's dispersion: largest along an axis, smallest on the diagonal; the

@@ -1,4 +1,4 @@
-"""SPEM's Kronecker-delta option (seed 000, Section 3.1.5, eqs 3.31-3.35): the interpolation matrix against a
+"""SPEM's Kronecker-delta option (Mendes (2010), Section 3.1.5, eqs 3.31-3.35): the interpolation matrix against a
 brute-force loop, nodal values that reproduce imposed fields, the size of what the option corrects, the
 subset solve of a hard source, and bad input."""
 

@@ -2,7 +2,7 @@
 
 - :mod:`.shapes`: shape functions at points whatever model made them (:class:`~.shapes.ShapeData`), and what a
   Galerkin solver needs of a model (:class:`~.shapes.ShapeModel`);
-- :mod:`.mls`: the MLS model (bases, weights, supports; seeds 003 and 002), the EFG and PIC shape functions;
+- :mod:`.mls`: the MLS model (bases, weights, supports; Rocha 2012; Marques 2008), the EFG and PIC shape functions;
 - :mod:`.quadrature`: integration cells and Gauss rules (rectangles, mapped quadrilaterals, ring sectors,
   triangles, boundary segments and arcs);
 - :mod:`.consistent_integration`: test gradients that restore the discrete divergence theorem;

@@ -11,9 +11,9 @@ Two race-free forms, both bitwise the same for any thread count:
 
 Unknowns are node-major: component k of node I is unknown ``components·I + k``.
 
-- :func:`conduction_matrix`: K_IJ = Σ_g w_g k_g ∇ψ_I·∇φ_J (seed 002 eq 3.9, with the material's k)
-- :func:`elastic_matrix`: K_IJ = Σ_g w_g B̂_Iᵀ D_g B_J (seed 003 eq 3.35)
-- :func:`load_vector`: f_{cI+k} = Σ_g φ_I(x_g) v_{g,k} (sources, fluxes, tractions; seed 003 eq 3.36)
+- :func:`conduction_matrix`: K_IJ = Σ_g w_g k_g ∇ψ_I·∇φ_J (Marques 2008, eq. 3.9, with the material's k)
+- :func:`elastic_matrix`: K_IJ = Σ_g w_g B̂_Iᵀ D_g B_J (Rocha 2012, eq. 3.35)
+- :func:`load_vector`: f_{cI+k} = Σ_g φ_I(x_g) v_{g,k} (sources, fluxes, tractions; Rocha 2012, eq. 3.36)
 
 ∇ψ: the test gradients, ∇φ or the variationally consistent ones (``warpfree.galerkin.consistent_integration``).
 float64 (the shape functions', ``kernels/mls.py``).

@@ -1,9 +1,9 @@
-"""The MLS model: nodes, their supports and MLS shape functions at any set of points (seeds 003 and 002), the shape
+"""The MLS model: nodes, their supports and MLS shape functions at any set of points (Rocha 2012; Marques 2008), the shape
 functions of EFG and of the PIC field solve.
 
 An :class:`MLSModel` (a :class:`~warpfree.galerkin.shapes.ShapeModel`) holds what does not change once built: the nodes (float64), their materials, the MLS
 settings (:class:`MLSSettings`), each node's support (half-widths R_I = d_max · c_I, with c_I the distance to its
-``rank``-th nearest node, seed 003 §4.1.1 and eqs 3.33 / seed 002 eq 4.1) and a ``wp.HashGrid`` over the nodes.
+``rank``-th nearest node, Rocha 2012, §4.1.1 and eq. 3.33; Marques 2008, eq. 4.1) and a ``wp.HashGrid`` over the nodes.
 :meth:`MLSModel.shape_at` gives the shape functions and their gradients at any points (Gauss points, plotting
 points, plasma particles) as a :class:`ShapeData`: CSR rows of the nodes whose support holds each point, with
 φ_I and ∇φ_I per entry. Another solver (the PIC field solve) holds the model and asks it for shape data.
@@ -84,10 +84,10 @@ RCOND_LIMIT = 1e-10
 
 @dataclass(frozen=True)
 class MLSSettings:
-    """MLS shape functions: ``basis`` "linear" (1, x, y) or "quadratic"; ``weight`` "cubic_spline" (seed 003 eq
-    3.32), "quartic" (3.30), "gaussian" (3.31) or "singular" (interpolating, seed 002 §3.5); ``d_max`` the support
-    scale (seed 003 eq 3.33: R_I = d_max c_I; the thesis uses 3.5 for the beam, 2.5 for the cylinder, 1.8 for
-    Cook); ``support`` "circular" or "rectangular" (tensor-product weight, seed 002 eq 3.23); ``rank``: c_I is the
+    """MLS shape functions: ``basis`` "linear" (1, x, y) or "quadratic"; ``weight`` "cubic_spline" (Rocha 2012 eq
+    3.32), "quartic" (3.30), "gaussian" (3.31) or "singular" (interpolating, Marques 2008, §3.5); ``d_max`` the support
+    scale (Rocha 2012, eq. 3.33: R_I = d_max c_I; the thesis uses 3.5 for the beam, 2.5 for the cylinder, 1.8 for
+    Cook); ``support`` "circular" or "rectangular" (tensor-product weight, Marques 2008, eq. 3.23); ``rank``: c_I is the
     distance from node I to its rank-th nearest node (4: the grid spacing inside a regular 2D grid)."""
 
     basis: MLSBasis = MLSBasis.LINEAR

@@ -1,7 +1,7 @@
-"""EFG node layouts in 2D (host-side NumPy, float64): regular and stratified-random grids (seed 003).
+"""EFG node layouts in 2D (host-side NumPy, float64): regular and stratified-random grids (Rocha 2012).
 
 A layout is (nx+1)(ny+1) nodes of a regular grid of the parameter square [0, 1]², numbered i + (nx+1)·j, mapped
-onto a box, a convex quadrilateral (Cook's membrane, bilinear map) or a ring sector (polar map, seed 003's "radial"
+onto a box, a convex quadrilateral (Cook's membrane, bilinear map) or a ring sector (polar map, Rocha's (2012) "radial"
 cylinder layout). A random layout moves every node by up to ``jitter`` × the cell size along each parameter axis,
 uniformly (one random node per sub-cell, so it has the regular layout's node count); boundary nodes stay ON the
 boundary, so essential conditions can be imposed on them and NEM's Delaunay hull is the domain: corner nodes stay,
@@ -136,7 +136,7 @@ def quadrilateral_nodes(corners, cells, seed: int | None = None, jitter: float =
 def annulus_nodes(inner, outer, angle0, angle1, cells, seed: int | None = None, jitter: float = 0.0,
                   centre=(0.0, 0.0)) -> NodeLayout:
     """A polar grid of (n_r+1)(n_θ+1) nodes x = centre + r (cos θ, sin θ), r = inner..outer, θ = angle0..angle1
-    (rad) in equal steps, ``cells`` = (n_r, n_θ), index i_r + (n_r+1)·i_θ (seed 003's "radial" layout of the
+    (rad) in equal steps, ``cells`` = (n_r, n_θ), index i_r + (n_r+1)·i_θ (Rocha's (2012) "radial" layout of the
     cylinder quarter); jittered in (r, θ) as in :func:`random_grid_nodes` when ``jitter`` > 0 (``seed`` required).
     Boundary: r = inner, r = outer, θ = angle0, θ = angle1. Needs inner > 0 and angle1 - angle0 < 2π (otherwise
     nodes would coincide)."""

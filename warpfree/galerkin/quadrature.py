@@ -1,6 +1,6 @@
 """Background integration for EFG and NEM in 2D: Gauss points over cells and over the boundary (host-side NumPy).
 
-The weak form of EFG (Belytschko, Lu & Gu 1994, seed 003) is integrated on a background mesh of cells that need not
+The weak form of EFG (Belytschko, Lu & Gu 1994, Rocha 2012) is integrated on a background mesh of cells that need not
 match the nodes: every cell contributes Gauss points ``position`` with weights ``weight`` = Gauss weight × |det J|
 (m², so that the weights of a domain sum to its area), and every boundary piece contributes points with weights
 = Gauss weight × the length element (m) and the unit outward normal, for tractions and Nitsche/penalty terms.

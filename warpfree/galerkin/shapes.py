@@ -4,7 +4,7 @@ A shape-function model (:class:`ShapeModel`: MLS, ``warpfree.galerkin.mls``; Lap
 holds nodes and gives, at any set of points, the nodes whose shape functions do not vanish there and the values
 φ_I and gradients ∇φ_I (:class:`ShapeData`: CSR rows, float64). The Galerkin solvers (``warpfree.solvers.efg``) and
 the PIC field solve (``warpfree.solvers.pic``) know a model only through this class. u^h(x) = Σ_I φ_I(x) u_I
-(:func:`evaluate_nodal`; seed 003 eq 3.28).
+(:func:`evaluate_nodal`; Rocha 2012, eq. 3.28).
 """
 
 from __future__ import annotations

@@ -1,1 +1,1 @@
-"""Element-Free Galerkin (seeds 003 and 002): MLS shape functions, Gauss-point assembly, Poisson and 2D elasticity."""
+"""Element-Free Galerkin (Rocha 2012; Marques 2008): MLS shape functions, Gauss-point assembly, Poisson and 2D elasticity."""

@@ -2,14 +2,14 @@
 
 Essential conditions along a polyline, three ways (``method`` of the solver):
 
-- "lagrange" (seed 003 eqs 3.34-3.36): multipliers λ_K at the polyline's vertices, linear hats N_K along its
+- "lagrange" (Rocha 2012, eqs 3.34-3.36): multipliers λ_K at the polyline's vertices, linear hats N_K along its
   pieces; G_IK = -∫_Γu φ_I N_K dΓ, q_K = -∫_Γu N_K ū dΓ, and [[K, G], [Gᵀ, 0]] {u, λ} = {f, q}.
 - "penalty": K + α ∫_Γu φ_I φ_J dΓ, f + α ∫_Γu φ_I ū dΓ (α: the solver's ``penalty`` times the stiffness scale).
-- "direct" (seed 002 eq 3.26): only with interpolating shape functions (the singular weight, φ_I(x_J) = δ_IJ):
+- "direct" (Marques 2008, eq. 3.26): only with interpolating shape functions (the singular weight, φ_I(x_J) = δ_IJ):
   the nodes on the polyline take ū at their positions, eliminated as in FEM.
 
 Natural conditions: ``value(points, normals)`` (n, components) on boundary Gauss points (a traction t = σ·n or a
-flux -k ∂u/∂n... as the problem defines it), added as ∫_Γt φ_I t̄ dΓ (seed 003 eq 3.36).
+flux -k ∂u/∂n... as the problem defines it), added as ∫_Γt φ_I t̄ dΓ (Rocha 2012, eq. 3.36).
 """
 
 from __future__ import annotations

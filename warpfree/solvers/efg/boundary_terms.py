@@ -1,7 +1,7 @@
 """Boundary-condition and interface terms of the EFG systems (Warp kernels, ``kernels/efg.py``), each Gauss point
 writing its own slots, summed on the host (``warpfree.sparse``):
 
-- :func:`multiplier_matrix`: G = -Σ_g w_g φ_I N_K (seed 003 eq 3.36), Lagrange multipliers N_K linear on a polyline
+- :func:`multiplier_matrix`: G = -Σ_g w_g φ_I N_K (Rocha 2012, eq. 3.36), Lagrange multipliers N_K linear on a polyline
 - :func:`boundary_mass_matrix`: Σ_g w_g φ_I φ_J on a boundary (the penalty method)
 - :func:`interface_matrix`: the symmetric Nitsche terms on a material interface between truncated supports
 

@@ -12,10 +12,10 @@ functions interpolate); :meth:`EFGSolver.field_at` evaluates u^h and ∇u^h anyw
 
 Problems:
 
-- :class:`PoissonSolver`: -∇·(k ∇u) = s (seed 002 eq 3.3 with the sign made consistent; K_IJ = ∫ k ∇φ_I·∇φ_J,
+- :class:`PoissonSolver`: -∇·(k ∇u) = s (Marques 2008, eq. 3.3 with the sign made consistent; K_IJ = ∫ k ∇φ_I·∇φ_J,
   f_I = ∫ φ_I s + ∫_Γ φ_I q̄, q̄ = k ∂u/∂n the inflow flux... given as the natural value), k per material; Gauss
-  points and nodes carry material indices so that nodes serve only their own material (seed 002 §3.3).
-- :class:`ElasticitySolver`: ∇·σ + b = 0, σ = D ε (seed 003 eqs 3.34-3.38), plane stress or plane strain.
+  points and nodes carry material indices so that nodes serve only their own material (Marques 2008, §3.3).
+- :class:`ElasticitySolver`: ∇·σ + b = 0, σ = D ε (Rocha 2012, eqs 3.34-3.38), plane stress or plane strain.
 
 float64 throughout (``kernels/mls.py``, ``kernels/galerkin.py``, ``kernels/efg.py``). Units: the caller's, consistently (SI or any consistent set).
 """
@@ -93,7 +93,7 @@ OUTSIDE_WINDING = 0.02
 
 
 def elasticity_matrix(young: float, poisson: float, plane: Plane) -> np.ndarray:
-    """D (3, 3), Voigt with engineering shear: plane stress (seed 003 eq 3.37) E/(1-ν²) [[1, ν, 0], [ν, 1, 0],
+    """D (3, 3), Voigt with engineering shear: plane stress (Rocha 2012, eq. 3.37) E/(1-ν²) [[1, ν, 0], [ν, 1, 0],
     [0, 0, (1-ν)/2]]; plane strain (3.38) E/((1+ν)(1-2ν)) [[1-ν, ν, 0], [ν, 1-ν, 0], [0, 0, (1-2ν)/2]]."""
     e = require_positive("young", young)
     nu = require_finite("poisson", poisson)
@@ -123,7 +123,7 @@ class EFGSolver(StaticSolver):
     cell averages; linear fields exact; one material, no interfaces); interface_condition: "nitsche"
     (the interface term of the weak form that domain truncation drops, its symmetric partner and a penalty
     ``nitsche_penalty`` · k_max / h: a conforming interface, ``boundary_terms.interface_matrix``) or "none" (truncation
-    alone, seed 002's); linear_solver, preconditioner: :meth:`set_linear_solver` (SuperLU in one process, PETSc
+    alone, Marques's (2008)); linear_solver, preconditioner: :meth:`set_linear_solver` (SuperLU in one process, PETSc
     over several ranks); consistency: the order of consistent integration (None: the model's).
     """
 
@@ -521,7 +521,7 @@ class EFGSolver(StaticSolver):
 class PoissonSolver(EFGSolver):
     """-∇·(k ∇u) = s with k per material (``conductivity``: one value per material index), s = ``source(points)``.
     Node materials (the model's ``node_material``) and cell materials (``cell_material``, per integration cell)
-    truncate supports at interfaces (seed 002 §3.3)."""
+    truncate supports at interfaces (Marques 2008, §3.3)."""
 
     name: ClassVar[str] = "efg_poisson"
     components: ClassVar[int] = 1

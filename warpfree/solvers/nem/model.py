@@ -1,4 +1,4 @@
-"""The NEM model: nodes, their Delaunay triangulation and Laplace shape functions at any set of points (seed 003 §3.4).
+"""The NEM model: nodes, their Delaunay triangulation and Laplace shape functions at any set of points (Rocha 2012, §3.4).
 
 A :class:`NEMModel` is a :class:`~warpfree.galerkin.shapes.ShapeModel`, as the MLS model is, for the EFG solvers
 (``warpfree.solvers.efg.solver``): it has ``launcher``, ``node_count``, ``nodes_np``, ``spacing`` (per node),
@@ -13,7 +13,7 @@ triangles stays at order 1 (the shape model's default ``consistency_order``): it
 fraction of the gradients at every level, and a second-order one fitted to the same points only adds to that bias
 (the Timoshenko beam, 637 / 2425 regular nodes: tip error +0.45 / +0.57 % at order 1, +4.1 / +3.5 % at order 2).
 
-Shape functions: Laplace / non-Sibsonian (Belikov et al. 1997; Sukumar et al. 2001), seed 003 eqs 3.45-3.46,
+Shape functions: Laplace / non-Sibsonian (Belikov et al. 1997; Sukumar et al. 2001), Rocha (2012), eqs 3.45-3.46,
 
     φ_i(x) = α_i / Σ_j α_j,   α_i = s_i / h_i,
 
@@ -276,7 +276,7 @@ class NEMModel(ShapeModel):
 
     def integration_cells(self, degree: int = 2) -> QuadraturePoints:
         """Gauss points on the kept Delaunay triangles (``triangle_cells``): degree 2 = 3 points per triangle, the
-        thesis's rule (seed 003 §4.1.4); degree 1-5."""
+        thesis's rule (Rocha 2012, §4.1.4); degree 1-5."""
         return triangle_cells(self.nodes_np, self.triangles, degree)
 
     def smoothing_cells(self, order: int = 1) -> SmoothingCells:

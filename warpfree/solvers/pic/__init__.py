@@ -1,4 +1,4 @@
-"""PIDC (seed 002): electrostatic particle-in-cell whose field solve is EFG. Species and loading
+"""PIC (Marques 2008): electrostatic particle-in-cell whose field solve is EFG. Species and loading
 (:mod:`.species`), wall sources (:mod:`.injection`), the EFG Poisson solve (:mod:`.field`); the solver (:mod:`.solver`)
 and its parts: the particles and their state (:mod:`.particles`), the particle-node coupling (:mod:`.coupling`:
 fits, deposit, solve, gather) and the per-step history (:mod:`.history`). Kernels: ``warpfree.kernels.pic``.

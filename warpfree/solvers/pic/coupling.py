@@ -1,4 +1,4 @@
-"""The particle-node coupling of PIDC (seed 002 ch. 4): the field at the particles' positions x^n.
+"""The particle-node coupling of PIC (Marques 2008, ch. 4): the field at the particles' positions x^n.
 
     neighbours:  rebuild the HashGrid over the particles (and their periodic images)
     fits:        the MLS fit of every particle over the nodes (γ, ∂γ: φ_I and ∇φ_I, stored once per step)

@@ -1,7 +1,7 @@
-"""The PIC field solve: EFG Galerkin Poisson (seed 002 eqs 3.8-3.9, 4.4-4.5) in a box periodic along x and either
+"""The PIC field solve: EFG Galerkin Poisson (Marques 2008, eqs 3.8-3.9, 4.4-4.5) in a box periodic along x and either
 periodic along y or closed by two walls of given potential (grounded walls, electrodes), factorised once.
 
--∇²u = ρ (ε0 = 1; the reference note's sign convention, E = -∇u). With the EFG shape functions φ_I of an
+-∇²u = ρ (ε0 = 1, E = -∇u). With the EFG shape functions φ_I of an
 :class:`~warpfree.galerkin.mls.MLSModel` over a periodic :class:`~warpfree.space.Space`:
 
     K u + m λ = b,   mᵀ u = 0,   K_IJ = ∫ ∇φ_I·∇φ_J dΩ,   m_I = ∫ φ_I dΩ,   b_I = Q_I + ρ_bg m_I
@@ -21,7 +21,7 @@ Petrov-Galerkin K would break. float64 (see ``kernels/mls.py``).
 
 Two gathers (:class:`~.solver.PICSolver` ``gather=``):
 
-- "energy": E(x_p) = -Σ_I u_I ∇φ_I(x_p) (seed 002 eq 4.5). Energy-conserving, but the force on a particle includes
+- "energy": E(x_p) = -Σ_I u_I ∇φ_I(x_p) (Marques 2008, eq. 4.5). Energy-conserving, but the force on a particle includes
   its own: F = -∇S(x_p) with the self-energy S(x) = ½ q² φ(x)ᵀ K⁻¹ φ(x), which varies across a node cell.
   The self-force grows as 1/spacing (``bench/results/pic_design.md``).
 - "momentum": nodal fields E_I = -(1/m_I) Σ_J G_IJ u_J with G_IJ = ∫ φ_I ∇φ_J dΩ (antisymmetric on a periodic

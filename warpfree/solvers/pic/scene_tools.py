@@ -26,7 +26,7 @@ BYTES_PER_NODE = 40e3
 POTENTIAL_FRAMES = (("nodes", "potential"),)
 
 #: the relative total-energy drift a PIC run is to stay below: 1 % over 50 plasma periods, the thermal plasma's
-#: target (``scenes/pic_thermal_plasma.py``, after seed 002 §6.3)
+#: target (``scenes/pic_thermal_plasma.py``, after Marques 2008, §6.3)
 ENERGY_DRIFT_TARGET = 0.01
 
 
@@ -72,13 +72,14 @@ def write_history(path: str, history: dict[str, list[float]]) -> str:
 
 
 def plot_history(out_dir: str, history: dict[str, list[float]], solver=None, energy_tolerance: float | None = None,
-                 tolerance_label: str = "", below: dict | None = None) -> list[str]:
+                 tolerance_label: str = "", below: dict | None = None, units: dict | None = None) -> list[str]:
     """energy.png (:func:`plot_energy`: the energies and, below, the total energy's relative drift with the band ±
     ``energy_tolerance``, or the series ``below`` names) and, with ``solver``, potential.png (the nodal potential at
-    the end, nodes coloured)."""
+    the end, nodes coloured, labelled in ``units``: the solver's ``UNITS`` by default)."""
     from warpfree.io.frames import render_frame
     from warpfree.solvers.pic.solver import UNITS
 
+    units = units or UNITS
     paths = [plot_energy(os.path.join(out_dir, "energy.png"), history, energy_tolerance, tolerance_label, below)]
     if solver is not None:
         model = solver.model
@@ -86,7 +87,7 @@ def plot_history(out_dir: str, history: dict[str, list[float]], solver=None, ene
         paths.append(str(render_frame(os.path.join(out_dir, "potential.png"), model.nodes_np, solver.potential, 2,
                                       "potential", ((lo[0], lo[0] + length[0]), (lo[1], lo[1] + length[1])),
                                       title="potential at the nodes", time=solver.t, time_unit=solver.time_unit,
-                                      field_unit=UNITS["potential"], length_unit=UNITS["position"])))
+                                      field_unit=units["potential"], length_unit=units["position"])))
     return paths
 
 
@@ -207,7 +208,7 @@ def plot_profile(path: str, y, computed, reference, scale: float, tolerance: flo
     top.set_ylabel(ylabel)
     top.legend(fontsize=8, framealpha=0.85)
     bottom.set_xlabel(xlabel)
-    bottom.set_ylabel("error / V")
+    bottom.set_ylabel("(φ − φ_steady) / V, V the anode potential")
     return save_figure(fig, path)
 
 

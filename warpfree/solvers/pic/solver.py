@@ -1,6 +1,6 @@
-"""The PIDC solver (seed 002 ch. 4-5): electrostatic particle-in-cell whose field solve is EFG.
+"""The PIC solver (Marques 2008, ch. 4-5): electrostatic particle-in-cell whose field solve is EFG.
 
-One step (``kernels/pic.py``; the order of seed 002 §5.2), each part in its module:
+One step (``kernels/pic.py``; the order of Marques 2008, §5.2), each part in its module:
 
     push:        leapfrog (eqs 2.21 / 4.7), positions wrapped into the box, reflected or absorbed at walls
     history:     the step's diagnostics row (:mod:`.history`)
@@ -13,11 +13,11 @@ tally), sources inject new ones (:mod:`.particles`). ``deposited_charge`` = init
 round-off.
 
 The state holds x^n, v^{n-1/2}; the first step is preceded by the half-step start v^{-1/2} = v^0 - (q/m) E^0 Δt/2
-(seed 002 §2.2.3), done at construction. The solver holds the EFG model and its factorised Poisson matrix (the
-discretisation does not change in time: assembled and factorised once, seed 002 §5.5).
+(Marques 2008, §2.2.3), done at construction. The solver holds the EFG model and its factorised Poisson matrix (the
+discretisation does not change in time: assembled and factorised once, Marques 2008, §5.5).
 
 Checks (the two causes of numerical heating PIC users hit most): ω_pe Δt ≥ 2 (the leapfrog's stability limit) is
-refused; ω_pe Δt > 0.2 (seed 002 §2.2.3, printed "Δt = 0.2 ω_pe") and a node spacing above 2 λ_D warn, saying by
+refused; ω_pe Δt > 0.2 (Marques 2008, §2.2.3, printed "Δt = 0.2 ω_pe") and a node spacing above 2 λ_D warn, saying by
 how much. Diagnostics each step (:attr:`PICSolver.history`): kinetic, field and total energy, momentum, deposited
 charge, field energy in chosen Fourier modes. Normalised units: see :mod:`.species`.
 """
@@ -51,7 +51,7 @@ from .species import ParticleLoad, Species
 
 __all__ = ["PICSolver", "PICState", "ParticleWall", "HEATING_DT", "HEATING_SPACING"]
 
-#: ω_pe Δt above which the leapfrog's phase error heats the plasma noticeably (seed 002 §2.2.3: Δt = 0.2/ω_pe)
+#: ω_pe Δt above which the leapfrog's phase error heats the plasma noticeably (Marques 2008, §2.2.3: Δt = 0.2/ω_pe)
 HEATING_DT = 0.2
 #: node spacing / λ_D above which finite-grid (aliasing) heating sets in for a warm plasma
 HEATING_SPACING = 2.0
@@ -186,7 +186,7 @@ class PICSolver(TimeDependentSolver):
         bad = self.coupling.bad_particle()
         if bad:
             raise ParameterError("support", bad)
-        # half-step start: v^{-1/2} = v^0 - (q/m) E^0 Δt/2 (seed 002 §2.2.3)
+        # half-step start: v^{-1/2} = v^0 - (q/m) E^0 Δt/2 (Marques 2008, §2.2.3)
         self.launcher.launch(pk.kick, self.count, [self.species_table, self.particles.arrays, self.particles.e_field,
                                                    self.magnetic_field, wp.float64(-0.5 * self.dt)])
         self.diagnostics_record.after_solve()

@@ -1,11 +1,11 @@
-"""Plasma species and their loading (seed 002 §2.1, §5.2: uniform positions, Maxwell–Boltzmann velocities).
+"""Plasma species and their loading (Marques 2008, §2.1, §5.2: uniform positions, Maxwell–Boltzmann velocities).
 
 Normalised units (``warpfree.solvers.pic``): charge in e, mass in m_e, number density in n_ref, temperature in
 T_ref with k_B T_ref = m_e v_ref² (so a species' thermal speed is v_th = sqrt(T/m)); with n_ref, e and m_e the
 electron plasma frequency is 1 and the Debye length λ_D = v_th,e / ω_pe.
 
 A macro-particle carries W real particles (``weight``): its charge q W and mass m W, so q/m stays the real
-particle's (seed 002 §1.1). In 2D W is per unit depth: W = n · area / count.
+particle's (Marques 2008, §1.1). In 2D W is per unit depth: W = n · area / count.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""SPEM (seed 000): time-domain Maxwell on interleaved E and H particle sets. Layouts (:mod:`.layouts`),
+"""SPEM (Mendes 2010): time-domain Maxwell on interleaved E and H particle sets. Layouts (:mod:`.layouts`),
 the static model with its PML and derivative coefficients (:mod:`.model`), the leapfrog solver and its
 sources (:mod:`.solver`, plane waves :mod:`.plane_wave`), the energy-conserving operator pair
 (:mod:`.conservative`), Kronecker-delta nodal values (:mod:`.kronecker`). Kernels: ``warpfree.kernels.spem``."""

@@ -7,7 +7,7 @@ discrete energy W = ½ Σ_E ε V Ez² + ½ Σ_H μ V |H|² when, for each axis a
 
 (D_E: rows of E over H, D_H: rows of H over E; V: the particles' volumes; held E particles, the perfect
 conductor, are zero and drop out). Then the semi-discrete system is skew-adjoint, its spectrum imaginary,
-and the leapfrog is stable below its step limit on any layout. FPM (seed eqs 2.30-2.35) on both sides is
+and the leapfrog is stable below its step limit on any layout. FPM (Mendes 2010, eqs 2.30-2.35) on both sides is
 exact for linear fields but satisfies (1) only on a uniform layout away from walls: on 30 %-jittered
 particles its energy grows ~100x a period. The reverse choice, D_H := -V_H^-1 D_E^T V_E, conserves energy
 but is not a derivative on jittered particles (the thesis's failure on non-uniform layouts, §5).

@@ -1,4 +1,4 @@
-"""The Kronecker-delta option of SPEM (seed thesis 000, Section 3.1.5): particle values as nodal parameters.
+"""The Kronecker-delta option of SPEM (Mendes 2010, §3.1.5): particle values as nodal parameters.
 
 An SPH particle value u_j is a *nodal parameter*, not the field. The field at particle i is the interpolant
 (3.31), over the particle's own set (E or H), i itself included::

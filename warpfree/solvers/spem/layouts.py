@@ -1,6 +1,6 @@
 """Particle layouts of SPEM: an E set and an H set interleaved in space.
 
-The layout (the thesis fixes none in 2D, §7 item 1 of the notes): E particles at the nodes of a lattice of
+The layout (Mendes (2010) fixes none in 2D): E particles at the nodes of a lattice of
 spacing Δ; in 1D H at the midpoints; in 2D H in Yee's staggering by default (``h_staggering="edges"``: Hx at the
 midpoints of the cell sides along y, Hy of those along x, none on a box's faces, each H particle carrying its one
 component, ``StaggeredLayout.h_carries``), or both components at the cell centres (``"centres"``, the layout the

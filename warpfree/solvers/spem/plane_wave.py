@@ -1,4 +1,4 @@
-"""Plane-wave injection by total-field/scattered-field (TF/SF), the remedy seed 000 proposes (§5) for its
+"""Plane-wave injection by total-field/scattered-field (TF/SF), the remedy Mendes (2010) proposes (§5) for its
 failed free-space case (§4.5), on particles.
 
 Inside the total-field box the particles carry the total field, outside it only the scattered field (zero

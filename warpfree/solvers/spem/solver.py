@@ -148,7 +148,7 @@ class SPEMSolver(TimeDependentSolver):
     by default; ``sources``: a list of :class:`Source` and :class:`~.plane_wave.PlaneWave`.
 
     ``kronecker``: the initial fields are field values, converted once to the nodal values whose SPH interpolant
-    takes them at the particles (seed §3.1.5, :mod:`.kronecker`; for the "sph" and "cspm" schemes, whose values
+    takes them at the particles (Mendes 2010, §3.1.5, :mod:`.kronecker`; for the "sph" and "cspm" schemes, whose values
     are read through that interpolant; FPM's values already are point values). PEC particles keep 0.
     ``distribution``: which particles each thread updates (``warpfree/distribution.py``: "blocks",
     "alternating", "random", "neighbours"); the results are bitwise the same for all.

@@ -1,4 +1,4 @@
-"""WCSPH fluids (seed 004): the model (:mod:`.model`), the solver (:mod:`.solver`), free surfaces
+"""WCSPH fluids (Monaghan 1994): the model (:mod:`.model`), the solver (:mod:`.solver`), free surfaces
 (:mod:`.surface`) and the helpers of the fluid scenes (:mod:`.scene_tools`). Kernels:
 ``warpfree.kernels.wcsph``."""
 

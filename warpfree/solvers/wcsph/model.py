@@ -43,10 +43,11 @@ class BoundaryModel(Choice):
     LENNARD_JONES = "lennard_jones", "a Lennard-Jones repulsive force from one layer of wall particles (Monaghan 1994)"
 
 #: h/dx by dimension when a model does not set it: about 30 neighbours in 2D (1.6: 31 on the lattice), 80 in 3D
-#: (1.3). Measured in 2D: at 1.3 (20 neighbours, the seed's 1.2-1.3) the error of a disordered arrangement does not
-#: converge (Taylor-Green with shifting: -7 % at t_e for n = 50 and 100) and a relaxed tank at rest keeps a kinetic
-#: energy noise floor ten times higher; at 1.6 the Taylor-Green error converges (2.4, 0.9, 0.45 % at n = 25, 50,
-#: 100) and the default dam break costs the same (fewer, longer steps) with a slightly closer front.
+#: (1.3). Measured in 2D: at 1.3 (20 neighbours, the 1.2-1.3 of the SPH-fluids thesis, ch. 5) the error of a
+#: disordered arrangement does not converge (Taylor-Green with shifting: -7 % at t_e for n = 50 and 100) and a
+#: relaxed tank at rest keeps a kinetic energy noise floor ten times higher; at 1.6 the Taylor-Green error converges
+#: (2.4, 0.9, 0.45 % at n = 25, 50, 100) and the default dam break costs the same (fewer, longer steps) with a
+#: slightly closer front.
 DEFAULT_H_FACTOR = {2: 1.6, 3: 1.3}
 
 #: particle shifting removes the normal component where ∇·r is below this fraction of its full-support lattice
@@ -93,7 +94,7 @@ class FluidParams:
     lj_r0: float = 0.0               # Lennard-Jones range r0 (m): ~ dx for "lennard_jones" walls; with
                                      # "dynamic" walls a safety net when > 0 (e.g. 0.75 dx), 0 = off
     skin: float = 0.15               # neighbour-list skin as a fraction of the support (0 = rebuild every step)
-    cfl: float = 0.1                 # Courant number of seed eq. 5-12
+    cfl: float = 0.1                 # Courant number C of the CFL condition Δt = C h/(c0 + max|v|)
     container_lo: tuple = (-1e30, -1e30, -1e30)   # fluid must stay inside this box (m)
     container_hi: tuple = (1e30, 1e30, 1e30)
     periodic: tuple = (False, False, False)       # periodic axes; their period is the container box

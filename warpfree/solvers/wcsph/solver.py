@@ -1,4 +1,4 @@
-"""Weakly-compressible SPH solver (seed 004): orders the launches of :mod:`warpfree.kernels.wcsph`.
+"""Weakly-compressible SPH solver (Monaghan 1994): orders the launches of :mod:`warpfree.kernels.wcsph`.
 
 One step reads as the scheme: drift (half kick, drift, predictor), rebuild the neighbour tables if a
 particle may have moved half the skin, wall pressure (dynamic walls), rates, kick (which also writes
@@ -36,8 +36,9 @@ from .spread import STEP_FIELDS, FluidSpread
 
 __all__ = ["WCSPHSolver", "WCSPHState", "FluidField"]
 
-#: minimum neighbour count of the best-surrounded fluid particle (seed §5.5 recommends 20 in 2D, 56 in
-#: 3D; a lattice with h = 1.3 dx and support 2h has 20 and 80). Below this, h is too small for dx.
+#: minimum neighbour count of the best-surrounded fluid particle (chapter 5 of a Portuguese thesis on SPH fluids,
+#: §5.5, recommends 20 in 2D, 56 in 3D; a lattice with h = 1.3 dx and support 2h has 20 and 80). Below this, h is
+#: too small for dx.
 MIN_NEIGHBOURS = {1: 4, 2: 20, 3: 56}
 
 #: the units of the output sets' quantities (SI)
@@ -257,7 +258,7 @@ class WCSPHSolver(TimeDependentSolver):
         return best
 
     def initialise(self) -> None:
-        """Pressure from the EOS, the tables and the rates at t = 0 (the leapfrog start-up, seed 5-5)."""
+        """Pressure from the EOS, the tables and the rates at t = 0 (the leapfrog start-up)."""
         a, c = self.arrays, self.model.constants
         wp.copy(a.velocity_eval, self.fluid["velocity"])
         wp.copy(a.density_eval, self.fluid["density"])
@@ -348,7 +349,7 @@ class WCSPHSolver(TimeDependentSolver):
         return self.clock.report()[ck.SLOTS: ck.SLOTS + K.REPORT_SLOTS]
 
     def stable_dt(self) -> float:
-        """Δt = min(C h/(max|v| + c0) [seed 5-12], 0.25 sqrt(h/max|a|), 0.125 h² ρ0/μ, 0.125 h²/(A h U)): the last
+        """Δt = min(C h/(max|v| + c0) [CFL], 0.25 sqrt(h/max|a|), 0.125 h² ρ0/μ, 0.125 h²/(A h U)): the last
         two are the explicit-diffusion limits of the viscosity and of particle shifting (diffusivity A h U). Computed
         on the device from the last report (``kernels/wcsph.py: finish_step``), read with it."""
         return float(self.clock.report()[ck.LIMIT])
@@ -593,7 +594,7 @@ class WCSPHSolver(TimeDependentSolver):
         return fields
 
     def output_meshes(self) -> dict:
-        """The free surface (3D): the χ = 1/2 iso-surface of the colour function (seed eq. 5-7)."""
+        """The free surface (3D): the χ = 1/2 iso-surface of the colour function χ = Σ_j V_j W_j."""
         if self.dim != 3:
             return {}
         from .surface import free_surface_mesh

@@ -1,4 +1,4 @@
-"""Cook's membrane (seed 003 §5.2, Table 5.2): a fine-mesh FEM reference, ``reference.csv``; see ``README.md``.
+"""Cook's membrane (Rocha 2012, §5.2, Table 5.2): a fine-mesh FEM reference, ``reference.csv``; see ``README.md``.
 
 The quadrilateral (0, 0), (48, 44), (48, 60), (0, 44) (Cook 1974), unit thickness, clamped on x = 0, a
 total vertical shear F uniformly distributed on x = 48 (t_y = F/16), plane strain, E = 240.565 (the thesis's

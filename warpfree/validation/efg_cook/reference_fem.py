@@ -1,4 +1,4 @@
-"""Fine-mesh finite-element reference for Cook's membrane (seed 003 §5.2): the script that wrote ``reference.csv``.
+"""Fine-mesh finite-element reference for Cook's membrane (Rocha 2012, §5.2): the script that wrote ``reference.csv``.
 
 Nine-node Lagrange quadrilaterals (Q9, 3 x 3 Gauss) on a structured n x n mesh of the quadrilateral
 (0, 0), (48, 44), (48, 60), (0, 44) (Cook 1974), unit thickness, clamped on x = 0, a uniform shear
@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from warpfree.validation.efg_cook import CORNERS, DEFAULTS
-# σ = D ε for engineering strains: seed 003 eq 3.38 (plane strain) or 3.37 (plane stress)
+# σ = D ε for engineering strains: Rocha (2012), eq. 3.38 (plane strain) or 3.37 (plane stress)
 from warpfree.validation.efg_timoshenko import elasticity_matrix
 
 

@@ -1,4 +1,4 @@
-"""Internally pressurised thick cylinder (seed 003 §5.3, Table 5.3): the exact Lamé field; no data files.
+"""Internally pressurised thick cylinder (Rocha 2012, §5.3, Table 5.3): the exact Lamé field; no data files.
 
 Inner radius a, outer radius b, internal pressure p, outer surface free, quarter model (x, y >= 0) with
 symmetry conditions u_y = 0 on y = 0 and u_x = 0 on x = 0; the thesis runs it in plane strain.
@@ -7,7 +7,7 @@ with A = p a² / (b² - a²):
 
     σ_r = A (1 - b²/r²),   σ_θ = A (1 + b²/r²),   σ_z = 2 ν A (plane strain) or 0 (plane stress)
     u_r = (1 + ν) A / E [(1 - 2ν) r + b²/r]                      plane strain
-    u_r = A / E [(1 - ν) r + (1 + ν) b²/r]                       plane stress = seed 003 eq 5.3 as printed
+    u_r = A / E [(1 - ν) r + (1 + ν) b²/r]                       plane stress = Rocha (2012), eq. 5.3 as printed
 
 The thesis prints the plane-stress form (5.3) although it states plane strain: with Table 5.3 it gives
 u_r(a) = 0.080815 against the plane-strain 0.079167 (u_r(b) = 0.045788 against 0.041667). Use
@@ -27,7 +27,7 @@ __all__ = ["DEFAULTS", "SHEAR_MODULUS", "PLANE", "lame_constant", "radial_displa
 
 #: Table 5.3: G0 = 8000, ν = 0.3, E = 2 G0 (1 + ν).
 SHEAR_MODULUS = 8000.0
-#: a, b (length), p (stress), E = 2 G0 (1 + ν) = 20800 (stress), ν: seed 003 §5.3 and Table 5.3.
+#: a, b (length), p (stress), E = 2 G0 (1 + ν) = 20800 (stress), ν: Rocha (2012), §5.3 and Table 5.3.
 DEFAULTS = {"a": 10.0, "b": 25.0, "p": 100.0, "E": 2.0 * SHEAR_MODULUS * 1.3, "nu": 0.3}
 #: The thesis's hypothesis (§5.3 text); its eq 5.3 is the plane-stress form nonetheless.
 PLANE = "strain"
@@ -42,7 +42,7 @@ def lame_constant(a: float = _A, b: float = _B, p: float = _P) -> float:
 
 def _radial_coefficients(a: float, b: float, p: float, E: float, nu: float, plane: str) -> tuple[float, float]:
     """(α, β) with u_r = α r + β / r (Lamé): plane strain α = (1+ν)(1-2ν) A/E, β = (1+ν) A b²/E;
-    plane stress α = (1-ν) A/E, β = (1+ν) A b²/E (the latter is seed 003 eq 5.3)."""
+    plane stress α = (1-ν) A/E, β = (1+ν) A b²/E (the latter is Rocha 2012, eq. 5.3)."""
     A = lame_constant(a, b, p)
     if plane == "strain":
         return (1.0 + nu) * (1.0 - 2.0 * nu) * A / E, (1.0 + nu) * A * b ** 2 / E
@@ -56,7 +56,7 @@ def radial_displacement(r, a: float = _A, b: float = _B, p: float = _P, E: float
     """u_r(r) (unit of length).
 
     plane='strain': u_r = (1 + ν) p a² / (E (b² - a²)) [(1 - 2ν) r + b²/r]   (Lamé; Timoshenko & Goodier §31)
-    plane='stress': u_r = p a² / (E (b² - a²) r) [(1 - ν) r² + (1 + ν) b²]    (seed 003 eq 5.3 as printed)
+    plane='stress': u_r = p a² / (E (b² - a²) r) [(1 - ν) r² + (1 + ν) b²]    (Rocha 2012, eq. 5.3 as printed)
     """
     r = np.asarray(r, dtype=np.float64)
     alpha, beta = _radial_coefficients(a, b, p, E, nu, plane)
@@ -146,7 +146,7 @@ def energy_norm(points, weights, strain_h, a: float = _A, b: float = _B, p: floa
 
     ||e||_E = sqrt(½ ∫ (σ_h - σ)·(ε_h - ε) dΩ), ||u||_E = sqrt(½ ∫ σ·ε dΩ), by the solver's quadrature
     (``points`` (n, 2), ``weights`` (n,), engineering strains ``strain_h`` (n, 3)); D is plane strain
-    (seed 003 eq 3.38) for plane='strain', plane stress (eq 3.37) for plane='stress'. With an exact
+    (Rocha 2012, eq. 3.38) for plane='strain', plane stress (eq 3.37) for plane='stress'. With an exact
     quadrature of the quarter annulus ||u||_E² = :func:`strain_energy`.
     """
     return energy_norm_of_strains(weights, strain_h, strain(points, a, b, p, E, nu, plane), E, nu, plane)

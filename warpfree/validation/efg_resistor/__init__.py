@@ -1,4 +1,4 @@
-"""Two-material resistor (seed 002 §6.2): a fine-mesh FEM reference; see ``README.md``.
+"""Two-material resistor (Marques 2008, §6.2): a fine-mesh FEM reference; see ``README.md``.
 
 ∇·(σ ∇V) = 0 on an inverted T (SI units, lengths in metres; the sketch in mm): aluminium (material 1,
 σ1 = 3.57e7 S/m) in the lower bar [0, 3] x [0, 1] mm, copper (material 2, σ2 = 5.88e7 S/m) in the upper bar
@@ -32,7 +32,7 @@ MM = 1e-3
 #: mesh conforms to the upper bar's) and the upper bar.
 GEOMETRY = ((0.0, 1 * MM, 0.0, 1 * MM, 1), (1 * MM, 2 * MM, 0.0, 1 * MM, 1), (2 * MM, 3 * MM, 0.0, 1 * MM, 1),
             (1 * MM, 2 * MM, 1 * MM, 2 * MM, 2))
-#: σ per material (S/m): 1 aluminium, 2 copper (seed 002 §6.2.1-6.2.2).
+#: σ per material (S/m): 1 aluminium, 2 copper (Marques 2008, §6.2.1-6.2.2).
 CONDUCTIVITY = {1: 3.57e7, 2: 5.88e7}
 #: Dirichlet electrodes: segment ((x0, y0), (x1, y1)) in m and potential (V). The rest of the boundary is
 #: insulated (zero normal current).

@@ -1,4 +1,4 @@
-"""Fine-mesh finite-element reference for the two-material resistor (seed 002 §6.2): the script that writes
+"""Fine-mesh finite-element reference for the two-material resistor (Marques 2008, §6.2): the script that writes
 ``reference_scalars.csv``, ``reference_lines.csv`` and ``reference_grid.csv``.
 
 ∇·(σ ∇V) = 0 on the inverted T of ``GEOMETRY`` (lengths in mm here, 1 mm = 1e-3 m): aluminium

@@ -1,8 +1,8 @@
-"""Timoshenko cantilever beam (seed 003 §5.1, Table 5.1): the exact plane-stress field; no data files.
+"""Timoshenko cantilever beam (Rocha 2012, §5.1, Table 5.1): the exact plane-stress field; no data files.
 
 A beam of length L and depth D (0 <= x <= L, -D/2 <= y <= D/2), unit thickness, plane stress, loaded at
 x = L by a parabolic shear traction of resultant P in +y (the thesis's sign convention, so the tip rises).
-Timoshenko & Goodier, *Theory of Elasticity*, 3rd ed., §21; seed 003 eqs 5.1a, 5.1b, 5.2:
+Timoshenko & Goodier, *Theory of Elasticity*, 3rd ed., §21; Rocha (2012), eqs 5.1a, 5.1b, 5.2:
 
     u_x = -P y / (6 E I) [(6 L - 3 x) x + (2 + ν)(y² - D²/4)]                   (5.1a)
     u_y =  P / (6 E I) [3 ν y² (L - x) + (4 + 5 ν) D² x / 4 + (3 L - x) x²]     (5.1b)
@@ -28,7 +28,7 @@ DEFAULTS = {"E": 3.0e7, "nu": 0.3, "D": 12.0, "L": 48.0, "P": 1000.0}
 
 
 def second_moment(D: float) -> float:
-    """I = D³/12 (m⁴ per unit thickness), seed 003 eq 5.2."""
+    """I = D³/12 (m⁴ per unit thickness), Rocha (2012), eq. 5.2."""
     return D ** 3 / 12.0
 
 
@@ -41,7 +41,7 @@ def _xy(points) -> tuple[np.ndarray, np.ndarray]:
 
 def displacement(points, E: float = DEFAULTS["E"], nu: float = DEFAULTS["nu"], D: float = DEFAULTS["D"],
                  L: float = DEFAULTS["L"], P: float = DEFAULTS["P"]) -> np.ndarray:
-    """Exact (u_x, u_y) (m) at ``points`` (n, 2), seed 003 eqs 5.1a/5.1b (Timoshenko & Goodier §21). -> (n, 2)."""
+    """Exact (u_x, u_y) (m) at ``points`` (n, 2), Rocha (2012), eqs 5.1a/5.1b (Timoshenko & Goodier §21). -> (n, 2)."""
     x, y = _xy(points)
     c = P / (6.0 * E * second_moment(D))
     ux = -c * y * ((6.0 * L - 3.0 * x) * x + (2.0 + nu) * (y ** 2 - D ** 2 / 4.0))
@@ -97,8 +97,8 @@ def traction_end(points, E: float = DEFAULTS["E"], nu: float = DEFAULTS["nu"], D
 def elasticity_matrix(E: float, nu: float, plane: str = "stress") -> np.ndarray:
     """The 3x3 D of σ = D ε for engineering strains [ε_xx, ε_yy, γ_xy] (Pa).
 
-    plane='stress':  D = E/(1-ν²) [[1, ν, 0], [ν, 1, 0], [0, 0, (1-ν)/2]]                        (seed 003 eq 3.37)
-    plane='strain':  D = E/((1+ν)(1-2ν)) [[1-ν, ν, 0], [ν, 1-ν, 0], [0, 0, 1/2-ν]]               (seed 003 eq 3.38)
+    plane='stress':  D = E/(1-ν²) [[1, ν, 0], [ν, 1, 0], [0, 0, (1-ν)/2]]                        (Rocha 2012, eq. 3.37)
+    plane='strain':  D = E/((1+ν)(1-2ν)) [[1-ν, ν, 0], [ν, 1-ν, 0], [0, 0, 1/2-ν]]               (Rocha 2012, eq. 3.38)
     """
     if plane == "stress":
         return E / (1.0 - nu ** 2) * np.array([[1.0, nu, 0.0], [nu, 1.0, 0.0], [0.0, 0.0, (1.0 - nu) / 2.0]])
@@ -135,7 +135,7 @@ def energy_norm(points, weights, strain_h, E: float = DEFAULTS["E"], nu: float =
 
     ||e||_E = sqrt(½ ∫ (σ_h - σ)·(ε_h - ε) dΩ) and ||u||_E = sqrt(½ ∫ σ·ε dΩ), both by the quadrature
     (``points`` (n, 2), ``weights`` (n,)) the solver used; ``strain_h`` (n, 3) its engineering strains.
-    D is plane stress (seed 003 eq 3.37), the hypothesis of (5.1); with exact points and weights the second
+    D is plane stress (Rocha 2012, eq. 3.37), the hypothesis of (5.1); with exact points and weights the second
     value is sqrt(:func:`strain_energy`) = 2.11534 for the defaults.
     """
     return energy_norm_of_strains(weights, strain_h, strain(points, E, nu, D, L, P), E, nu, plane)
@@ -159,9 +159,9 @@ def strain_energy(E: float = DEFAULTS["E"], nu: float = DEFAULTS["nu"], D: float
     """U = ½ ∫_Ω σ:ε dΩ (J per unit thickness) of the exact field over the whole beam.
 
     The integrand is a polynomial of degree 4 in y and 2 in x, so a 4 x 4 Gauss-Legendre rule is exact;
-    8 x 8 is used. Closed form: U = P² L³ / (6 E I) + P² (1 + ν) L D⁵ / (120 E I²) = 4.47467 for the defaults
-    (seed 003 §4.1 of the note). It includes the work of the exact displacement on x = 0 against the
-    reaction there (0.02467), besides that of the end load (4.45000).
+    8 x 8 is used. Closed form: U = P² L³ / (6 E I) + P² (1 + ν) L D⁵ / (120 E I²) = 4.47467 for the defaults.
+    It includes the work of the exact displacement on x = 0 against the reaction there (0.02467), besides that of
+    the end load (4.45000).
     """
     points, weights = gauss_rectangle(0.0, L, -D / 2.0, D / 2.0, 8)
     s = stress(points, E, nu, D, L, P)

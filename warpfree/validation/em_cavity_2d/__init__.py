@@ -1,4 +1,4 @@
-"""A pulse in a circular PEC cavity (seed 000 §4.3): the exact Bessel series (4.5); no data files, see ``README.md``.
+"""A pulse in a circular PEC cavity (Mendes 2010, §4.3): the exact Bessel series (4.5); no data files, see ``README.md``.
 
 Ez(r, 0) = 1 - r²/r0², ∂Ez/∂t(r, 0) = 0, Ez(r0, t) = 0, relative permittivity εr:
 

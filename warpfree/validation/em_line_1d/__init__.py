@@ -1,4 +1,4 @@
-"""A sine source in the middle of a line (seed 000 §4.2): the exact 1D wave (no data files, see ``README.md``).
+"""A sine source in the middle of a line (Mendes 2010, §4.2): the exact 1D wave (no data files, see ``README.md``).
 
 A hard source Ez(x_s, t) = sin(ωt) switched on at t = 0 in vacuum radiates both ways at c; before the
 fronts reach the ends (|x - x_s| < c t) the exact field is

@@ -1,4 +1,4 @@
-"""TM1 wave in a parallel-plate waveguide driven from its end (seed 000 §4.4): the exact field of the signalling
+"""TM1 wave in a parallel-plate waveguide driven from its end (Mendes 2010, §4.4): the exact field of the signalling
 problem, evaluated by Fourier transform (no data files, see ``README.md``).
 
 Plates (PEC) at x = 0 and x = a, propagation along +y. A source imposing Ez(x, 0, t) = E0 sin(πx/a) s(t) (s = 0
