@@ -32,7 +32,7 @@ from warpfree.parameters import Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions
 from warpfree.galerkin.mls import MLSModel, MLSSettings, SupportScale
 from warpfree.solvers.pic import Injection, ParticleWall, PICSolver, PlasmaPoisson, SourceWall, Species
-from warpfree.solvers.pic.parameters import EndTime, FieldSolveAt, NodeSpacing, OutputEvery, TimeStep
+from warpfree.solvers.pic.parameters import FieldSolveAt, OutputEvery
 from warpfree.solvers.pic.scene_tools import (POTENTIAL_FRAMES, lattice_nodes, plot_history, plot_phase_space,
                                               plot_profile, walled_box, write_history)
 from warpfree.time_loop import TimeLoop
@@ -63,20 +63,20 @@ TIME_UNIT = "T"
 
 
 @checked_parameters
-def build(voltage: Annotated[float, Param("m_e λ_D² ω_pe²/e", "anode potential V (the cathode at 0)", "(0, inf)")]
-          = 1.0,
-          gap: Annotated[float, Param("λ_D", "distance d from the cathode to the anode", "(0, inf)")] = 1.0,
+def build(voltage: Annotated[float, Param(UNITS["potential"], "anode potential V (the cathode at 0)", "(0, inf)")] = 1.0,
+          gap: Annotated[float, Param("L", "distance d from the cathode to the anode", "(0, inf)")] = 1.0,
           injected_fraction: Annotated[float, Param("", "injected flux over the Child–Langmuir flux, Γ/Γ_CL",
                                                     "(0, inf)")] = 0.5,
-          injection_speed: Annotated[float, Param("λ_D ω_pe", "speed v0 of the beam at the cathode", "(0, inf)")]
-          = 0.1,
-          node_spacing: NodeSpacing = 1.0 / 32.0,
-          width: Annotated[float, Param("λ_D", "width of the slab, periodic along x", "(0, inf)")] = 0.25,
+          injection_speed: Annotated[float, Param("L/T", "speed v0 of the beam at the cathode", "(0, inf)")] = 0.1,
+          node_spacing: Annotated[float, Param("L", "spacing of the lattice of EFG nodes", "(0, inf)")] = 1.0 / 32.0,
+          width: Annotated[float, Param("L", "width of the slab, periodic along x", "(0, inf)")] = 0.25,
           d_max: SupportScale = 2.0,
           particles_per_step: Annotated[float, Param("", "macro-particles the cathode emits per step, on average",
                                                      "(0, inf)")] = 20.0,
-          dt: TimeStep = 0.02, t_end: EndTime = 20.0, output_every: OutputEvery = 100,
-          field_solve: FieldSolveAt = None, frames: Frames = True, vtk: Vtk = True) -> TimeLoop:
+          dt: Annotated[float, Param("T", "time step Δt of the leapfrog", "(0, inf)")] = 0.02,
+          t_end: Annotated[float, Param("T", "time at which the run ends", "(0, inf)")] = 20.0,
+          output_every: OutputEvery = 100, field_solve: FieldSolveAt = None, frames: Frames = True,
+          vtk: Vtk = True) -> TimeLoop:
     """``voltage`` V and ``gap`` d of the diode; ``injected_fraction``: Γ / Γ_CL; ``injection_speed`` v0; ``width``
     of the periodic slab along x; ``particles_per_step``: macro-particles the cathode emits per step; ``dt``,
     ``t_end`` in T (the potential is averaged over the second half). ``field_solve``: where
