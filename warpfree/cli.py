@@ -432,9 +432,10 @@ def main(argv: list[str] | None = None) -> int:
     except RunInterrupted as stop:
         _say(f"warpfree: {interrupted_text(stop)}")
         return exit_code(stop.signum)
-    except KeyboardInterrupt:  # during set-up, or a second Ctrl-C in the middle of a step
-        _say("warpfree: interrupted by Ctrl-C (SIGINT); what the run had written stays as it was")
-        return exit_code(signal.SIGINT)
+    except KeyboardInterrupt as stop:  # during set-up, or a second Ctrl-C or SIGTERM in the middle of a step
+        signum = getattr(stop, "signum", signal.SIGINT)
+        _say(f"warpfree: interrupted by {SIGNAL_NAMES[signum]}; what the run had written stays as it was")
+        return exit_code(signum)
     finally:
         from .progress import enable
 

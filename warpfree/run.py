@@ -336,8 +336,8 @@ class Run(ABC):
                 summary = self.summary(time.perf_counter() - wall0, interrupted=stop.signum)
                 self._write_summary(directory, summary)
                 raise RunInterrupted(stop.signum, stop.step, stop.time, kept) from None
-            except KeyboardInterrupt:  # a second Ctrl-C, in the middle of a step: the last checkpoint stands
-                summary = self.summary(time.perf_counter() - wall0, interrupted=signal.SIGINT)
+            except KeyboardInterrupt as stop:  # a second Ctrl-C or SIGTERM, mid-step: the last checkpoint stands
+                summary = self.summary(time.perf_counter() - wall0, interrupted=getattr(stop, "signum", signal.SIGINT))
                 self._write_summary(directory, summary)
                 raise
             except RunError as err:

@@ -3,12 +3,12 @@ passing on a Ctrl-C) ends a time-dependent run at the end of the step it is taki
 outputs written and a checkpoint of it kept, so that ``warpfree run --resume`` continues it.
 
 :class:`StopSignals` is installed around a run (in the main thread). The first signal only records the request;
-the time loop asks :meth:`StopSignals.agreed` after every step and stops when it says so. A second signal of the
-same kind ends the process at once, as it would without warpfree (SIGINT: ``KeyboardInterrupt``). A signal that the
-process was started with ignored (a background job of a shell script ignores Ctrl-C) stays ignored. In a distributed
-run every rank must stop after the same step: each step every rank puts its request into a non-blocking reduction
-(``MPI.Iallreduce``, max) and reads the previous step's, which every rank reads alike; so the ranks stop together
-one step after the first of them was asked, and a step never waits for the vote.
+the time loop asks :meth:`StopSignals.agreed` after every step and stops when it says so. A second signal ends the
+run at once (:class:`StopNow`, a ``KeyboardInterrupt``), keeping what is on disk and saying so in ``summary.json``.
+A signal that the process was started with ignored (a background job of a shell script ignores Ctrl-C) stays
+ignored. In a distributed run every rank must stop after the same step: each step every rank puts its request into
+a non-blocking reduction (``MPI.Iallreduce``, max) and reads the previous step's, which every rank reads alike; so
+the ranks stop together one step after the first of them was asked, and a step never waits for the vote.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import threading
 
 import numpy as np
 
-__all__ = ["StopSignals", "SIGNAL_NAMES", "exit_code"]
+__all__ = ["StopSignals", "StopNow", "SIGNAL_NAMES", "exit_code"]
 
 #: the signals that ask a run to stop, and how the messages name them
 SIGNAL_NAMES = {signal.SIGINT: "Ctrl-C (SIGINT)", signal.SIGTERM: "SIGTERM"}
@@ -28,6 +28,14 @@ def exit_code(signum: int) -> int:
     """The exit status of a process ended by signal ``signum``, as a shell reports it: 128 + the signal number (130
     for SIGINT, 143 for SIGTERM)."""
     return 128 + int(signum)
+
+
+class StopNow(KeyboardInterrupt):
+    """A second Ctrl-C or SIGTERM: the run ends at once, in the middle of what it was doing (``signum``: the signal)."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
 
 
 class StopSignals:
@@ -61,12 +69,10 @@ class StopSignals:
         if self.requested is None:
             self.requested = signum
             return
-        # a second signal: as without warpfree (the default action, or KeyboardInterrupt for SIGINT)
-        previous = self._previous.get(signum, signal.SIG_DFL)
-        signal.signal(signum, previous if previous is not None else signal.SIG_DFL)
-        if signum == signal.SIGINT:
-            raise KeyboardInterrupt
-        signal.raise_signal(signum)
+        # a second signal: stop at once (the handlers are back as they were for a third)
+        for number, handler in self._previous.items():
+            signal.signal(number, handler if handler is not None else signal.SIG_DFL)
+        raise StopNow(signum)
 
     def agreed(self) -> int | None:
         """After a step: the signal to stop for, the same on every rank (None: go on). In one process, the request
