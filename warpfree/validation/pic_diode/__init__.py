@@ -45,6 +45,14 @@ Child-law regions carry 2Γ - Γ_t over the drop v0²/2 and Γ_t over V + v0²/2
 
 whose left side falls monotonically in Γ_t on (0, Γ] (:func:`virtual_cathode_transmitted_flux`); a root exists
 for Γ above Γ(0).
+
+That steady state is not what a beam injected above Γ_max settles into: its virtual cathode oscillates, and the flux
+it passes, averaged over many oscillations, lies above the steady Γ_t (3.9 % at V = 2.5, d = 1.5, v0 = 0.1, Γ = 3
+Γ_CL; 1.9 % at v0 = 0.05, 0.7 % at v0 = 0.02: -> Γ_CL as v0 -> 0, the Child-Langmuir current being the mean
+transmitted current for any injected one above it, Puri, Biswas & Kumar 2004, Phys. Plasmas 11, 1178). No closed
+form is used for it: ``sheet_model.csv`` holds the one-dimensional sheet model's time average
+(:mod:`.reference_sheet_model`: exact Gauss's-law field, no grid, converged in Δt and sheet weight) for tabulated
+cases, read by :func:`sheet_model_transmitted_flux`.
 """
 
 from __future__ import annotations
@@ -54,8 +62,11 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
+from warpfree.validation import read_csv
+
 __all__ = ["child_langmuir_flux", "steady_potential", "cathode_gradient", "beam_through_limit",
-           "beam_through_flux", "virtual_cathode_floor", "virtual_cathode_transmitted_flux"]
+           "beam_through_flux", "virtual_cathode_floor", "virtual_cathode_transmitted_flux",
+           "sheet_model_transmitted_flux"]
 
 _T, _W = np.polynomial.legendre.leggauss(200)
 _T = 0.5 * (_T + 1.0)
@@ -157,3 +168,18 @@ def virtual_cathode_transmitted_flux(flux: float, v0: float, voltage: float, gap
                                + (voltage + drop) ** 0.75 / math.sqrt(transmitted)) - gap
 
     return brentq(excess, 1e-12 * flux, flux, xtol=1e-15 * flux, rtol=1e-13)
+
+
+def sheet_model_transmitted_flux(flux: float, v0: float, voltage: float, gap: float) -> tuple[float, float] | None:
+    """(Γ_t, its spread) of the oscillating virtual cathode at injected flux Γ, both over Γ_CL: the sheet model's
+    anode flux averaged over t = 50..100 and its standard deviation over windows of 2 time units (``sheet_model.csv``,
+    :mod:`.reference_sheet_model`), for a tabulated case (V, d, v0 and Γ / Γ_CL equal to 1e-9 relative); None for
+    any other."""
+    header, data = read_csv("pic_diode", "sheet_model.csv")
+    col = {name: k for k, name in enumerate(header)}
+    fraction = flux / child_langmuir_flux(voltage, gap)
+    for row in data:
+        if all(math.isclose(row[col[name]], value, rel_tol=1e-9) for name, value in
+               (("voltage", voltage), ("gap", gap), ("injection_speed", v0), ("injected_fraction", fraction))):
+            return float(row[col["transmitted_over_child_langmuir"]]), float(row[col["window_std"]])
+    return None
