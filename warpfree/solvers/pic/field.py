@@ -34,6 +34,13 @@ Two gathers (:class:`~.solver.PICSolver` ``gather=``):
   one amplifies the short-range field of a point charge (``bench/results/pic_design.md``). Between walls the
   projection tests with ψ_I instead of φ_I (:func:`wall_corrected_test`: the first moment about x_I corrected where a
   wall cuts the support, G_IJ = ∫ ψ_I ∇φ_J), so that E_I is the field at the node, not half a spacing inside.
+  The price: near a wall the ψ_I are no partition of unity (Σ_I ψ_I = 0.72 one spacing from the wall, 1.02 three
+  spacings in, on a lattice with d_max 2), and cannot be one: with the interior φ_I unchanged, Σ ψ_I = 1 and
+  ∫ψ_I = m_I, the wall nodes' first moments would sum to the plain ones' (0.32 h² per unit wall length), not 0. So
+  Σ_I m_I E_I = -∫ (Σ_I ψ_I) ∇u^h differs from the potential difference across the wall layer where ∇u^h changes
+  within a spacing: a particle's energy there no longer follows u^h (at a virtual cathode inside the first spacing,
+  0.009 short over two spacings, twice the injection energy; ``bench/results/pic_design.md``). The energy gather
+  has no such error (a particle's field is -∇u^h itself), which is why the diode scene uses it.
 """
 
 from __future__ import annotations
