@@ -105,6 +105,54 @@ def test_list_shows_every_parameter_with_its_type_default_unit_allowed_values_an
     assert len(lines) == 2 * len(scene_parameters(load_scene("dam_break_2d")))
 
 
+#: every closed choice of the engine with the texts that run.json and summary.json record, in declaration order
+ENGINE_CHOICES = {
+    "warpfree.smoothing:SmoothingKernel": ["cubic_spline", "wendland_c2", "quintic_spline"],
+    "warpfree.solver:StepKind": ["variable", "constant", "fixed"],
+    "warpfree.geometry:Side": ["outside", "inside"],
+    "warpfree.parallel.decomposition:CutMethod": ["slabs", "rcb"],
+    "warpfree.parallel.petsc_system:Preconditioner": ["auto", "superlu", "gamg"],
+    "warpfree.distribution:Distribution": ["blocks", "alternating", "random", "neighbours"],
+    "warpfree.galerkin.mls:MLSBasis": ["linear", "quadratic"],
+    "warpfree.galerkin.mls:MLSWeight": ["cubic_spline", "quartic", "gaussian", "singular"],
+    "warpfree.galerkin.mls:SupportShape": ["circular", "rectangular"],
+    "warpfree.galerkin.node_layouts:NodePlacement": ["regular", "random"],
+    "warpfree.galerkin.shapes:ShapeFunctions": ["efg", "nem"],
+    "warpfree.solvers.wcsph.model:BoundaryModel": ["dynamic", "lennard_jones"],
+    "warpfree.solvers.wcsph.solver:FluidField": ["speed", "pressure", "density", "velocity_x", "velocity_y",
+                                                 "velocity_z"],
+    "warpfree.solvers.spem.model:Scheme": ["fpm", "cspm", "sph"],
+    "warpfree.solvers.spem.model:PMLSide": ["x-", "x+", "y-", "y+"],
+    "warpfree.solvers.spem.layouts:HStaggering": ["edges", "centres"],
+    "warpfree.solvers.spem.solver:SourceKind": ["hard", "soft"],
+    "warpfree.solvers.efg.boundary:EssentialMethod": ["lagrange", "penalty", "direct"],
+    "warpfree.solvers.efg.boundary:InterfaceCondition": ["nitsche", "none"],
+    "warpfree.solvers.efg.solver:Integration": ["consistent", "gauss", "scni"],
+    "warpfree.solvers.efg.solver:LinearSolver": ["auto", "superlu", "petsc"],
+    "warpfree.solvers.efg.solver:Plane": ["stress", "strain"],
+    "warpfree.solvers.pic.coupling:Gather": ["momentum", "energy"],
+    "warpfree.solvers.pic.device_solve:FieldSolve": ["host", "device", "cg", "dense"],
+    "warpfree.solvers.pic.injection:SourceWall": ["lower", "upper"],
+    "warpfree.solvers.pic.solver:ParticleWall": ["reflect", "absorb"],
+}
+
+
+@pytest.mark.parametrize("where,texts", sorted(ENGINE_CHOICES.items()))
+def test_the_engine_choices_keep_the_texts_runs_record(where, texts):
+    """run.json and summary.json record a closed choice by its text, and a resume or a comparison reads it back: each
+    enumeration keeps those texts and reads its members back from them (in any case); an unknown text is refused
+    naming the parameter, with the choices."""
+    import importlib
+
+    module, name = where.split(":")
+    choice = getattr(importlib.import_module(module), name)
+    assert issubclass(choice, Choice) and choice.texts() == texts
+    assert all(choice.of("x", text.upper()) is member for text, member in zip(texts, choice))
+    with pytest.raises(ParameterError, match=r"^x: 'nope' is not a choice: .*choose from " + ", ".join(sorted(texts))
+                       .replace("+", r"\+") + "$"):
+        choice.of("x", "nope")
+
+
 class Colour(Choice):
     """A test choice."""
 

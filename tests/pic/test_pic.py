@@ -9,9 +9,7 @@ import pytest
 from warpfree.device import Launcher
 from warpfree.errors import ParameterError
 from warpfree.galerkin.mls import MLSModel, MLSSettings
-from warpfree.parameters import Choice
-from warpfree.solvers.pic import (FieldSolve, Gather, ParticleWall, PlasmaPoisson, PICSolver, SourceWall, Species,
-                                  lattice_positions, load_species, random_positions)
+from warpfree.solvers.pic import PlasmaPoisson, PICSolver, Species, lattice_positions, load_species, random_positions
 from warpfree.solvers.pic.scene_tools import lattice_nodes, periodic_box, walled_box
 from warpfree.space import Space
 from warpfree.validation.pic_plasma_oscillation import frequency_from_crossings, leapfrog_frequency
@@ -401,17 +399,3 @@ def test_walls_must_match_the_space(periodic, walls, name):
     with pytest.raises(ParameterError) as err:
         PlasmaPoisson(model, walls=walls)
     assert err.value.name == name
-
-
-@pytest.mark.parametrize("choice,texts", [(Gather, ["momentum", "energy"]),
-                                          (FieldSolve, ["host", "device", "cg", "dense"]),
-                                          (ParticleWall, ["reflect", "absorb"]), (SourceWall, ["lower", "upper"])])
-def test_closed_choices_keep_the_texts_runs_record(choice, texts):
-    """run.json and summary.json record a closed choice by its text: the enumerations keep those texts, a member is
-    read back from its text (in any case) and an unknown text is refused naming the parameter, with the choices."""
-    assert issubclass(choice, Choice) and choice.texts() == texts
-    assert all(choice.of("x", text.upper()) is member for text, member in zip(texts, choice))
-    with pytest.raises(ParameterError) as err:
-        choice.of("x", "bogus")
-    assert str(err.value) == f"x: 'bogus' is not a choice: choose from {', '.join(sorted(texts))}"
-

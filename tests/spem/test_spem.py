@@ -14,10 +14,8 @@ from warpfree import device
 from warpfree.cli import main
 from warpfree.scene_loader import load_scene
 from warpfree.errors import ParameterError
-from warpfree.distribution import Distribution
-from warpfree.parameters import Choice
-from warpfree.solvers.spem import (C0, PML, HStaggering, PMLSide, Scheme, Source, SourceKind, SPEMModel, SPEMSolver,
-                                   Waveform, staggered_box, staggered_disk, staggered_line, support_for_jitter)
+from warpfree.solvers.spem import (C0, PML, Source, SPEMModel, SPEMSolver, Waveform, staggered_box, staggered_disk,
+                                   staggered_line, support_for_jitter)
 from warpfree.time_loop import TimeLoop
 
 
@@ -571,17 +569,3 @@ def test_em_scenes_write_frames_vtu_plot_and_their_error(tmp_path, scene, settin
     assert frames and len(frames) == len(list((out / "vtk").glob("electric_*.vtu")))
     assert (out / "electric.pvd").is_file() and (out / "magnetic.pvd").is_file()
     assert (out / plot).is_file()
-
-
-@pytest.mark.parametrize("choice,texts", [(Scheme, ["fpm", "cspm", "sph"]), (HStaggering, ["edges", "centres"]),
-                                          (Distribution, ["blocks", "alternating", "random", "neighbours"]),
-                                          (SourceKind, ["hard", "soft"]), (PMLSide, ["x-", "x+", "y-", "y+"])])
-def test_closed_choices_keep_the_texts_runs_record(choice, texts):
-    """run.json and summary.json record a closed choice by its text: the enumerations keep those texts, a member is
-    read back from its text (in any case) and an unknown text is refused naming the parameter, with the choices."""
-    assert issubclass(choice, Choice) and choice.texts() == texts
-    assert all(choice.of("x", text.upper()) is member for text, member in zip(texts, choice))
-    with pytest.raises(ParameterError) as err:
-        choice.of("x", "bogus")
-    assert str(err.value) == f"x: 'bogus' is not a choice: choose from {', '.join(sorted(texts))}"
-
