@@ -148,9 +148,10 @@ def test_the_engine_choices_keep_the_texts_runs_record(where, texts):
     choice = getattr(importlib.import_module(module), name)
     assert issubclass(choice, Choice) and choice.texts() == texts
     assert all(choice.of("x", text.upper()) is member for text, member in zip(texts, choice))
-    with pytest.raises(ParameterError, match=r"^x: 'nope' is not a choice: .*choose from " + ", ".join(sorted(texts))
-                       .replace("+", r"\+") + "$"):
+    with pytest.raises(ParameterError) as err:
         choice.of("x", "nope")
+    assert str(err.value).startswith("x: 'nope' is not a choice: ")
+    assert str(err.value).endswith("choose from " + ", ".join(sorted(texts)))
 
 
 class Colour(Choice):
