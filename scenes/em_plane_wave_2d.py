@@ -20,7 +20,12 @@ largest error, the spread between lines and the largest scattered field checked 
   the propagation direction (the thesis's Fig. 4.13 test; lines are the columns of width Δ, the amplitude of a
   line the least-squares fit a sin + b cos of the steady wave over its particles behind the ramp);
 - ``leakage``: the largest |Ez| in the scattered-field region outside the PML (ideally 0: what leaks is the
-  difference between the discrete and the analytic wave).
+  difference between the discrete and the analytic wave);
+- ``predicted_lag_error``: 2 sin(δφ/2), δφ the phase lag the uniform layout's dispersion
+  (``warpfree/solvers/spem/dispersion.py``) gives the wave over the longest path it travels in the box
+  (``travel_wavelengths``), at the run's λ/Δ and c Δt/Δ (``courant_number``). The box error and the leakage are
+  checked against ``LAG_MULTIPLE`` = 1.5 times it: they are that lag, raised 1.02-1.22 times by the diffraction of
+  the box's side edges (``warpfree/validation/em_plane_wave_2d/README.md``).
 
 Model: E at the lattice nodes, H in Yee's staggering (``h_staggering``; optionally all jittered by ``jitter``
 spacings), Δ = λ0/
@@ -43,6 +48,7 @@ from warpfree.solvers.spem import (C0, PML, HStaggering, PlaneWave, SPEMModel, S
                                    support_for_jitter)
 from warpfree.solvers.spem.parameters import (Courant, EndTime, Frequency, HLayout, Jitter, LoadDistribution,
                                               OutputInterval, ParticlesPerWavelength, Ramp)
+from warpfree.solvers.spem.dispersion import largest_lag_error
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import tolerance_check
 
@@ -58,17 +64,39 @@ QUICK = {"size": 0.2, "margin": 0.03}
 SOURCE = "analytic incident wave (TF/SF), the case of Mendes (2010), §4.5 (warpfree/validation/em_plane_wave_2d/README.md)"
 
 
+#: the tolerance on the box error and the leakage, in units of the phase lag Yee's dispersion predicts over the distance
+#: the wave travels in the box (:func:`predicted_lag_error`): the lag's largest error 2 sin(δφ/2), raised at the
+#: box's side edges by their diffraction (a paraxial model of the box gives 1.08-1.18), measured 1.02-1.22 times the
+#: prediction from 1.7 to 7.2 wavelengths of travel and 20 to 80 particles per wavelength; 1.5 leaves a quarter on
+#: top of the measured largest (warpfree/validation/em_plane_wave_2d/README.md)
+LAG_MULTIPLE = 1.5
+
+
+def predicted_lag_error(travel: float, spacing: float, dt: float, frequency: float, angle: float,
+                        h_staggering: str) -> float:
+    """The largest |Ez - Ez_inc| / A that the uniform layout's dispersion gives a wave which has travelled ``travel``
+    metres (:func:`warpfree.solvers.spem.dispersion.largest_lag_error` at λ/Δ and S = c Δt/Δ)."""
+    wavelength = C0 / frequency
+    return largest_lag_error(travel / wavelength, wavelength / spacing, C0 * dt / spacing, angle, h_staggering)
+
+
 def plane_wave_checks(result: dict) -> dict:
     """The required accuracy of the injected wave (the thesis, §4.5, has none: its run failed): no stripes, the
-    amplitudes of neighbouring lines within 1 % of A (the thesis's lines differed by the whole amplitude); the
-    field in the total-field box within 2 % of A of the analytic wave at every particle; the scattered region,
-    ideally empty, below 2 % of A at every output."""
+    amplitudes of neighbouring lines within 1 % of A (the thesis's lines differed by the whole amplitude); the field
+    in the total-field box against the analytic wave at every particle, and the scattered region, ideally empty, at
+    every output, each within ``LAG_MULTIPLE`` times the error the scheme's dispersion predicts over the distance the
+    wave has travelled in the box (``result["predicted_lag_error"]``)."""
     stripes = "no stripes: neighbouring lines within 1 % of A, the thesis's failure being lines wrong by ~A (§4.5)"
-    wave = ("2 % of A: the accuracy required of the TF/SF wave at 40 particles per wavelength "
-            "(tests/spem/test_spem.py, measured there on the 0.2 m square)")
+    predicted = result["predicted_lag_error"]
+    wave = (f"{LAG_MULTIPLE:g} x the error of the phase lag the uniform layout's dispersion gives over the "
+            f"{result['travel_wavelengths']:.3g} wavelengths the wave travels in the box, at "
+            f"{result['particles_per_wavelength']:.3g} particles per wavelength and c Δt/Δ = "
+            f"{result['courant_number']:.3g}: 2 sin(δφ/2) = {predicted:.3g} of A; the box's side edges raise it by "
+            f"their diffraction, measured up to 1.22x (a jittered layout adds scattering this bound does not cover)")
+    tolerance = LAG_MULTIPLE * predicted
     return {"line_amplitude_spread": tolerance_check(result["line_amplitude_spread"], 1e-2, SOURCE, basis=stripes),
-            "max_error": tolerance_check(result["max_error"], 2e-2, SOURCE, basis=wave),
-            "max_leakage": tolerance_check(result["max_leakage"], 2e-2, SOURCE, basis=wave)}
+            "max_error": tolerance_check(result["max_error"], tolerance, SOURCE, basis=wave),
+            "max_leakage": tolerance_check(result["max_leakage"], tolerance, SOURCE, basis=wave)}
 
 
 @checked_parameters
@@ -153,8 +181,11 @@ def build(size: Annotated[float, Param("m", "side of the square of vacuum inside
                   "line_amplitude_range": [float(amp.min()), float(amp.max())] if amp.size else None,
                   "lines": len(amplitudes), "leakage": leakage(s, s.t),
                   "max_leakage": max(run.series["leakage"]),
-                  "spacing": spacing, "particles_per_wavelength": C0 / frequency / spacing, "dt": dt,
-                  "courant": dt / s.stable_dt(), "time_of_ez": t_e}
+                  "spacing": layout.spacing, "particles_per_wavelength": C0 / frequency / layout.spacing, "dt": dt,
+                  "courant": dt / s.stable_dt(), "courant_number": C0 * dt / layout.spacing, "time_of_ez": t_e,
+                  "travel_wavelengths": float(travel * frequency / C0),
+                  "predicted_lag_error": predicted_lag_error(travel, layout.spacing, dt, frequency, angle,
+                                                            h_staggering)}
         result["checks"] = plane_wave_checks(result)
         if out_dir is not None:
             order = np.argsort(e[centre_line, 1])
@@ -171,6 +202,9 @@ def build(size: Annotated[float, Param("m", "side of the square of vacuum inside
                                                                                 (-pml_thickness, size + pml_thickness)),
                                          frame_range={"ez": (-amplitude, amplitude)}))
     dt = run.step_size  # the constant step the loop chose: the analyses' E lags H by half of it
+    # the farthest the wave travels in the total-field box from where it enters it: the longest chord of the square
+    # along its direction, or c t_end
+    travel = min((size - 2.0 * margin) / max(abs(direction[0]), abs(direction[1])), C0 * t_end)
     return run
 
 
@@ -194,7 +228,8 @@ def _plot(path, y, ez, exact, t, column_x, column_amplitude, amplitude, series, 
     draw_profile(profile, y, ez, exact, "SPEM Ez (centre column)", "incident plane wave", "Ez (V/m)",
                  f"Plane wave (TF/SF): SPEM against the incident wave, t = {t * 1e9:.2f} ns")
     draw_error(error, y, ez - exact, largest["tolerance"] * amplitude,
-               f"tolerance on the largest |error| in the box: {largest['tolerance']:.0%} of A", "y (m)",
+               f"tolerance on the largest |error| in the box: {largest['tolerance']:.2%} of A "
+               f"({LAG_MULTIPLE:g} x the predicted phase lag)", "y (m)",
                "Ez − Ez_inc (V/m)", pointwise=True, measure=largest["value"] * amplitude,
                measure_label=f"largest |error| in the box = {largest['value']:.2%} of A")
     lines.axhline(amplitude, color="k", lw=1.0, label=f"incident amplitude A = {amplitude:g} V/m")
@@ -219,6 +254,7 @@ def _plot(path, y, ez, exact, t, column_x, column_amplitude, amplitude, series, 
     leak = checks["max_leakage"]
     t_ns = np.asarray(series["time"]) * 1e9
     draw_series(scattered, t_ns, {"largest |Ez| in the scattered region": np.asarray(series["leakage"]) * amplitude},
-                {f"tolerance: {leak['tolerance']:.0%} of A": leak["tolerance"] * amplitude}, "t (ns)",
+                {f"tolerance: {leak['tolerance']:.2%} of A ({LAG_MULTIPLE:g} x the predicted phase lag)":
+                 leak["tolerance"] * amplitude}, "t (ns)",
                 "|Ez − 0| (V/m)", "Scattered region (exact field 0)")
     save_figure(fig, path)

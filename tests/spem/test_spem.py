@@ -519,14 +519,37 @@ def test_plane_wave_has_no_stripes_and_matches_the_analytic_wave(tmp_path, angle
     """Mendes (2010) §4.5 (3.6 GHz, 40 particles per wavelength, PML on all sides), on a 0.2 m square to 2 ns:
     measured (Yee's staggering), mean (largest) |Ez - Ez_inc| / A in the total-field box 0.17 % (0.68 %) at 0°,
     0.061 % (0.25 %) at 30°; amplitude spread between neighbouring lines 1e-4 and 4e-5; largest field in the
-    scattered region 0.74 % and 0.27 % (Yee's dispersion: largest along an axis, smallest on the diagonal; the
-    cell-centred layout, Yee's rotated by 45°, the other way round: 0.033 % at 0°, 0.28 % at 30°). Asserted: the
-    required 1 % between lines and 2 % against the analytic wave, and the scattered region below 2 %."""
+    scattered region 0.74 % and 0.27 %: Yee's phase lag over the 1.68 wavelengths (0°; 1.94 along the longest chord
+    at 30°) the wave crosses, 2 sin(δφ/2) = 0.61 % and 0.25 % of A. Asserted: the required 1 % between lines, and the
+    box error and the leakage within the scene's tolerance, 1.5 x that lag (the checks the run reports)."""
     pw = plane_wave(tmp_path, angle=angle)
     assert pw["lines"] > 60
     assert pw["line_amplitude_spread"] < 1e-2
-    assert pw["max_error"] < 2e-2
-    assert pw["max_leakage"] < 2e-2
+    tolerance = 1.5 * pw["predicted_lag_error"]
+    assert pw["checks"]["max_leakage"]["tolerance"] == pytest.approx(tolerance, rel=1e-12)
+    assert pw["max_error"] < tolerance
+    assert pw["max_leakage"] < tolerance
+    assert all(c["passed"] for c in pw["checks"].values())
+
+
+@pytest.mark.parametrize("settings,travel", [({"particles_per_wavelength": 20.0}, 1.68),
+                                             ({"size": 0.3, "margin": 0.04}, 2.64)])
+def test_plane_wave_leakage_is_the_predicted_phase_lag(tmp_path, settings, travel):
+    """What leaks into the scattered region is the discrete wave's phase lag behind the analytic one at the exit
+    (Yee's dispersion, ``warpfree/solvers/spem/dispersion.py``), raised by the diffraction of the box's side edges:
+    measured 1.07-1.22 times the predicted 2 sin(δφ/2) from 1.7 to 7.2 wavelengths of travel and 20 to 80 particles
+    per wavelength (a paraxial model of the edges gives 1.08-1.18); at the quick size's 40 per wavelength 1.22.
+    Here at half the density (4x the lag: predicted 2.44 %, measured 2.92 %) and on a 0.3 m square (2.64
+    wavelengths: 0.95 %, 1.09 %). Asserted: the leakage between 1.0 and 1.3 times the prediction, and so within
+    the scene's tolerance of 1.5 times it."""
+    kw = {"size": 0.2, "margin": 0.03, **settings}
+    device.use("cpu", 2)
+    run = load_scene("em_plane_wave_2d").build(frames=False, vtk=False, **kw)
+    pw = run.run(None, progress=False)["analysis"]["plane_wave"]
+    assert pw["travel_wavelengths"] == pytest.approx(travel, abs=0.01)
+    ratio = pw["max_leakage"] / pw["predicted_lag_error"]
+    assert 1.0 <= ratio <= 1.3, ratio
+    assert pw["checks"]["max_leakage"]["passed"] and pw["checks"]["max_error"]["passed"]
 
 
 def test_plane_wave_on_jittered_particles_has_no_stripes(tmp_path):

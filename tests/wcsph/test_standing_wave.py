@@ -57,15 +57,17 @@ def _wave(tmp_path, **params) -> dict:
 
 @pytest.mark.slow
 def test_standing_wave_frequency_against_linear_theory(tmp_path):
-    """L = 1 m, d = 0.5 m, A = 0.01 m, three periods at dx = 0.04 (12.5 particles over the depth), h = 2.4 dx.
+    """L = 1 m, d = 0.5 m, A = 0.01 m, three periods at dx = 0.025 (20 particles over the depth), h = 2.8 dx (the
+    scene's default reach and its quick size).
 
-    Measured (bench/results/standing_wave_limit.md): frequency error +0.03 %, decay rate 0.100 1/s, amplitude ratio
-    0.988; at dx = 0.02 +0.52 %, at dx = 0.01 (h = 2.8 dx) +0.13 %. Linear theory's own error here is ~0.1 % ((kA)²).
-    Bounds: frequency error within 0.5 %, amplitude ratio within 5 %, decay rate below 0.2 1/s (a wave that keeps
-    55 % of its amplitude over three periods). With the kernel at 1.6 dx the same run is +0.93 % fast, +1.31 % at
-    dx = 0.02: the particle sums' error at a fixed h/dx, which does not fall with dx
+    Measured (bench/results/standing_wave_resolution.md): frequency error -0.04 %, decay rate 0.059 1/s, amplitude
+    ratio 0.992; at h = 2.8 dx the error converges as dx falls (-0.62, -0.36, -0.04, +0.12, +0.13 % at dx = 0.04, 0.033,
+    0.025, 0.02, 0.01), at 2.4 dx it converges to +0.56 %, past the bound (+0.03, -0.14, +0.27, +0.52, +0.56 %; dx = 0.04
+    passed by the kernel's smoothing cancelling it). Linear theory's own
+    error here is ~0.1 % ((kA)²). Bounds: frequency error within 0.5 %, amplitude ratio within 5 %, decay rate below
+    0.2 1/s (a wave that keeps 55 % of its amplitude over three periods), the record a damped sine to 5 % rms
     (warpfree/validation/standing_wave_2d/README.md)."""
-    res = _wave(tmp_path / "default", dx=0.04)
+    res = _wave(tmp_path / "default", dx=0.025)
     assert abs(res["frequency_error"]) < 0.005, res["frequency_error"]
     assert res["amplitude_ratio"] == pytest.approx(1.0, abs=0.05), res["amplitude_ratio"]
     assert 0.0 < res["decay_rate"] < 0.2, res["decay_rate"]
