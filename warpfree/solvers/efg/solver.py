@@ -56,7 +56,8 @@ class Integration(Choice):
     """How the weak form is integrated over the domain."""
 
     CONSISTENT = "consistent", ("variationally consistent: test gradients corrected so that the discrete divergence "
-                                "theorem holds (linear fields exact)")
+                                "theorem holds for fields of the consistency order, by default one above the basis's "
+                                "degree")
     GAUSS = "gauss", "plain Gauss quadrature of the integration cells"
     SCNI = "scni", "stabilized conforming nodal integration on the nodes' smoothing cells"
 
@@ -74,6 +75,7 @@ class Plane(Choice):
 
     STRESS = "stress", "plane stress: σ_zz = 0"
     STRAIN = "strain", "plane strain: ε_zz = 0"
+
 
 #: relative tolerance of the check that the boundary pieces enclose the cells (∮ x·n dΓ = 2 · area)
 CLOSURE_RTOL = 1e-6
