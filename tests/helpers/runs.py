@@ -19,6 +19,13 @@ def smallest_sets(scene: str, without: tuple = ()) -> list[str]:
             for a in ("--set", f"{k}={value_text(v)}")]
 
 
+def smallest_sets_then(scene: str, settings: list[str]) -> list[str]:
+    """A scene's smallest run with ``settings`` (``--set name=value`` pairs) in place of its own values for the same
+    names."""
+    names = tuple(settings[i + 1].split("=", 1)[0] for i in range(0, len(settings), 2))
+    return smallest_sets(scene, without=names) + settings
+
+
 def snapshot_differences(a: Path, b: Path) -> list[str]:
     """What differs between the series of two runs (empty: every snapshot of every series bitwise the same, and the
     same series and times)."""
@@ -42,9 +49,23 @@ def snapshot_differences(a: Path, b: Path) -> list[str]:
     return out
 
 
+#: the component suffixes of a tensor or vector written as one field per component (stress_xx, velocity_y)
+COMPONENTS = ("_xx", "_yy", "_zz", "_xy", "_xz", "_yz", "_x", "_y", "_z")
+
+
+def quantity_of(field: str) -> str:
+    """The quantity a field is a component of (``stress_yy`` -> ``stress``), or the field itself."""
+    for suffix in COMPONENTS:
+        if field.endswith(suffix):
+            return field[: -len(suffix)]
+    return field
+
+
 def field_differences(a: Path, b: Path) -> float:
     """The largest difference of any field of any snapshot of two runs with the same series and points, relative to
-    that field's largest magnitude (0: bitwise the same); inf when the series, times or points differ."""
+    its quantity's largest magnitude (a component field such as ``stress_yy`` is measured against the largest
+    component of its tensor: one nearly zero everywhere has no scale of its own); 0: bitwise the same; inf when the
+    series, times or points differ."""
     names_a, names_b = sorted(p.name for p in a.glob("*.pvd")), sorted(p.name for p in b.glob("*.pvd"))
     if names_a != names_b or not names_a:
         return float("inf")
@@ -58,11 +79,16 @@ def field_differences(a: Path, b: Path) -> float:
             pb, db = in_id_order(*read_snapshot(b / fb))
             if not np.array_equal(pa, pb) or set(da) != set(db):
                 return float("inf")
+            scales: dict[str, float] = {}
+            for k in da:
+                x = np.asarray(da[k], float)
+                if x.size:
+                    scales[quantity_of(k)] = max(scales.get(quantity_of(k), 0.0), float(np.max(np.abs(x))))
             for k in da:
                 x, y = np.asarray(da[k], float), np.asarray(db[k], float)
-                scale = float(np.max(np.abs(x))) if x.size else 0.0
                 if x.shape != y.shape:
                     return float("inf")
+                scale = scales.get(quantity_of(k), 0.0)
                 if scale > 0:
                     worst = max(worst, float(np.max(np.abs(x - y))) / scale)
     return worst
