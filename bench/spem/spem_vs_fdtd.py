@@ -74,7 +74,7 @@ def run_spem(ppw: float, t_end: float, threads: int) -> tuple[float, float, int]
     width, amp = loop.params["width"], loop.params["amplitude"]
     x0 = e[np.argmin(np.abs(e[:, 0] - 0.244)), 0]
     col = np.flatnonzero((np.abs(e[:, 0] - x0) < 1e-9) & (e[:, 1] <= 0.4 + 1e-9))
-    ez = s.model.electric.numpy("ez")[col]
+    ez = s.electric.numpy("ez")[col]
     exact = amp * math.sin(math.pi * x0 / width) * tm1_field(e[col, 1], t_end - 0.5 * dt, width, src.waveform,
                                                              src.waveform.frequency)
     return wall, float(np.mean(np.abs(ez - exact)) / amp), steps
@@ -116,7 +116,7 @@ def run_spem_line(ppw: float, t_end: float, threads: int) -> tuple[float, float,
     wall, dt, steps = timed_spem_run(s, t_end)
     x = s.model.layout.e_position[:, 0]
     source = int(s.sources[0].index[0])
-    err = mean_error(x, s.model.electric.numpy("ez"), t_end - 0.5 * dt, x[source], LINE["frequency"], LINE["window"])
+    err = mean_error(x, s.electric.numpy("ez"), t_end - 0.5 * dt, x[source], LINE["frequency"], LINE["window"])
     return wall, float(err), steps
 
 
@@ -168,7 +168,7 @@ def run_spem_cavity(cells: float, t_end: float, threads: int) -> tuple[float, fl
     wall = time.perf_counter() - t0
     e = s.model.layout.e_position
     r = np.hypot(e[:, 0] - CAVITY["radius"], e[:, 1] - CAVITY["radius"])
-    return wall, cavity_error(r, s.model.electric.numpy("ez"), t_end - 0.5 * dt), steps
+    return wall, cavity_error(r, s.electric.numpy("ez"), t_end - 0.5 * dt), steps
 
 
 def run_fdtd_cavity(cells: float, t_end: float, threads: int) -> tuple[float, float, int]:

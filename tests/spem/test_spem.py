@@ -230,7 +230,7 @@ def cavity_frequency(spacing: float, jitter: float = 0.0, conservative: bool = T
     for n in range(8 * per_period):
         solver.step(dt)
         if n < periods * per_period:
-            proj.append(float(basis @ solver.model.electric.numpy("ez")))
+            proj.append(float(basis @ solver.electric.numpy("ez")))
         if (n + 1) % per_period == 0:
             e = solver.energy()
             energy.append(e["electric_energy"] + e["magnetic_energy"])

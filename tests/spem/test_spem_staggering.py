@@ -70,7 +70,7 @@ def test_a_one_particle_start_drives_both_sub_lattices_only_with_yee_staggering(
     steps = int(0.4 / (C0 * dt))
     for _ in range(steps):
         solver.step(dt)
-    ez = solver.model.electric.numpy("ez")
+    ez = solver.electric.numpy("ez")
     own = lattice_parity(lay) == lattice_parity(lay)[centre]
     ratio = np.sqrt(np.mean(ez[~own] ** 2) / np.mean(ez[own] ** 2))
     if staggering == "centres":
@@ -96,7 +96,7 @@ def point_source_record(half: float, cells: int, dx: float, steps: int, frequenc
     record = np.zeros((steps, 3))
     for n in range(steps):
         solver.step(dt)
-        record[n] = solver.model.electric.numpy("ez")[probes]
+        record[n] = solver.electric.numpy("ez")[probes]
     return record, dt, lay.e_position[probes]
 
 
@@ -133,7 +133,7 @@ def test_yee_staggering_keeps_each_component_on_its_own_particles():
                         hx=1.0, hy=1.0)
     for _ in range(20):
         solver.step(0.9 * solver.stable_dt())
-    hx, hy = solver.model.magnetic.numpy("hx"), solver.model.magnetic.numpy("hy")
+    hx, hy = solver.magnetic.numpy("hx"), solver.magnetic.numpy("hy")
     carries_x = lay.h_carries == 0
     assert np.all(hx[~carries_x] == 0.0) and np.all(hy[carries_x] == 0.0)
     assert np.abs(hx[carries_x]).max() > 0 and np.abs(hy[~carries_x]).max() > 0
@@ -161,7 +161,7 @@ def test_yee_staggering_halves_the_cavity_frequency_error():
         p = np.zeros(3 * per_period)
         for n in range(p.size):
             solver.step(dt)
-            p[n] = basis @ solver.model.electric.numpy("ez")
+            p[n] = basis @ solver.electric.numpy("ez")
         t = (np.arange(p.size) + 0.5) * dt
         k = np.flatnonzero(np.sign(p[:-1]) * np.sign(p[1:]) < 0)
         crossings = t[k] - p[k] * dt / (p[k + 1] - p[k])

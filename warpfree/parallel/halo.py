@@ -65,6 +65,12 @@ class Partition:
         self._plans: dict[tuple, _RefreshPlan] = {}
 
     @property
+    def whole(self) -> bool:
+        """True in a run of one process: this part is the whole set, in global order, with no ghost, and
+        :meth:`refresh`, :meth:`gather` and :meth:`take` are identities (a copy at most)."""
+        return self.world.size == 1
+
+    @property
     def n(self) -> int:
         """Items held (owned and ghosts)."""
         return self.ids.size
@@ -157,8 +163,8 @@ class Partition:
 
     # -- using one ------------------------------------------------------------------------------------------
     def take(self, values):
-        """The held rows of an array over all items (global order): set-up data every rank has."""
-        return np.asarray(values)[self.ids]
+        """The held rows of an array over all items (global order): set-up data every rank has (a copy)."""
+        return np.array(values) if self.whole else np.asarray(values)[self.ids]
 
     def refresh(self, *arrays) -> None:
         """Give every ghost its owner's current values in each of ``arrays`` (held rows: Warp or NumPy arrays).
@@ -201,8 +207,10 @@ class Partition:
                 write_back()
 
     def gather(self, values) -> np.ndarray:
-        """The owned rows of ``values`` (held rows) of every rank, in global-id order, on every rank."""
+        """The owned rows of ``values`` (held rows) of every rank, in global-id order, on every rank (a copy)."""
         v, _ = host_view(values)
+        if self.whole:
+            return np.array(v)
         ids = self.world.allgather(self.ids[self.owned_index].astype(np.int64))
         rows = self.world.allgather(np.ascontiguousarray(v[self.owned_index]))
         all_ids = np.concatenate(ids)

@@ -108,6 +108,35 @@ class World:
                 total = total + part
         return self.comm.bcast(total, root=0)
 
+    def allreduce_in_place(self, array, op: str = "sum") -> None:
+        """:meth:`allreduce` of a Warp (or NumPy) array, written back into it: nothing to do in one process (no copy,
+        no device read)."""
+        if self.comm is None:
+            return
+        values = array.numpy() if hasattr(array, "device") else array
+        reduced = self.allreduce(values, op).astype(values.dtype, copy=False)
+        if hasattr(array, "device"):
+            array.assign(reduced)
+        else:
+            array[...] = reduced
+
+    def allreduce_matrix(self, matrix):
+        """The sum of every rank's SciPy sparse ``matrix`` (one shape), entries added in rank order, as CSR on every
+        rank: ``matrix`` itself in one process."""
+        if self.comm is None:
+            return matrix
+        import scipy.sparse as sp
+
+        coo = matrix.tocoo()
+        rows = np.concatenate(self.allgather(coo.row.astype(np.int64)))
+        cols = np.concatenate(self.allgather(coo.col.astype(np.int64)))
+        data = np.concatenate(self.allgather(coo.data.astype(np.float64)))
+        return sp.csr_matrix((data, (rows, cols)), shape=matrix.shape)
+
+    def allgather_objects(self, value) -> list:
+        """Every rank's ``value`` (any picklable object), in rank order, on every rank."""
+        return [value] if self.comm is None else self.comm.allgather(value)
+
     def first_message(self, message: str | None) -> str | None:
         """The first rank's non-empty message (a problem one rank found), the same on every rank; None if none."""
         if self.comm is None:

@@ -31,7 +31,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from warpfree.errors import ParameterError, require_finite, require_integer, require_positive
-from warpfree.parallel import world as ranks_of_run
+from warpfree.parallel import CutMethod, Decomposition, Partition, world as ranks_of_run
 from warpfree.parallel.petsc_system import PETScSystem, Preconditioner, require_petsc
 from warpfree.parameters import Choice
 from warpfree.solver import OutputSet, StaticSolver
@@ -187,12 +187,11 @@ class EFGSolver(StaticSolver):
         if self.world.distributed and integration is Integration.SCNI:
             raise ParameterError("integration", "a distributed run cannot integrate on smoothing cells ('scni') yet: "
                                                 "use 'consistent' or 'gauss', or run in one process")
-        #: the Gauss points this process integrates (a distributed run's rank: those its box owns) and their
-        #: materials; every point in one process
-        self._mine = np.arange(cells.position.shape[0])
-        if self.world.distributed:
-            self._mine = self._own_points()
-        self._points = cells if not self.world.distributed else cells.subset(self._mine)
+        #: the Gauss points over the ranks (one process: a one-rank partition, every point), those this process
+        #: integrates (a rank's: those its box owns) and their materials
+        self.point_part = self._point_partition()
+        self._mine = self.point_part.owned_index
+        self._points = cells if self.point_part.whole else cells.subset(self._mine)  # smoothing cells: one part
         self._material = None if self.point_material is None else self.point_material[self._mine]
         self._multiplier_scale = 1.0
         self._interface_cache: dict = {}
@@ -285,23 +284,19 @@ class EFGSolver(StaticSolver):
         self.nodal, self.multipliers = x[:n], x[n:] * self._multiplier_scale
         self.matrix, self.load = K, f
 
-    # -- a distributed run -------------------------------------------------------------------------------------
-    def _own_points(self) -> np.ndarray:
-        """The Gauss points this rank integrates: those its box holds (``warpfree.parallel``: cut over the nodes'
-        reach, balancing the points)."""
-        from warpfree.parallel import CutMethod, Decomposition
-
+    # -- over the ranks ----------------------------------------------------------------------------------------
+    def _point_partition(self) -> Partition:
+        """The Gauss points over the ranks: each rank integrates those its box holds (``warpfree.parallel``: cut over
+        the nodes' reach, balancing the points); a point's sums need no other point, so there are no ghosts."""
         p = np.zeros((self.cells.position.shape[0], 3))
         p[:, :2] = self.cells.position
         reach = float(getattr(self.model, "reach", 0.0) or 2.0 * float(np.max(self.model.spacing)))
         dec = Decomposition.build(self.world.size, p, None, reach, 2, CutMethod.RCB)
-        return np.flatnonzero(dec.owner(p) == self.world.rank)
+        return Partition.of_all(self.world, dec, 0.0, p)
 
     def _pieces(self, sets: list[OutputSet]) -> list[OutputSet]:
-        """The whole output sets in one process; a distributed rank's parts: its own Gauss points, and (rank 0) the
-        nodes, which every rank holds (``OutputSet.ids``: their indices)."""
-        if not self.world.distributed:
-            return sets
+        """This process's parts of the output sets: its own Gauss points, and (rank 0) the nodes, which every rank
+        holds (``OutputSet.ids``: their indices); the whole sets in one process."""
         out = []
         for s in sets:
             rows = self._mine if s.name == "gauss_points" else (np.arange(len(s.points)) if self.world.is_root
@@ -312,17 +307,11 @@ class EFGSolver(StaticSolver):
 
     def _total(self, values: np.ndarray) -> np.ndarray:
         """A per-node sum over this process's Gauss points -> over every rank's (added in rank order)."""
-        return self.world.allreduce(values, "sum") if self.world.distributed else values
+        return self.world.allreduce(values, "sum")
 
     def _total_matrix(self, K: sp.csr_matrix) -> sp.csr_matrix:
         """Every rank's part of the stiffness, added (in rank order), on every rank; with PETSc this rank's part."""
-        if not self.world.distributed or self.petsc:
-            return K
-        coo = K.tocoo()
-        rows = np.concatenate(self.world.allgather(coo.row.astype(np.int64)))
-        cols = np.concatenate(self.world.allgather(coo.col.astype(np.int64)))
-        data = np.concatenate(self.world.allgather(coo.data.astype(np.float64)))
-        return sp.csr_matrix((data, (rows, cols)), shape=K.shape)
+        return K if self.petsc else self.world.allreduce_matrix(K)
 
     def _shape(self, points: np.ndarray, material: int, name: str) -> ShapeData:
         """Shape functions at boundary points that belong to ``material`` (-1: every node serves them)."""
@@ -464,7 +453,7 @@ class EFGSolver(StaticSolver):
     def _largest_diagonal(self, K) -> float:
         """max |K_II| of the whole stiffness (with PETSc, K is this rank's part: its diagonal is added first)."""
         diagonal = K.diagonal()
-        return float(np.abs(self._total(diagonal) if self.petsc and self.world.distributed else diagonal).max())
+        return float(np.abs(self._total(diagonal) if self.petsc else diagonal).max())
 
     def resolve(self, load) -> np.ndarray:
         """Solve again with the kept factorisation for a new load vector on the nodes, under the same boundary
@@ -491,14 +480,7 @@ class EFGSolver(StaticSolver):
         """u^h and ∇u^h at the Gauss points (reusing their shape functions; in a distributed run every rank's own,
         gathered in the points' order)."""
         u, g = self.model.evaluate(self.nodal, self.shape, self.components)
-        if not self.world.distributed:
-            return u, g
-        ids = np.concatenate(self.world.allgather(self._mine.astype(np.int64)))
-        whole_u = np.empty((self.work_items,) + u.shape[1:])
-        whole_g = np.empty((self.work_items,) + g.shape[1:])
-        whole_u[ids] = np.concatenate(self.world.allgather(np.ascontiguousarray(u)))
-        whole_g[ids] = np.concatenate(self.world.allgather(np.ascontiguousarray(g)))
-        return whole_u, whole_g
+        return self.point_part.gather(u), self.point_part.gather(g)
 
     def nodal_values(self) -> np.ndarray:
         """u^h at the nodes (n_nodes, components): the nodal parameters are not nodal values unless the shape

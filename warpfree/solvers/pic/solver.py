@@ -35,8 +35,7 @@ from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.galerkin.mls import MLSModel
 from warpfree.graph import StepGraph
 from warpfree.kernels import pic as pk
-from warpfree.parallel import Partition, world as ranks_of_run
-from warpfree.parallel.halo import host_view
+from warpfree.parallel import world as ranks_of_run
 from warpfree.parameters import Choice
 from warpfree.progress import announced
 from warpfree.solver import HostTable, OutputSet, StepRule, TimeDependentSolver
@@ -149,19 +148,15 @@ class PICSolver(TimeDependentSolver):
         headroom = int(math.ceil(4 * sum(j.particles_per_step for j in self.injections)))
         modes = [tuple(int(v) for v in m) for m in modes]
         self.world = ranks_of_run()
-        #: how the particles are spread over the ranks of a distributed run (None in one process)
-        self.spread = None
-        ids = np.arange(index.size, dtype=np.int32)
-        if self.world.distributed:
-            PlasmaSpread.refuse_open_boundaries(self.injections, self.particle_walls)
-            self.spread = PlasmaSpread(self.world, model, position)
-            held = self.spread.particles.ids
-            position, velocity, index, ids = position[held], velocity[held], index[held], ids[held]
-            headroom = max(16, index.size // 4)  # particles arrive: room before the arrays must grow
-        self.state = PICState(position, velocity, index, max(1, index.size + headroom), len(self.injections), dev,
+        #: how the particles are spread over the ranks (one process: a one-rank partition, every particle)
+        self.spread = PlasmaSpread(self.world, model, position, self.injections, self.particle_walls)
+        held = self.spread.particles
+        ids = held.take(np.arange(index.size, dtype=np.int32))
+        position, velocity, index = held.take(position), held.take(velocity), held.take(index)
+        self.state = PICState(position, velocity, index,
+                              max(1, index.size + self.spread.room(index.size, headroom)), len(self.injections), dev,
                               history_columns(modes, open_boundaries))
-        if self.spread is not None:
-            self.state.particle_id[:index.size].assign(ids)
+        self.state.particle_id[:index.size].assign(ids)
         self.average_from = None if average_from is None else require_finite("average_from", average_from)
         if self.average_from is not None:
             self.state.potential_sum = np.zeros(model.node_count)
@@ -177,9 +172,9 @@ class PICSolver(TimeDependentSolver):
                                      self.background_density, gather, self.phases, field_solve)
         self.particles.on_resize = self.coupling.allocate
         self.diagnostics_record = Diagnostics(field, self.coupling, self.particles, modes, self.phases)
-        if self.spread is not None:  # a rank deposits on its own nodes; the charges of all, and the step's sums
-            self.coupling.whole_charge = self.spread.whole_charge
-            self.diagnostics_record.combine = self._combine_report
+        # a rank deposits on its own nodes; the charges of all, and the step's sums
+        self.coupling.whole_charge = self.spread.charge_exchange
+        self.diagnostics_record.combine = self._combine_report
         self.particles.sort(self.count)
         self._find_owned()
         self.coupling.fields_at_particles()
@@ -201,8 +196,6 @@ class PICSolver(TimeDependentSolver):
     @property
     def n(self) -> int:
         """The live particles (of every rank: its own, added, in a distributed run)."""
-        if self.spread is None:
-            return self.count
         return int(self.world.allreduce(np.array([int(self._owned.sum())]), "sum")[0])
 
     @property
@@ -287,12 +280,7 @@ class PICSolver(TimeDependentSolver):
         with self.phases("push"):
             self.launcher.launch(pk.leapfrog_push, self.count, [self.push, self.species_table, pa.arrays, pa.e_field,
                                                                 pa.kinetic, pa.momentum])
-        if self.spread is not None:  # the step's sums count each particle once: on its owner
-            for values in (pa.kinetic, pa.momentum):
-                held, write_back = host_view(values)
-                held[:self.count][~self._owned] = 0.0
-                if write_back is not None:
-                    write_back()
+        self.spread.count_once((pa.kinetic, pa.momentum), self._owned, self.count)  # each particle on its owner
         self.diagnostics_record.launch_record()
 
     def _between(self) -> None:
@@ -300,9 +288,8 @@ class PICSolver(TimeDependentSolver):
         pa = self.particles
         self.diagnostics_record.begin_row(self.t)
         self.state.steps += 1
-        if self.spread is not None:
-            with self.phases("exchange"):
-                self._redistribute()
+        with self.phases("exchange"):
+            self.spread.redistribute(self.particle_slots, self._owned, self._refill)
         with self.phases("sort"):
             total = pa.inject() if self.injections else self.count
             pa.sort(total)
@@ -327,16 +314,17 @@ class PICSolver(TimeDependentSolver):
     # -- a distributed run -----------------------------------------------------------------------------------
     def _find_owned(self) -> None:
         """Which held slots this rank owns (its box holds them): after every sort."""
-        if self.spread is not None:
-            self._owned = self.spread.owned(self.state.position.numpy()[:self.count])
+        self._owned = self.spread.owned(self.state.position, self.count)
 
-    def _redistribute(self) -> None:
-        """After the push: the particles to the ranks that now hold them; the state's slots refilled (in id order,
-        sorted next)."""
+    def particle_slots(self) -> dict[str, np.ndarray]:
+        """Position, velocity, species and id of the live slots (host copies, slot order)."""
         st, n = self.state, self.count
-        held = {"position": st.position.numpy()[:n], "velocity": st.velocity.numpy()[:n],
+        return {"position": st.position.numpy()[:n], "velocity": st.velocity.numpy()[:n],
                 "species": st.species.numpy()[:n], "particle_id": st.particle_id.numpy()[:n]}
-        new = self.spread.redistribute(held, self._owned)
+
+    def _refill(self, new: dict[str, np.ndarray]) -> None:
+        """The state's slots refilled with the held particles after a redistribution (in id order, sorted next)."""
+        st = self.state
         count = new["position"].shape[0]
         self.particles.ensure_capacity(count)
         for name in ("position", "velocity", "species", "particle_id"):
@@ -358,15 +346,7 @@ class PICSolver(TimeDependentSolver):
     def particle_values(self) -> dict[str, np.ndarray]:
         """Position, velocity, species and id of every live particle (host copies): in slot order in one process, in
         id order over every rank's own in a distributed run."""
-        st, n = self.state, self.count
-        values = {"position": st.position.numpy()[:n], "velocity": st.velocity.numpy()[:n],
-                  "species": st.species.numpy()[:n], "particle_id": st.particle_id.numpy()[:n]}
-        if self.spread is None:
-            return {k: v.copy() for k, v in values.items()}
-        ids = self.world.allgather(values["particle_id"][self._owned].astype(np.int64))
-        order = np.argsort(np.concatenate(ids), kind="stable")
-        return {k: np.concatenate(self.world.allgather(np.ascontiguousarray(v[self._owned])))[order]
-                for k, v in values.items()}
+        return self.spread.gather_particles(self.particle_slots(), self._owned)
 
     def record_step(self) -> StepGraph | None:
         """:meth:`step` as two Warp graphs (the push; the fields) around the host's sort and grid build, and the
@@ -375,7 +355,7 @@ class PICSolver(TimeDependentSolver):
         there) or in a distributed run (its particles move between ranks through the host)."""
         solve = self.coupling.device_solve
         if (self.particles.open_boundaries or solve is None or (solve.method is FieldSolve.CG and self.launcher.is_cpu)
-                or self.spread is not None):
+                or not self.spread.whole):
             return None
         with self.launcher.capturing() as push:
             self._launch_push()
@@ -423,8 +403,6 @@ class PICSolver(TimeDependentSolver):
         """The first bad particle of the last step's fits (from the step's report: no read unless one is flagged)."""
         if not self.diagnostics_record.bad_flag:
             return None
-        if self.spread is None:
-            return self.coupling.describe_bad()
         flagged = bool(np.any(self.coupling._flags[:self.count].numpy()[self._owned]))
         return self.world.first_message(self.coupling.describe_bad() if flagged else None)
 
@@ -449,16 +427,11 @@ class PICSolver(TimeDependentSolver):
         ids = np.concatenate(rows["particle_id"]).astype(np.int64)
         unique, first = np.unique(ids, return_index=True)
         whole = {k: np.concatenate(v)[first] for k, v in rows.items()}
-        held = whole
-        if self.spread is not None:
-            if not np.array_equal(unique, np.arange(unique.size)):
-                raise ParameterError("resume", "the checkpoint's particle ids are not 0..N-1 (particles were injected "
-                                               "or absorbed): it resumes on the number of processes that wrote it")
-            part = Partition.of_all(self.world, self.spread.decomposition, self.spread.depth,
-                                    np.c_[whole["position"], np.zeros(unique.size)])
-            self.spread.particles.release()
-            self.spread.particles = part
-            held = {k: v[part.ids] for k, v in whole.items()}
+        if not np.array_equal(unique, np.arange(unique.size)):
+            raise ParameterError("resume", "the checkpoint's particle ids are not 0..N-1 (particles were injected "
+                                           "or absorbed): it resumes on the number of processes that wrote it")
+        self.spread.respread(whole["position"])
+        held = {k: self.spread.particles.take(v) for k, v in whole.items()}
         st = self.state
         for k, v in st.host_values().items():
             if k == "particle_count":
@@ -499,7 +472,7 @@ class PICSolver(TimeDependentSolver):
         """The particles (slot order) and the nodes; in a distributed run a rank's own particles (``ids``: their
         particle ids) and, from rank 0, the nodes (every rank holds them all)."""
         n = self.count
-        rows = np.arange(n) if self.spread is None else np.flatnonzero(self._owned)
+        rows = np.flatnonzero(self._owned)
         p = self.state.position.numpy()[:n][rows]
         v = self.state.velocity.numpy()[:n][rows]
         e = self.particles.e_field.numpy()[:n][rows]
@@ -510,14 +483,13 @@ class PICSolver(TimeDependentSolver):
         node_rows = np.arange(self.model.node_count) if self.world.is_root else np.zeros(0, int)
         nodes = np.zeros((node_rows.size, 3))
         nodes[:, :2] = self.model.nodes_np[node_rows]
-        distributed = self.spread is not None
         return [OutputSet("particles", pts, {"velocity": v, "e_field": e, "species": s.astype(np.float64),
                                              "particle_id": ids.astype(np.float64),
                                              "speed": np.linalg.norm(v, axis=1)}, frame_field="speed",
-                          ids=ids if distributed else None, units=UNITS),
+                          ids=ids, units=UNITS),
                 OutputSet("nodes", nodes, {"potential": self.potential.copy()[node_rows],
                                            "charge": self.charge.numpy().copy()[node_rows]},
-                          ids=node_rows if distributed else None, units=UNITS, backdrop=False)]
+                          ids=node_rows, units=UNITS, backdrop=False)]
 
     def describe(self) -> dict:
         """The run for ``summary.json``: species, injections, field solve, step and the distributed layout."""
@@ -530,8 +502,7 @@ class PICSolver(TimeDependentSolver):
                             "weight": self.macro_mass_np[len(self.loads) + k] / sp_.mass, "charge": sp_.charge,
                             "mass": sp_.mass, "density": sp_.density, "temperature": sp_.temperature,
                             "drift": list(sp_.drift), "flux": j.flux})
-        d_spread = {} if self.spread is None else {"distributed": self.spread.describe()}
-        return {**d_spread, "particles": self.n, "species": species, "particle_walls": list(self.particle_walls),
+        return {**self.spread.describe(), "particles": self.n, "species": species, "particle_walls": list(self.particle_walls),
                 "dt": self.dt, "gather": self.gather, "field_solve": self.coupling.field_solve,
                 "magnetic_field": float(self.magnetic_field), "plasma_frequency": self.plasma_frequency,
                 "omega_dt": self.plasma_frequency * self.dt,

@@ -28,7 +28,6 @@ from warpfree.kernels import spem as K
 from warpfree.graph import StepGraph
 from warpfree.parallel import world as ranks_of_run
 from warpfree.parameters import Choice
-from warpfree.particles import ParticleSet
 from warpfree.progress import announced
 from warpfree.solver import OutputSet, State, StepRule, TimeDependentSolver
 
@@ -206,50 +205,18 @@ class SPEMSolver(TimeDependentSolver):
         self.distribution = distribution
         self.world = ranks_of_run()
         self.clock = DeviceClock(self.launcher)
-        if self.world.distributed:
-            self._spread(model, sources, ez0, hx0, hy0)
-        else:
-            self.spread = None
-            #: the E and H sets this process steps: the model's own in one process; a distributed run's rank holds
-            #: its part (its own particles and their ghosts; ``numpy`` gathers the whole set)
-            self.electric, self.magnetic = e, h
-            self.state = SPEMState(e.add("ez", ez0), e.add("ezx", 0.5 * ez0), h.add("hx", hx0), h.add("hy", hy0),
-                                   self.clock.values)
-            self.sources = [_DeviceSource(s, model, dev) for s in sources if isinstance(s, Source)]
-            self.plane_waves = [DevicePlaneWave(s, model, dev) for s in sources if isinstance(s, PlaneWave)]
-            self.held = e.add("held", held.astype(np.int32), dtype=wp.int32)
-            self.e_rows, self.e_coefficient = model.e_rows.rows, model.e_coefficient
-            self.h_rows, self.h_coefficient = model.h_rows.rows, model.h_coefficient
-            parts = self.launcher.threads
-            e_cost = np.where(held, 0, model.e_rows.rows.count.numpy()[:e.n])  # a held particle returns at once
-            h_cost = model.h_rows.rows.count.numpy()[:h.n]
-            self.e_order, self.h_order = (wp.array(launch_order(distribution, s.n, parts, cost=cost),
-                                                   dtype=wp.int32, device=dev) for s, cost in ((e, e_cost), (h, h_cost)))
-
-    def _spread(self, model: SPEMModel, sources: list, ez0, hx0, hy0) -> None:
-        """A distributed run: this rank's part of the E and H sets (``warpfree.parallel``), their rows taken from the
-        model's (the same entries, coefficients and order: bitwise the one process's updates), the sources and the
-        total-field boundary's rows on its own particles, and the launch over its own particles only."""
         from .spread import FieldSpread
 
-        dev = self.launcher.device
-        e, h = model.electric, model.magnetic
+        #: the E and H sets over the ranks (one process: a one-rank partition of the model's sets)
         spread = self.spread = FieldSpread(self.world, model)
         ep, hp = spread.electric, spread.magnetic
-
-        def held_set(name, whole, part, fields):
-            values = {"position": whole.numpy("position")[part.ids]}
-            values.update({k: (v if isinstance(v, np.ndarray) else whole.numpy(v))[part.ids] for k, v in fields.items()})
-            arrays = {k: wp.array(v, dtype=whole[k].dtype if k in whole.fields else
-                                  (wp.int32 if v.dtype.kind == "i" else float), device=dev) for k, v in values.items()}
-            return ParticleSet.view(name, model.dim, arrays, partition=part)
-
-        self.electric = held_set("electric", e, ep, {"inv_permittivity": "inv_permittivity", "loss": "loss",
-                                                     "ez": ez0.astype(np.float32),
-                                                     "ezx": (0.5 * ez0).astype(np.float32),
-                                                     "held": self._held_whole.astype(np.int32)})
-        self.magnetic = held_set("magnetic", h, hp, {"inv_permeability": "inv_permeability", "loss": "loss",
-                                                     "hx": hx0.astype(np.float32), "hy": hy0.astype(np.float32)})
+        #: the E and H sets this process steps: a rank's part (its own particles and their ghosts; ``numpy`` gathers
+        #: the whole set), over the model's own arrays in one process
+        self.electric = spread.held_set("electric", e, ep, {"ez": ez0.astype(np.float32),
+                                                            "ezx": (0.5 * ez0).astype(np.float32),
+                                                            "held": held.astype(np.int32)}, dev)
+        self.magnetic = spread.held_set("magnetic", h, hp, {"hx": hx0.astype(np.float32),
+                                                            "hy": hy0.astype(np.float32)}, dev)
         self.state = SPEMState(self.electric["ez"], self.electric["ezx"], self.magnetic["hx"], self.magnetic["hy"],
                                self.clock.values)
         for name, part in (("electric", ep), ("magnetic", hp)):  # which particles a checkpoint piece holds
@@ -262,8 +229,13 @@ class SPEMSolver(TimeDependentSolver):
                         for s in sources if isinstance(s, Source)]
         self.plane_waves = [spread.plane_wave(DevicePlaneWave(s, model, dev)) for s in sources
                             if isinstance(s, PlaneWave)]
-        self.e_order, self.h_order = (wp.array(p.owned_index.astype(np.int32), dtype=wp.int32, device=dev)
-                                      for p in (ep, hp))
+        # each thread's particles (``distribution``) among this rank's own; a held particle returns at once
+        e_cost = np.where(held, 0, model.e_rows.rows.count.numpy()[:e.n])
+        h_cost = model.h_rows.rows.count.numpy()[:h.n]
+        self.e_order, self.h_order = (
+            wp.array(part.owned_index[launch_order(distribution, part.n_owned, self.launcher.threads,
+                                                   cost=cost[part.ids[part.owned_index]])].astype(np.int32),
+                     dtype=wp.int32, device=dev) for part, cost in ((ep, e_cost), (hp, h_cost)))
 
     @staticmethod
     def _nodal_values(model: SPEMModel, ez0, hx0, hy0):
@@ -293,7 +265,7 @@ class SPEMSolver(TimeDependentSolver):
 
     def record_step(self) -> StepGraph | None:
         """:meth:`advance` recorded as one Warp graph (None in a distributed run: its ghosts go through the host)."""
-        if self.spread is not None:
+        if not self.spread.electric.whole:
             return None
         with self.launcher.capturing() as capture:
             self.advance()
@@ -302,7 +274,7 @@ class SPEMSolver(TimeDependentSolver):
     def _launch_step(self) -> None:
         """The step's launches; t and Δt from the clock (``kernels/clock.py``). In a distributed run each phase ends
         by giving the ghosts their owners' new values (Ez for the H phase, H for the next E phase)."""
-        m, L, st, clock = self.model, self.launcher, self.state, self.clock.values
+        L, st, clock = self.launcher, self.state, self.clock.values
         e, h = self.electric, self.magnetic
         with self.phases("electric"):
             L.launch(K.update_electric, self.e_order.shape[0], [self.e_order, clock, self.e_rows, self.e_coefficient,
@@ -316,18 +288,16 @@ class SPEMSolver(TimeDependentSolver):
             for s in self.sources:
                 L.launch(K.set_source, s.count, [s.particles, s.amplitude, s.signal, clock, s.additive, st.ez,
                                                  st.ezx])
-        if self.spread is not None:
-            with self.phases("exchange"):
-                self.spread.electric.refresh(st.ez)
+        with self.phases("exchange"):
+            self.spread.electric.refresh(st.ez)
         with self.phases("magnetic"):
             L.launch(K.update_magnetic, self.h_order.shape[0], [self.h_order, clock, self.h_rows, self.h_coefficient,
                                                                 st.ez, h["inv_permeability"], h["loss"], st.hx, st.hy])
             for w in self.plane_waves:  # TF/SF: the incident Ez^{n+1/2}
                 L.launch(K.plane_wave_magnetic, w.n_h, [clock, w.struct, w.h_targets, w.h_rows, w.h_coefficient,
                                                         e.position, h["inv_permeability"], h["loss"], st.hx, st.hy])
-        if self.spread is not None:
-            with self.phases("exchange"):
-                self.spread.magnetic.refresh(st.hx, st.hy)
+        with self.phases("exchange"):
+            self.spread.magnetic.refresh(st.hx, st.hy)
 
     def stable_dt(self) -> float:
         """The stable step of the operators' spectral radius, fixed at set-up (s)."""
@@ -369,8 +339,7 @@ class SPEMSolver(TimeDependentSolver):
         for piece in pieces:
             for name, keys in self.RESTORED.items():
                 held = piece[keys[0]].shape[0]
-                ids = piece.get(f"{name}_id", np.arange(held))
-                owned = piece.get(f"{name}_owned", np.ones(held, np.int8)).astype(bool)
+                ids, owned = piece[f"{name}_id"], piece[f"{name}_owned"].astype(bool)
                 if held != ids.size:
                     raise ParameterError("resume", "a checkpoint piece does not match this scene")
                 for k in keys:
@@ -379,9 +348,9 @@ class SPEMSolver(TimeDependentSolver):
                         whole[k] = np.zeros((counts[name],) + values.shape[1:], dtype=values.dtype)
                     whole[k][ids[owned]] = values[owned]
         for name, keys in self.RESTORED.items():
-            part = None if self.spread is None else getattr(self.spread, name)
+            part = getattr(self.spread, name)
             for k in keys:
-                getattr(self.state, k).assign(whole[k] if part is None else whole[k][part.ids])
+                getattr(self.state, k).assign(part.take(whole[k]))
         self.clock.values.assign(pieces[0]["clock"])
         self.clock.invalidate()
         self.after_load()
@@ -390,10 +359,6 @@ class SPEMSolver(TimeDependentSolver):
         """Ez on the E set, H on the H set: every particle in one process; a rank's own in a distributed run
         (``OutputSet.ids``: their indices in the whole set)."""
         e, h = self.electric, self.magnetic
-        if self.spread is None:
-            return [OutputSet("electric", e.numpy("position"), {"ez": e.numpy("ez")}, frame_field="ez", units=UNITS),
-                    OutputSet("magnetic", h.numpy("position"), {"hx": h.numpy("hx"), "hy": h.numpy("hy")},
-                              units=UNITS)]
         ep, hp = self.spread.electric, self.spread.magnetic
         return [OutputSet("electric", ep.owned_values(e.position), {"ez": ep.owned_values(e["ez"])},
                           frame_field="ez", ids=ep.ids[ep.owned_index], units=UNITS),
@@ -444,6 +409,5 @@ class SPEMSolver(TimeDependentSolver):
         d = self.model.describe()
         d.update(dt_max=self._dt_max, distribution=self.distribution, sources=[{"particles": int(s.index.size), "kind": s.source.kind,
                                                 "frequency": s.source.waveform.frequency} for s in self.sources])
-        if self.spread is not None:
-            d["distributed"] = self.spread.describe()
+        d.update(self.spread.describe())
         return d

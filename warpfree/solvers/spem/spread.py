@@ -1,4 +1,7 @@
-"""SPEM's E and H sets spread over the ranks of a distributed run.
+"""SPEM's E and H sets spread over the ranks of a run.
+
+A run of one process is a one-rank partition: its sets are the model's, over the model's own arrays and rows (no
+copy), and its refreshes do nothing.
 
 Both sets are static: they are cut once (:class:`~warpfree.parallel.Decomposition`, weighed by their rows' lengths)
 and each rank holds the particles its box owns and, as ghosts, every particle a row of its own reaches (the depth is
@@ -55,8 +58,25 @@ class FieldSpread:
         self.electric = Partition.of_all(world, self.decomposition, self.depth, xe)
         self.magnetic = Partition.of_all(world, self.decomposition, self.depth, xh)
 
+    def held_set(self, name: str, whole, part: Partition, state: dict[str, np.ndarray], device: str):
+        """The set this rank steps: ``whole`` (the model's :class:`~warpfree.particles.ParticleSet`)'s held rows and
+        the ``state`` fields (whole-set values: the initial fields, the held flag), on ``part``. In one process a view
+        over the model's own arrays (no copy), with the state's arrays beside them (the model is left as it is)."""
+        from warpfree.particles import ParticleSet
+
+        if part.whole:
+            arrays = dict(whole.fields)
+        else:
+            arrays = {k: wp.array(part.take(v.numpy()), dtype=v.dtype, device=device) for k, v in whole.fields.items()}
+        for k, v in state.items():
+            arrays[k] = wp.array(part.take(v), dtype=wp.int32 if v.dtype.kind == "i" else float, device=device)
+        return ParticleSet.view(name, self.model.dim, arrays, partition=part)
+
     def rows(self, rows, coefficient: wp.array, own: Partition, other: Partition):
-        """(rows, coefficients) of ``own``'s held particles (ghost rows empty), columns in ``other``'s held order."""
+        """(rows, coefficients) of ``own``'s held particles (ghost rows empty), columns in ``other``'s held order:
+        the model's own in one process."""
+        if own.whole:
+            return rows, coefficient
         start, count, index = rows.start.numpy(), rows.count.numpy(), rows.index.numpy()
         mine = own.owned_index
         counts, local, entries = take_rows(start, count, index, own.ids[mine], other)
@@ -70,6 +90,8 @@ class FieldSpread:
     def owned_electric(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Of E particles ``ids`` (global), those this rank owns: (their held indices, their positions in ``ids``)."""
         part = self.electric
+        if part.whole:
+            return ids, np.arange(ids.size)
         at = np.searchsorted(part.ids, ids)
         at = np.minimum(at, max(part.n - 1, 0))
         mine = np.flatnonzero((part.n > 0) & (part.ids[at] == ids) & part.owned[at]) if part.n else np.zeros(0, int)
@@ -77,7 +99,9 @@ class FieldSpread:
 
     def plane_wave(self, wave):
         """A :class:`~warpfree.solvers.spem.plane_wave.DevicePlaneWave` on this rank's own targets: each target's row
-        (over the other set) kept as it is, its columns renumbered."""
+        (over the other set) kept as it is, its columns renumbered: ``wave`` itself in one process."""
+        if self.electric.whole:
+            return wave
         for targets, rows, coefficient, n, own, other, tag in (
                 ("e_targets", "e_rows", "e_coefficient", "n_e", self.electric, self.magnetic, "e"),
                 ("h_targets", "h_rows", "h_coefficient", "n_h", self.magnetic, self.electric, "h")):
@@ -98,13 +122,16 @@ class FieldSpread:
         return wave
 
     def describe(self) -> dict:
-        """The distributed layout for ``summary.json``: E and H particles owned and ghost per rank."""
+        """The distributed layout for ``summary.json`` (``{"distributed": ...}``; nothing in one process): E and H
+        particles owned and ghost per rank."""
+        if self.electric.whole:
+            return {}
         counts = np.concatenate(self.world.allgather(np.array(
             [self.electric.n_owned, self.electric.n_ghosts, self.magnetic.n_owned, self.magnetic.n_ghosts],
             dtype=np.int64))).reshape(self.world.size, 4)
         held = counts.sum()
-        return {"ranks": self.world.size, "depth": self.depth,
-                "electric_owned": counts[:, 0].tolist(), "electric_ghosts": counts[:, 1].tolist(),
-                "magnetic_owned": counts[:, 2].tolist(), "magnetic_ghosts": counts[:, 3].tolist(),
-                "ghost_fraction": float((counts[:, 1].sum() + counts[:, 3].sum()) / max(held, 1)),
-                "decomposition": self.decomposition.describe()}
+        return {"distributed": {"ranks": self.world.size, "depth": self.depth,
+                                "electric_owned": counts[:, 0].tolist(), "electric_ghosts": counts[:, 1].tolist(),
+                                "magnetic_owned": counts[:, 2].tolist(), "magnetic_ghosts": counts[:, 3].tolist(),
+                                "ghost_fraction": float((counts[:, 1].sum() + counts[:, 3].sum()) / max(held, 1)),
+                                "decomposition": self.decomposition.describe()}}

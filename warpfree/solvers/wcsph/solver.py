@@ -98,7 +98,7 @@ class WCSPHSolver(TimeDependentSolver):
         launcher = launcher or model.launcher
         params = model.params
         super().__init__(model, launcher)
-        nf, nb = model.nf, model.nb
+        nf = model.nf
         rho_f = np.full(nf, params.rho0) if density is None else np.asarray(density, float)
         if rho_f.shape != (nf,) or not np.all(np.isfinite(rho_f)) or np.any(rho_f <= 0):
             raise ParameterError("density", f"must be {nf} finite positive values")
@@ -106,8 +106,8 @@ class WCSPHSolver(TimeDependentSolver):
         if v_f.shape != (nf, 3):
             raise ParameterError("velocity", f"must have {nf} rows")
         self.world = ranks_of_run()
-        #: how the fluid is spread over the ranks of a distributed run (None in one process)
-        self.spread = FluidSpread(self.world, model) if self.world.distributed else None
+        #: how the fluid is spread over the ranks (one process: a one-rank partition, the whole fluid)
+        self.spread = FluidSpread(self.world, model)
         self.clock = DeviceClock(launcher, K.REPORT_SLOTS)
         self.kernels = K.make_kernels(model.terms)
         self._report = Reduction(launcher, wp.vec4, "max")
@@ -116,17 +116,14 @@ class WCSPHSolver(TimeDependentSolver):
         fluid = {"position": model.position_np[:nf], "velocity": v_f.astype(np.float32),
                  "density": rho_f.astype(np.float32), "mass": mass[:nf]}
         walls = {"position": model.position_np[nf:], "mass": mass[nf:]}
-        if self.spread is not None:
-            fluid = {k: self.spread.fluid.take(v) for k, v in fluid.items()}
-            walls = {k: self.spread.held_walls(v) for k, v in walls.items()}
-        self._grid_sizes = self._whole_grid_sizes()
+        fluid, walls = self.spread.held_fluid(fluid), self.spread.held_walls(walls)
+        self._grid_sizes = self.spread.grid_sizes(launcher)
         self.max_neighbours = self._check_neighbours(fluid["position"])
         cap = int(self.max_neighbours * (1.0 + params.skin) ** params.dim * 1.2) + 8  # grows if ever too small
         # the tables (3 of int32 rows of ``cap``) and about 25 float32 per particle of state and scratch
         require_memory("dx", len(fluid["position"]) + len(walls["position"]), 100.0 + 12.0 * cap,
                        "particles (fluid + wall) with their neighbour tables")
-        self._lay_out(fluid, walls, {"fluid_fluid": cap, "fluid_wall": cap, "wall_fluid": cap},
-                      mass=model.mass if self.spread is None else None)
+        self._lay_out(fluid, walls, {"fluid_fluid": cap, "fluid_wall": cap, "wall_fluid": cap})
         self.solids = model.solids
         if self.solids is not None:
             inside = self._penetration()
@@ -137,8 +134,7 @@ class WCSPHSolver(TimeDependentSolver):
             self._penalty = self.solids.penalty(0.5 * params.dx, params.c0)
         self.initialise()
 
-    def _lay_out(self, fluid: dict[str, np.ndarray], walls: dict[str, np.ndarray], capacities: dict[str, int],
-                 mass: wp.array | None = None) -> None:
+    def _lay_out(self, fluid: dict[str, np.ndarray], walls: dict[str, np.ndarray], capacities: dict[str, int]) -> None:
         """The held particles' arrays, [fluid | walls] (the whole sets in one process; this rank's and its ghosts in a
         distributed run), their views, and the neighbour tables of the given capacities. ``fluid``: position,
         velocity, density and mass, and optionally pressure, acceleration, density_rate, velocity_eval and
@@ -148,7 +144,7 @@ class WCSPHSolver(TimeDependentSolver):
         nf, nb = len(fluid["position"]), len(walls["position"])
         n = nf + nb
         self.nf, self.nb, self.n = nf, nb, n
-        self.n_container_walls = model.n_container_walls if self.spread is None else self.spread.n_container_walls()
+        self.n_container_walls = self.spread.n_container_walls()
 
         def arr(values, dtype):
             return wp.array(values, dtype=dtype, device=dev)
@@ -169,10 +165,10 @@ class WCSPHSolver(TimeDependentSolver):
             else wp.zeros(nf, dtype=wp.vec3, device=dev),
             clock=self.clock.values)
         S = self.state
-        if self.spread is not None:  # which fluid particles the arrays hold: a checkpoint read on other ranks needs it
-            S.fluid_id = self.spread.fluid.ids.astype(np.int64)
-            S.fluid_owned = self.spread.fluid.owned.astype(np.int8)
-        self.mass = mass if mass is not None else arr(np.concatenate([fluid["mass"], walls["mass"]]), float)
+        # which fluid particles the arrays hold: a checkpoint read on another number of processes needs it
+        S.fluid_id = self.spread.fluid.ids.astype(np.int64)
+        S.fluid_owned = self.spread.fluid.owned.astype(np.int8)
+        self.mass = arr(np.concatenate([fluid["mass"], walls["mass"]]), float)
         self.arrays = K.FluidArrays()
         a = self.arrays
         a.nf = nf
@@ -198,13 +194,16 @@ class WCSPHSolver(TimeDependentSolver):
         #: distributed run a set's ``numpy`` gathers the whole set)
         self.fluid = ParticleSet.view("fluid", params.dim, {
             "position": part(S.position, *f), "velocity": part(S.velocity, *f), "density": part(S.density, *f),
-            "pressure": part(S.pressure, *f), "mass": part(self.mass, *f)},
-            partition=None if spread is None else spread.fluid)
+            "pressure": part(S.pressure, *f), "mass": part(self.mass, *f)}, partition=spread.fluid)
         self.boundary, self.obstacle = (ParticleSet.view(name, params.dim, {
             "position": part(S.position, *r), "density": part(S.density, *r), "pressure": part(S.pressure, *r),
             "mass": part(self.mass, *r)}) for name, r in (("boundary", b), ("obstacle", o)))
         #: all wall particles (containers, then obstacles): the static set the fluid's tables query
         self.walls = part(S.position, nf, n)
+        #: the held fluid arrays a ghost takes from its owner after each kick (``spread.STEP_FIELDS``)
+        self._step_fields = [{"position": self.fluid.position, "velocity": self.fluid["velocity"],
+                              "density": self.fluid["density"], "acceleration": S.acceleration,
+                              "density_rate": S.density_rate, "report": a.report}[k] for k in STEP_FIELDS]
         self._walls_view = {"pressure": part(S.pressure, nf, n), "density": part(S.density, nf, n),
                             "ghost_velocity": part(a.ghost_velocity, 0, nb)}
 
@@ -224,20 +223,6 @@ class WCSPHSolver(TimeDependentSolver):
         else:  # valid empty rows for the kernels
             self.fluid_wall = self.wall_fluid = SimpleNamespace(rows=empty_rows(nf, dev), capacity=1)
 
-    def _whole_grid_sizes(self) -> dict[str, int] | None:
-        """The grid points the one process's hash tables are sized for (fluid at its start, walls), which a
-        distributed run's ranks size theirs for; None in one process (each grid sizes itself)."""
-        if self.spread is None:
-            return None
-        model, P = self.model, self.model.params
-        reach = P.support + model.skin
-        grid = NeighbourGrid(self.launcher, reach, model.space)
-        dev = self.launcher.device
-        sizes = {"moving": grid.grid_points(wp.array(model.position_np[:model.nf], dtype=wp.vec3, device=dev))}
-        if model.nb:
-            sizes["walls"] = grid.grid_points(wp.array(model.position_np[model.nf:], dtype=wp.vec3, device=dev))
-        return sizes
-
     # -- set-up --------------------------------------------------------------------------------
     def _check_neighbours(self, fluid_position: np.ndarray) -> int:
         """Reject an h too small for the spacing, reporting the neighbour count (fluid–fluid) of the
@@ -246,8 +231,7 @@ class WCSPHSolver(TimeDependentSolver):
         x = wp.array(np.asarray(fluid_position, np.float32), dtype=wp.vec3, device=self.launcher.device)
         counts = NeighbourList(NeighbourGrid(self.launcher, P.support, self.model.space, x), x,
                                exclude_self=True).counts()
-        if self.spread is not None:
-            counts = counts[self.spread.fluid.owned_index]
+        counts = counts[self.spread.fluid.owned_index]
         best = int(self.world.allreduce(np.array([counts.max() if counts.size else 0]), "max")[0])
         need = MIN_NEIGHBOURS[P.dim]
         if best < need and self.model.nf > 8 * need:
@@ -266,9 +250,7 @@ class WCSPHSolver(TimeDependentSolver):
         with self.phases("neighbours"):
             self.moving_neighbours.rebuild()
         self.compute_rates()
-        if self.spread is not None:  # the ghosts' first drift needs their owners' rates
-            with self.phases("exchange"):
-                self.spread.fluid.refresh(self.state.acceleration, self.state.density_rate)
+        self.spread.fluid.refresh(self.state.acceleration, self.state.density_rate)  # the ghosts' first drift's
         self._launch_report()
 
     @announced(lambda self, duration, *a, **k: f"water settled before t = 0 ({duration:.3g} s of damped steps)")
@@ -306,9 +288,8 @@ class WCSPHSolver(TimeDependentSolver):
         if self.model.terms.walls == "dynamic":
             with self.phases("boundary"):
                 L.launch(self.kernels.wall_pressure, self.nb, [c, a, self.wall_fluid.rows])
-            if self.spread is not None:  # a ghost wall's fluid neighbours are not all held: its owner's values
-                with self.phases("exchange"):
-                    self.spread.walls.refresh(*self._walls_view.values())
+            with self.phases("exchange"):  # a ghost wall's fluid neighbours are not all held: its owner's values
+                self.spread.walls.refresh(*self._walls_view.values())
         with self.phases("rates"):
             L.launch(self.kernels.rates, self.nf, [c, a, self.fluid_fluid.rows, self.fluid_wall.rows])
         if self.solids is not None:
@@ -332,10 +313,8 @@ class WCSPHSolver(TimeDependentSolver):
         """The step's report reduced on the device, then copied into the clock with the next stable step; at the end
         of a step, the time moved on and the next step picked in the same launch."""
         self._report.launch(self.arrays.report)
-        if self.spread is not None:  # the one reduction of a distributed step: every rank's largest values
-            with self.phases("exchange"):
-                result = self._report.result
-                result.assign(self.world.allreduce(result.numpy(), "max"))
+        with self.phases("exchange"):  # the one reduction of a step: every rank's largest values
+            self.world.allreduce_in_place(self._report.result, "max")
         self.launcher.launch(K.finish_step, 1, [self._limits, self._report.result, self.clock.values,
                                                 int(end_of_step)])
         self.clock.invalidate()
@@ -368,7 +347,7 @@ class WCSPHSolver(TimeDependentSolver):
         """:meth:`advance` as two Warp graphs around the host's rebuild decision: (drift), then a neighbour
         rebuild if the last report says a particle may have moved past the skin, then (rates, kick, report). None in a
         distributed run (a step exchanges ghosts through the host, and a rebuild lays the arrays out anew)."""
-        if self.spread is not None:
+        if not self.spread.fluid.whole:
             return None
         L, a, c = self.launcher, self.arrays, self.model.constants
         with L.capturing() as first:
@@ -404,39 +383,32 @@ class WCSPHSolver(TimeDependentSolver):
         """The neighbour tables at the current positions; in a distributed run the fluid first moves to the ranks
         whose boxes now hold it (and the decomposition is cut anew when the work is out of balance)."""
         with self.phases("neighbours"):
-            if self.spread is not None:
-                self._redistribute()
+            self.spread.redistribute(self._held_fluid, self._work, self._lay_out_again)
             self.moving_neighbours.rebuild()
 
-    def _step_fields(self) -> list[wp.array]:
-        """The held fluid arrays a ghost takes from its owner after each kick (``spread.STEP_FIELDS``)."""
-        S, a, nf = self.state, self.arrays, self.nf
-        views = {"position": self.fluid.position, "velocity": self.fluid["velocity"],
-                 "density": self.fluid["density"], "acceleration": S.acceleration, "density_rate": S.density_rate,
-                 "report": a.report}
-        return [views[k] for k in STEP_FIELDS]
-
-    def _redistribute(self) -> None:
-        """Carry the held fluid (``spread.MOVING_FIELDS``, after the drift) to where it now belongs and lay the arrays
-        out anew; the neighbour counts of the last build weigh the ranks' work."""
+    def _held_fluid(self) -> dict[str, np.ndarray]:
+        """The held fluid rows a rebuild carries to the ranks that now hold them (``spread.MOVING_FIELDS``, after the
+        drift, and the mass), as NumPy."""
         S, a = self.state, self.arrays
-        held = {"position": self.fluid.numpy_held("position"), "velocity": self.fluid.numpy_held("velocity"),
+        return {"position": self.fluid.numpy_held("position"), "velocity": self.fluid.numpy_held("velocity"),
                 "density": self.fluid.numpy_held("density"), "pressure": self.fluid.numpy_held("pressure"),
                 "acceleration": S.acceleration.numpy(), "density_rate": S.density_rate.numpy(),
                 "velocity_eval": a.velocity_eval.numpy(), "density_eval": a.density_eval.numpy(),
                 "mass": self.fluid.numpy_held("mass")}
+
+    def _work(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each held fluid and wall particle's work: its neighbour count at the last build."""
         fluid_cost = self.fluid_fluid.counts().astype(np.float64)
         wall_cost = np.zeros(self.nb)
         if self.model.nb:
             fluid_cost = fluid_cost + self.fluid_wall.counts()
             wall_cost = self.wall_fluid.counts().astype(np.float64)
-        capacities = {"fluid_fluid": self.fluid_fluid.capacity, "fluid_wall": self.fluid_wall.capacity,
-                      "wall_fluid": self.wall_fluid.capacity}
-        fluid = self.spread.redistribute(held, fluid_cost, wall_cost)
-        mass = self.model.mass.numpy()[self.model.nf:]
-        walls = {"position": self.spread.held_walls(self.spread.wall_points).astype(np.float32),
-                 "mass": self.spread.held_walls(mass)}
-        self._lay_out(fluid, walls, capacities)
+        return fluid_cost, wall_cost
+
+    def _lay_out_again(self, fluid: dict[str, np.ndarray], walls: dict[str, np.ndarray]) -> None:
+        """The arrays laid out for new held rows, the tables keeping their capacities."""
+        self._lay_out(fluid, walls, {"fluid_fluid": self.fluid_fluid.capacity, "fluid_wall": self.fluid_wall.capacity,
+                                     "wall_fluid": self.wall_fluid.capacity})
 
     def _after_drift(self) -> None:
         """Rates at the predicted state, the second kick, the step report and the clock's time."""
@@ -444,9 +416,8 @@ class WCSPHSolver(TimeDependentSolver):
         with self.phases("integrate"):
             self.launcher.launch(self.kernels.kick, self.nf, [self.model.constants, self.arrays,
                                                                self.clock.values])
-        if self.spread is not None:  # every ghost as its owner: the next drift and this report read these
-            with self.phases("exchange"):
-                self.spread.fluid.refresh(*self._step_fields())
+        with self.phases("exchange"):  # every ghost as its owner: the next drift and this report read these
+            self.spread.fluid.refresh(*self._step_fields)
         with self.phases("integrate"):
             self._finish()  # finish_step also moves the time on and picks the next step
 
@@ -472,14 +443,11 @@ class WCSPHSolver(TimeDependentSolver):
     def _penetration(self):
         """The fluid inside a solid, over every rank: the count, and the deepest particle (global index)."""
         rows, ids = self._own_fluid()
-        positions = self.fluid.position if self.spread is None else wp.array(
-            self.fluid.numpy_held("position")[rows], dtype=wp.vec3, device=self.launcher.device)
-        inside = self.solids.penetration(positions)
-        if self.spread is None:
-            return inside
+        inside = self.solids.penetration(wp.array(self.fluid.numpy_held("position")[rows], dtype=wp.vec3,
+                                                  device=self.launcher.device))
         mine = (inside.count, inside.max_depth, int(ids[inside.first_index]) if inside else -1, inside.where,
                 tuple(inside.position))
-        every = self.world.comm.allgather(mine)
+        every = self.world.allgather_objects(mine)
         count = sum(e[0] for e in every)
         deepest = max((e for e in every if e[0] > 0), key=lambda e: e[1], default=None)
         if deepest is None:
@@ -516,23 +484,16 @@ class WCSPHSolver(TimeDependentSolver):
         whole = {}
         for piece in pieces:
             held = piece["acceleration"].shape[0]
-            ids = piece.get("fluid_id", np.arange(held))
-            owned = piece.get("fluid_owned", np.ones(held, np.int8)).astype(bool)
+            ids, owned = piece["fluid_id"], piece["fluid_owned"].astype(bool)
             for k in self.RESTORED:
                 values = piece[k][:held]
                 if k not in whole:
                     whole[k] = np.zeros((nf,) + values.shape[1:], dtype=values.dtype)
                 whole[k][ids[owned]] = values[owned]
         mass = model.mass.numpy()
-        fluid = dict(whole, mass=mass[:nf])
-        walls = {"position": model.position_np[nf:], "mass": mass[nf:]}
-        if self.spread is not None:
-            self.spread.respread(whole["position_at_build"].astype(np.float64))
-            fluid = {k: self.spread.fluid.take(v) for k, v in fluid.items()}
-            walls = {k: self.spread.held_walls(v) for k, v in walls.items()}
-        capacities = {"fluid_fluid": self.fluid_fluid.capacity, "fluid_wall": self.fluid_wall.capacity,
-                      "wall_fluid": self.wall_fluid.capacity}
-        self._lay_out(fluid, walls, capacities, mass=model.mass if self.spread is None else None)
+        self.spread.respread(whole["position_at_build"].astype(np.float64))
+        self._lay_out_again(self.spread.held_fluid(dict(whole, mass=mass[:nf])),
+                            self.spread.held_walls({"position": model.position_np[nf:], "mass": mass[nf:]}))
         self.clock.values.assign(pieces[0]["clock"])
         self.clock.invalidate()
         self.after_load()
@@ -550,17 +511,12 @@ class WCSPHSolver(TimeDependentSolver):
 
     def _own_fluid(self) -> tuple[np.ndarray, np.ndarray]:
         """(held rows of this rank's own fluid particles, their global indices): every row in one process."""
-        if self.spread is None:
-            rows = np.arange(self.nf)
-            return rows, rows
         part = self.spread.fluid
         return part.owned_index, part.ids[part.owned_index]
 
     def _own_walls(self) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
         """For the container walls and the obstacles' walls: (rows in their held view, global indices in their set)."""
         ncw = self.n_container_walls
-        if self.spread is None:
-            return (np.arange(ncw), np.arange(ncw)), (np.arange(self.nb - ncw), np.arange(self.nb - ncw))
         part = self.spread.walls
         own, ids = part.owned_index, part.ids[part.owned_index]
         box, obs = own < ncw, own >= ncw
@@ -572,17 +528,16 @@ class WCSPHSolver(TimeDependentSolver):
         rows, ids = self._own_fluid()
         fluid = {k: self.fluid.numpy_held(k)[rows] for k in ("velocity", "density", "pressure")}
         fluid["speed"] = np.linalg.norm(fluid["velocity"], axis=1)
-        distributed = self.spread is not None
         (b_rows, b_ids), (o_rows, o_ids) = self._own_walls()
         sets = [OutputSet("fluid", self.fluid.numpy_held("position")[rows], fluid, frame_field="speed",
-                          ids=ids if distributed else None, units=UNITS),
+                          ids=ids, units=UNITS),
                 OutputSet("boundary", self.boundary.numpy_held("position")[b_rows],
                           {k: self.boundary.numpy_held(k)[b_rows] for k in ("density", "pressure")},
-                          ids=b_ids if distributed else None, units=UNITS)]
+                          ids=b_ids, units=UNITS)]
         if self.model.nb > self.model.n_container_walls:
             sets.append(OutputSet("obstacle", self.obstacle.numpy_held("position")[o_rows],
                                   {k: self.obstacle.numpy_held(k)[o_rows] for k in ("density", "pressure")}, solid=True,
-                                  ids=o_ids if distributed else None, units=UNITS))
+                                  ids=o_ids, units=UNITS))
         return sets
 
     def output_fields(self) -> dict[str, list[str]]:
@@ -600,9 +555,8 @@ class WCSPHSolver(TimeDependentSolver):
         from .surface import free_surface_mesh
 
         m = self.fluid.numpy("mass") / self.fluid.numpy("density")
-        positions = self.fluid.position
-        if self.spread is not None:  # the whole fluid's surface, on every rank (rank 0 writes it)
-            positions = wp.array(self.fluid.numpy("position"), dtype=wp.vec3, device=self.launcher.device)
+        # the whole fluid's surface, on every rank (rank 0 writes it)
+        positions = wp.array(self.fluid.numpy("position"), dtype=wp.vec3, device=self.launcher.device)
         volumes = wp.array(m.astype(np.float32), dtype=float, device=self.launcher.device)
         mesh = free_surface_mesh(self.launcher, positions, volumes, self.model.params.h,
                                  kernel=self.model.params.kernel)
@@ -626,7 +580,6 @@ class WCSPHSolver(TimeDependentSolver):
         """The run for ``summary.json``: the model, the neighbour capacity and rebuilds, the distributed layout."""
         d = self.model.describe()
         d.update({"max_neighbours": self.max_neighbours, "list_builds": self.moving_neighbours.builds})
-        if self.spread is not None:
-            d["distributed"] = self.spread.describe()
+        d.update(self.spread.describe())
         return d
 

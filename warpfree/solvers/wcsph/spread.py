@@ -1,4 +1,7 @@
-"""A WCSPH fluid spread over the ranks of a distributed run: what each rank holds, and what moves between them.
+"""A WCSPH fluid spread over the ranks of a run: what each rank holds, and what moves between them.
+
+A run of one process is a one-rank partition: it holds the whole fluid and every wall, in global order, with no
+ghost; its refreshes and reductions do nothing and nothing moves at a rebuild.
 
 The fluid and the wall particles are two item sets on one :class:`~warpfree.parallel.Decomposition` (cut over the
 neighbour grid's cells, a cell being the kernel support). A rank holds the fluid and walls its box owns and, as
@@ -17,6 +20,8 @@ At a neighbour rebuild the fluid moves to the boxes that now hold it (:meth:`Flu
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 
@@ -86,17 +91,47 @@ class FluidSpread:
         """Held walls of the containers (the walls' global order: containers first, then obstacles)."""
         return int(np.count_nonzero(self.walls.ids < self.model.n_container_walls))
 
-    def held_walls(self, values: np.ndarray) -> np.ndarray:
-        """The held rows of a wall array over all walls."""
-        return self.walls.take(values)
+    def held_fluid(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The held rows of fluid arrays over the whole fluid (by name)."""
+        return {k: self.fluid.take(v) for k, v in values.items()}
+
+    def held_walls(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The held rows of wall arrays over all walls (by name)."""
+        return {k: self.walls.take(v) for k, v in values.items()}
+
+    def grid_sizes(self, launcher) -> dict[str, int] | None:
+        """The grid points the one process's hash tables are sized for (fluid at its start, walls), which every rank
+        sizes its tables for (its neighbours then come in the one process's order); None in one process (each grid
+        sizes itself for its first build: the whole set)."""
+        if self.fluid.whole:
+            return None
+        import warp as wp
+
+        from warpfree.neighbours import NeighbourGrid
+
+        model = self.model
+        grid = NeighbourGrid(launcher, self.depth, model.space)
+        sizes = {"moving": grid.grid_points(wp.array(self.fluid_start.astype(np.float32), dtype=wp.vec3,
+                                                     device=launcher.device))}
+        if model.nb:
+            sizes["walls"] = grid.grid_points(wp.array(self.wall_points.astype(np.float32), dtype=wp.vec3,
+                                                       device=launcher.device))
+        return sizes
 
     # -- a rebuild --------------------------------------------------------------------------------------------
-    def redistribute(self, fluid_fields: dict[str, np.ndarray], fluid_cost: np.ndarray, wall_cost: np.ndarray):
-        """Move the fluid to the boxes that hold it now, with its ``fluid_fields`` (held rows); cut anew first when
-        the owned work (``fluid_cost``, ``wall_cost``: held rows, e.g. neighbour counts) is out of balance. Returns
-        the new held fluid fields; :attr:`fluid` and :attr:`walls` are the new partitions."""
-        work = float(np.sum(fluid_cost[self.fluid.owned_index]) + np.sum(wall_cost[self.walls.owned_index]))
-        per_rank = np.concatenate(self.world.allgather(np.array([work])))
+    def redistribute(self, held_fluid: Callable[[], dict[str, np.ndarray]],
+                     work: Callable[[], tuple[np.ndarray, np.ndarray]],
+                     lay_out: Callable[[dict[str, np.ndarray], dict[str, np.ndarray]], None]) -> None:
+        """Move the fluid to the boxes that hold it now and lay the arrays out anew: ``held_fluid()`` gives its held
+        rows (:data:`MOVING_FIELDS` and mass, NumPy), ``work()`` the owned work per held fluid and wall row (e.g.
+        neighbour counts: the decomposition is cut anew first when it is out of balance), ``lay_out(fluid, walls)``
+        takes the new held rows. In one process nothing moves: none of them is called."""
+        if self.fluid.whole:
+            return
+        fluid_fields = held_fluid()
+        fluid_cost, wall_cost = work()
+        work_here = float(np.sum(fluid_cost[self.fluid.owned_index]) + np.sum(wall_cost[self.walls.owned_index]))
+        per_rank = np.concatenate(self.world.allgather(np.array([work_here])))
         self.last_imbalance = imbalance(per_rank)
         if self.last_imbalance > self.rebalance_above:
             points = np.vstack(self.world.allgather(np.asarray(fluid_fields["position"], np.float64)
@@ -109,7 +144,8 @@ class FluidSpread:
             self.walls = Partition.of_all(self.world, self.decomposition, self.depth, self.wall_points)
             self.rebalances += 1
         self.fluid, held = self.fluid.redistribute(self.decomposition, fluid_fields["position"], fluid_fields)
-        return held
+        lay_out(held, self.held_walls({"position": self.wall_points.astype(np.float32),
+                                       "mass": self.model.mass.numpy()[self.model.nf:]}))
 
     def respread(self, fluid_at_build: np.ndarray) -> None:
         """Cut anew for the whole fluid at its build positions (a checkpoint read on another number of ranks) and
@@ -122,14 +158,17 @@ class FluidSpread:
         self.walls = Partition.of_all(self.world, self.decomposition, self.depth, self.wall_points)
 
     def describe(self) -> dict:
-        """The distributed layout for ``summary.json``: fluid and wall particles owned and ghost per rank, imbalance."""
+        """The distributed layout for ``summary.json`` (``{"distributed": ...}``; nothing in one process): fluid and
+        wall particles owned and ghost per rank, imbalance."""
+        if self.fluid.whole:
+            return {}
         counts = np.concatenate(self.world.allgather(np.array(
             [self.fluid.n_owned, self.fluid.n_ghosts, self.walls.n_owned, self.walls.n_ghosts], dtype=np.int64)))
         counts = counts.reshape(self.world.size, 4)
         held = counts[:, 0] + counts[:, 1]
-        return {"ranks": self.world.size, "method": self.method, "depth": self.depth,
+        return {"distributed": {"ranks": self.world.size, "method": self.method, "depth": self.depth,
                 "fluid_owned": counts[:, 0].tolist(), "fluid_ghosts": counts[:, 1].tolist(),
                 "walls_owned": counts[:, 2].tolist(), "walls_ghosts": counts[:, 3].tolist(),
                 "ghost_fraction": float(counts[:, 1].sum() / max(held.sum(), 1)),
                 "imbalance_owned_fluid": imbalance(counts[:, 0]), "last_work_imbalance": self.last_imbalance,
-                "rebalances": self.rebalances, "decomposition": self.decomposition.describe()}
+                "rebalances": self.rebalances, "decomposition": self.decomposition.describe()}}
