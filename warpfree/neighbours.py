@@ -325,17 +325,6 @@ class MovingNeighbours:
             table.fill(self.grids[source], q, exclude_self)
         self.builds += 1
 
-    def max_displacement(self, reduction: Reduction | None = None) -> float:
-        """Largest |x - x(at build)| (m) by a device kernel and reduction (one read); for solvers that do
-        not fold it into their own step report."""
-        n = self.positions.shape[0]
-        moved2 = wp.zeros(max(n, 1), dtype=float, device=self.launcher.device)
-        self.launcher.launch(nk.squared_displacement, n, [self.space.box, self.positions, self.position_at_build,
-                                                          moved2])
-        r = reduction or Reduction(self.launcher, wp.float32, "max")
-        r.launch(moved2, n)
-        return math.sqrt(float(r.value()))
-
 
 def empty_rows(n: int, device: str) -> nk.NeighbourRows:
     """Rows of a table with no sources (a fluid without walls, a region without free boundary): all empty. Also the
