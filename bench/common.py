@@ -28,6 +28,7 @@ made them; ratios measured side by side in one run are the figures that travel.
 
 from __future__ import annotations
 
+import ast
 import datetime as _dt
 import json
 import math
@@ -46,6 +47,8 @@ ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "bench"
 RESULTS = BENCH / "results"
 SCENES = ROOT / "scenes"
+SOLVERS = ROOT / "warpfree" / "solvers"
+KERNELS = ROOT / "kernels"
 PYTHON = sys.executable
 
 
@@ -108,6 +111,93 @@ def machine_info() -> dict:
         "git": git_revision(),
         "command": " ".join([os.path.relpath(sys.argv[0], ROOT) if sys.argv[0] else "", *sys.argv[1:]]),
     }
+
+
+# -- families and what their scenes declare ----------------------------------------------------------------
+# Read from the source (nothing imported), so a benchmark learns a new family, scene or hot kernel from the files that
+# define it: a family is a wing under warpfree/solvers/ that defines a solver, a scene names its benchmark sizes in
+# BENCHMARK and its kernel variants in KERNEL_VARIANTS, a kernel module names its hot kernels in HOT_KERNELS.
+
+#: the contract's bases (warpfree/solver.py): a wing with a class derived from one of them is a method family
+SOLVER_BASES = ("TimeDependentSolver", "StaticSolver")
+
+
+def _wing_files(wing: Path) -> list[Path]:
+    return sorted(wing.rglob("*.py")) if wing.is_dir() else [wing]
+
+
+def declared(path: Path, name: str):
+    """The literal a module assigns to ``name`` at its top level (``ast.literal_eval``), or None if it assigns none."""
+    for node in ast.parse(Path(path).read_text(encoding="utf-8")).body:
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == name for t in node.targets):
+            return ast.literal_eval(node.value)
+    return None
+
+
+def wings() -> dict[str, Path]:
+    """Name -> folder (or module, for the example solver) of every wing under ``warpfree/solvers/``."""
+    return {p.stem: p for p in sorted(SOLVERS.iterdir())
+            if not p.name.startswith("_") and p.name != "__pycache__" and (p.is_dir() or p.suffix == ".py")}
+
+
+def solver_families() -> list[str]:
+    """The method families: the wings that define a solver (a class whose bases name one of :data:`SOLVER_BASES`).
+    A wing without one (``nem``: a shape model the EFG solver holds) serves another family's solver."""
+    def defines_solver(path: Path) -> bool:
+        return any(isinstance(n, ast.ClassDef) and any(ast.unparse(b).split(".")[-1] in SOLVER_BASES for b in n.bases)
+                   for p in _wing_files(path) for n in ast.walk(ast.parse(p.read_text(encoding="utf-8"))))
+    return [name for name, path in wings().items() if defines_solver(path)]
+
+
+def scene_files() -> dict[str, Path]:
+    """Name -> file of every shipped scene (the modules of ``scenes/``, as ``warpfree.scene_loader.shipped_scenes``)."""
+    return {p.stem: p for p in sorted(SCENES.glob("*.py")) if not p.name.startswith("_")}
+
+
+def scene_family(path: Path, families: list[str] | None = None) -> str:
+    """The family a scene runs: the one solver family among the wings it imports (``warpfree.solvers.<wing>``)."""
+    families = solver_families() if families is None else families
+    found = set()
+    for node in ast.walk(ast.parse(Path(path).read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and not node.level:
+            names = [f"{node.module}.{a.name}" for a in node.names]  # from warpfree.solvers import heat
+        else:
+            continue
+        found.update(n.split(".")[2] for n in names if n.startswith("warpfree.solvers.") and
+                     n.split(".")[2] in families)
+    if len(found) != 1:
+        raise ValueError(f"{Path(path).name} imports {len(found)} solver families ({sorted(found)}), not one")
+    return found.pop()
+
+
+def benchmarks() -> dict[str, dict]:
+    """Family -> what its benchmarks run: ``{"scene": name, **BENCHMARK}`` of the one scene of the family whose module
+    declares ``BENCHMARK`` (``parameter``, ``values`` and ``steps`` for the throughput of bench/core/gpu_check.py;
+    ``scaling``, the n and 2n settings per sweep size of bench/core/scaling.py, for a family whose solver
+    distributes), in the scenes' name order."""
+    families, out = solver_families(), {}
+    for name, path in scene_files().items():
+        declaration = declared(path, "BENCHMARK")
+        if declaration is None:
+            continue
+        family = scene_family(path, families)
+        if family in out:
+            raise ValueError(f"two scenes declare BENCHMARK for {family}: {out[family]['scene']} and {name}")
+        out[family] = {"scene": name, **declaration}
+    return out
+
+
+def hot_kernels() -> dict[str, tuple[str, ...]]:
+    """Kernel module (``wcsph``, ``mls``) -> the names of its hot kernels (its ``HOT_KERNELS``: the kernels that carry a
+    step or a solve), for every module of ``kernels/`` that declares some."""
+    out = {}
+    for path in sorted(KERNELS.glob("*.py")):
+        hot = declared(path, "HOT_KERNELS")
+        if hot:
+            out[path.stem] = tuple(hot)
+    return out
 
 
 # -- scenes -------------------------------------------------------------------------------------

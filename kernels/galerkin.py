@@ -16,6 +16,9 @@ from .assembly import Loads, Triplets, write_load, write_triplet
 from .neighbours import NeighbourRows
 from .space import Box2d, offset2d
 
+#: the kernels that carry a step or a solve: bench/core/register_report.py holds them to its register budget
+HOT_KERNELS = ("conduction_rows", "elastic_rows")
+
 
 @wp.struct
 class ShapeRows:

@@ -25,6 +25,9 @@ from .neighbours import NeighbourRows
 from .smoothing import kernel_grad_coef
 from .space import Box, displacement
 
+#: the kernels that carry a step or a solve: bench/core/register_report.py holds them to its register budget
+HOT_KERNELS = ("temperature_rate",)
+
 
 @wp.struct
 class HeatConstants:

@@ -37,6 +37,9 @@ from .neighbours import NeighbourRows
 from .smoothing import unit_cubic_spline
 from .space import Box2d, offset2d
 
+#: the kernels that carry a step or a solve: bench/core/register_report.py holds them to its register budget
+HOT_KERNELS = ("shape_functions", "moment_factors", "slope_fits", "slope_solves", "shape_values")
+
 MAX_TERMS = 6
 #: most nearest neighbours the support sizing ranks (k of the k-th nearest node)
 MAX_RANK = 16

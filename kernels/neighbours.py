@@ -170,18 +170,3 @@ def count_neighbours_brute(
         if wp.dot(d, d) < r2:
             n += 1
     counts[i] = n
-
-
-@wp.kernel
-def squared_displacement(
-    first: int,
-    box: Box,
-    positions: wp.array(dtype=wp.vec3),
-    position_at_build: wp.array(dtype=wp.vec3),
-    moved2: wp.array(dtype=float),
-):
-    """moved2[i] = |x_i - x_i(at build)|², minimum image (a particle that crossed a periodic face
-    has moved by its short way round)."""
-    i = first + wp.tid()
-    d = displacement(box, positions[i], position_at_build[i])
-    moved2[i] = wp.dot(d, d)

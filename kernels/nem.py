@@ -63,6 +63,9 @@ import warp as wp
 
 from .neighbours import NeighbourRows
 
+#: the kernels that carry a step or a solve: bench/core/register_report.py holds them to its register budget
+HOT_KERNELS = ("laplace_rows", "edge_gradients")
+
 #: most triangles one turn around a natural neighbour crosses (typically 1-4): a guard on the walk of the cavity's
 #: boundary, which cannot close when the in-circle predicate contradicts itself (many nodes on one circle)
 MAX_CAVITY = 64

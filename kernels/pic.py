@@ -32,6 +32,9 @@ import warp as wp
 from .mls import ALGEBRA, MLSFit, NodeSet, inside_support, serving_node, weight_function
 from .space import Box2d, offset2d, wrap2d
 
+#: the kernels that carry a step or a solve: bench/core/register_report.py holds them to its register budget
+HOT_KERNELS = ("particle_fits", "deposit", "particle_field", "leapfrog_push")
+
 #: a sort key is cell × CELL_KEY + particle id (ids are int32)
 CELL_KEY = wp.constant(wp.int64(2 ** 31))
 

@@ -21,8 +21,9 @@ All kernels are normalised, ``∫ W dV = 1`` in 1, 2 and 3 dimensions, and vanis
       W = β_d [(3-q)⁵ - 6(2-q)⁵₊ + 15(1-q)⁵₊]   β_1 = 1/(120h), β_2 = 7/(478π h²), β_3 = 1/(120π h³)
 
 Chapter 5 of a Portuguese thesis on SPH fluids (§5.5) quotes the support ratio κh = 1.2 dx; it also asks for
->= 20 neighbours in 2D and >= 56 in 3D, which needs h ≈ 1.2–1.3 dx with support 2h. warpfree uses h = 1.3 dx by
-default.
+>= 20 neighbours in 2D and >= 56 in 3D, which needs h ≈ 1.2–1.3 dx with support 2h. No kernel here fixes h: WCSPH
+takes h = 1.6 dx in 2D and 1.3 dx in 3D by default (``warpfree.solvers.wcsph.model.DEFAULT_H_FACTOR``, where the
+measurement behind the 2D value is), the heat example and WCSPH's wall relaxation 1.3 dx.
 
 Beside them, the one unnormalised cubic spline on a unit support (:func:`unit_cubic_spline`), generic in its
 precision: the SPEM particle weight (float32) and the MLS cubic weight (float64).

@@ -62,6 +62,9 @@ from .neighbours import NeighbourRows
 from .smoothing import kernel_grad_coef, kernel_shape, kernel_w
 from .space import Box, displacement, displacement_function, image_displacement, wrap
 
+#: the kernels that carry a step or a solve: bench/core/register_report.py holds them to its register budget
+HOT_KERNELS = ("rates",)
+
 # run status of a fluid particle (the 4th component of the step report; the worst one wins a max)
 STATUS_OK = wp.constant(0.0)
 STATUS_OUTSIDE = wp.constant(1.0)

@@ -41,6 +41,12 @@ from warpfree.validation.dam_break_2d import front_checks, front_errors
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
 SMALLEST = {"dx": 0.1, "t_end": 0.1, "output_interval": 0.02}
+#: what the benchmarks run of this scene for its family (bench/common.py ``benchmarks``): bench/core/gpu_check.py's
+#: throughput at three sizes (``parameter`` set to each of ``values``, ``steps`` timed per block) and
+#: bench/core/scaling.py's n and 2n work items on one and two ranks (the settings of each, per sweep size)
+BENCHMARK = {"parameter": "dx", "values": [0.04, 0.02, 0.01], "steps": 40,
+             "scaling": {"large": [{"t_end": 0.03, "dx": 0.0141}, {"t_end": 0.03, "dx": 0.01}],
+                         "small": [{"t_end": 0.06, "dx": 0.0283}, {"t_end": 0.06, "dx": 0.02}]}}
 
 #: ``warpfree validate --quick``: dx = a/20 to T = 2.5 (t = 0.564 s), the end of the checked window; the checks'
 #: tolerances hold at every resolution from a/20 to a/50 (their basis: ``front_checks``)

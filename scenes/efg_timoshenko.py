@@ -113,6 +113,15 @@ NAMES = {"cells": "cells_x, cells_y", "order": "gauss", "support": "cells_x, cel
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
 SMALLEST = {"cells_x": 12, "cells_y": 3}
+#: what the benchmarks run of this scene for its family (bench/common.py ``benchmarks``): bench/core/gpu_check.py's
+#: throughput at three sizes (``parameter`` set to each of ``values``, ``steps`` timed per block) and
+#: bench/core/scaling.py's n and 2n work items on one and two ranks (the settings of each, per sweep size)
+BENCHMARK = {"parameter": "cells_x", "values": [24, 48, 96], "steps": 1,
+             "scaling": {"large": [{"cells_y": 24, "cells_x": 96}, {"cells_y": 34, "cells_x": 136}],
+                         "small": [{"cells_y": 12, "cells_x": 48}, {"cells_y": 17, "cells_x": 68}]}}
+#: runs besides ``SMALLEST`` that load kernels it does not (NEM's, the quadratic basis's): the compile-time variants
+#: bench/core/register_report.py also compiles
+KERNEL_VARIANTS = [{"model": "nem"}, {"basis": "quadratic"}]
 
 #: ``warpfree validate --quick``: the default layout (637 nodes, under 2 s), whose tip is held to the 0.5 %
 QUICK = {"cells_x": 48, "cells_y": 12}

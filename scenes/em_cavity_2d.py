@@ -38,6 +38,12 @@ from warpfree.validation.em_cavity_2d import cavity_field
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
 SMALLEST = {"cells_per_radius": 8, "t_end": 1.0e-9, "output_interval": 0.25e-9}
+#: what the benchmarks run of this scene for its family (bench/common.py ``benchmarks``): bench/core/gpu_check.py's
+#: throughput at three sizes (``parameter`` set to each of ``values``, ``steps`` timed per block) and
+#: bench/core/scaling.py's n and 2n work items on one and two ranks (the settings of each, per sweep size)
+BENCHMARK = {"parameter": "cells_per_radius", "values": [20, 40, 80], "steps": 100,
+             "scaling": {"large": [{"cells_per_radius": 80}, {"cells_per_radius": 113}],
+                         "small": [{"cells_per_radius": 40}, {"cells_per_radius": 57}]}}
 #: ``warpfree validate --quick``: the default run (about 2 s, two periods of the fundamental; literal values only)
 QUICK = {}
 

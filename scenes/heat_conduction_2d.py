@@ -22,6 +22,10 @@ from warpfree.time_loop import TimeLoop
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
 SMALLEST = {"n": 16, "t_end": 2.0, "output_interval": 0.25}
+#: what the benchmarks run of this scene for its family (bench/common.py ``benchmarks``): bench/core/gpu_check.py's
+#: throughput at three sizes (``parameter`` set to each of ``values``, ``steps`` timed per block); no ``scaling``:
+#: the heat solver does not distribute over ranks
+BENCHMARK = {"parameter": "n", "values": [40, 160, 640], "steps": 100}
 
 #: ``warpfree validate --quick``: 20 particles per wavelength (the tolerance's basis: ``rate_tolerance``)
 QUICK = {"n": 20}

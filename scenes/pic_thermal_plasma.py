@@ -35,6 +35,12 @@ from warpfree.validation import tolerance_check
 #: the smallest run of this scene worth making: the smoke tests, the installed-package test and
 #: bench/compare_commits.py run it (literal values only)
 SMALLEST = {"box": (8.0, 16.0), "periods": 1.0, "output_every": 10}
+#: what the benchmarks run of this scene for its family (bench/common.py ``benchmarks``): bench/core/gpu_check.py's
+#: throughput at three sizes (``parameter`` set to each of ``values``, ``steps`` timed per block) and
+#: bench/core/scaling.py's n and 2n work items on one and two ranks (the settings of each, per sweep size)
+BENCHMARK = {"parameter": "box", "values": [(16.0, 32.0), (32.0, 64.0), (64.0, 128.0)], "steps": 20,
+             "scaling": {"large": [{"box": (32.0, 32.0)}, {"box": (32.0, 64.0)}],
+                         "small": [{"box": (16.0, 32.0)}, {"box": (16.0, 64.0)}]}}
 
 #: ``warpfree validate --quick``: a box of 8 × 16 λ_D for 10 plasma periods (the energy test of tests/pic), VTU and
 #: frames off; the default (64 × 128 λ_D, 262 144 particles, 50 periods) runs for hours on 2 cores

@@ -73,12 +73,6 @@ def _captured_stderr(function) -> str:
         os.close(saved)
 
 
-def cuda_notes() -> list[str]:
-    """What Warp said about CUDA when it initialised (empty when it found a driver and said nothing)."""
-    init_warp()
-    return list(_cuda_notes)
-
-
 def resolve_device(name: str | None = None) -> str:
     """Return a Warp device name: ``"cpu"`` by default, ``"cuda"``/``"cuda:N"`` when asked and present."""
     init_warp()

@@ -2,9 +2,9 @@
 
 Bad input raises :class:`ParameterError` (a ``ValueError``) naming the parameter and the allowed range; the checks
 here (:func:`require_finite`, :func:`require_positive`, :func:`require_integer`, :func:`require_bool`,
-:func:`require_choice`, :func:`require_memory`) are the only copies of each rule. A library function names its own
-argument; a scene that passes a quantity derived from its parameters wraps the call in :func:`reported_as`, so
-that the user reads the name they set. Nothing is clamped or reinterpreted: a value is accepted as given or refused.
+:func:`require_memory`; a closed choice is a :class:`warpfree.parameters.Choice`) are the only copies of each rule. A
+library function names its own argument; a scene that passes a quantity derived from its parameters wraps the call in
+:func:`reported_as`, so that the user reads the name they set. Nothing is clamped or reinterpreted: a value is accepted as given or refused.
 A run that goes wrong (non-finite values, particles leaving the container) raises :class:`RunError` after the
 simulation loop has kept its last good checkpoint on disk; a run stopped on request (Ctrl-C, SIGTERM) raises
 :class:`RunInterrupted` after keeping its last completed step.
@@ -131,16 +131,6 @@ def require_bool(name: str, value) -> bool:
         if np is None or not isinstance(value, np.bool_):
             raise ParameterError(name, f"must be true or false, got {value!r}")
     return bool(value)
-
-
-def require_choice(name: str, value, choices: Iterable):
-    """Return ``value`` if it is one of ``choices``, else raise naming ``name`` with the closest choices."""
-    choices = list(choices)
-    if value not in choices:
-        if isinstance(value, str) and all(isinstance(c, str) for c in choices):
-            raise ParameterError(name, f"{value!r} is not a choice: {closest_names(value, choices)}")
-        raise ParameterError(name, f"must be one of {choices}, got {value!r}")
-    return value
 
 
 def available_memory() -> int | None:

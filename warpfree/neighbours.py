@@ -2,13 +2,15 @@
 
 - :class:`NeighbourGrid`: a HashGrid over a *source* point set (plus periodic images when the
   space has periodic axes). Any point set may query it: same-set (fluid–fluid), cross-set
-  (fluid → wall, E → H, Gauss point → node, node → particle).
+  (fluid → wall, E → H, Gauss point → node).
 - :class:`NeighbourList`: static CSR rows built once (SPEM E↔H, EFG Gauss point → node, walls).
 - :class:`NeighbourTable`: fixed-capacity rows refilled in one pass; grows (×1.25 of the longest
   row) and refills when a row overflows, so no neighbour is ever dropped.
-- :class:`MovingNeighbours`: the one mechanism for moving sets (WCSPH fluid, PIC particles): tables
-  of candidates within radius + skin at the positions of the last build, rebuilt when a particle
-  may have moved more than half the skin. Static sets (walls, nodes) query it and are queried by it.
+- :class:`MovingNeighbours`: moving sets with a skin (WCSPH's fluid, and its wall-aware relaxation):
+  tables of candidates within radius + skin at the positions of the last build, rebuilt when a particle
+  may have moved more than half the skin. Static sets (walls, the relaxation's surface points) query it
+  and are queried by it. PIC keeps no tables: it rebuilds a ``wp.HashGrid`` over its particles every
+  step, which its nodes query at their static periodic copies (``warpfree.solvers.pic.coupling``).
 
 Rows of all three are :class:`warpfree.kernels.neighbours.NeighbourRows` (``.rows``), so a solver
 kernel reads any of them the same way. Periodic axes: image points in the grid, original indices in
@@ -322,17 +324,6 @@ class MovingNeighbours:
             q = self.position_at_build if query == self.MOVING else self.static_sets[query]
             table.fill(self.grids[source], q, exclude_self)
         self.builds += 1
-
-    def max_displacement(self, reduction: Reduction | None = None) -> float:
-        """Largest |x - x(at build)| (m) by a device kernel and reduction (one read); for solvers that do
-        not fold it into their own step report."""
-        n = self.positions.shape[0]
-        moved2 = wp.zeros(max(n, 1), dtype=float, device=self.launcher.device)
-        self.launcher.launch(nk.squared_displacement, n, [self.space.box, self.positions, self.position_at_build,
-                                                          moved2])
-        r = reduction or Reduction(self.launcher, wp.float32, "max")
-        r.launch(moved2, n)
-        return math.sqrt(float(r.value()))
 
 
 def empty_rows(n: int, device: str) -> nk.NeighbourRows:

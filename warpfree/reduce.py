@@ -87,8 +87,3 @@ def reduce(launcher: Launcher, values: wp.array, op: str, n: int | None = None):
     r = Reduction(launcher, values.dtype, op)
     r.launch(values, n)
     return r.value()
-
-
-def any_set(launcher: Launcher, flags: wp.array, n: int | None = None) -> bool:
-    """True if any of the first ``n`` integer flags is non-zero (a device max, one read)."""
-    return bool(np.asarray(reduce(launcher, flags, "max", n)).max() != 0)

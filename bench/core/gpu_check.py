@@ -6,13 +6,15 @@ report says what was left out):
 1. **Tests** (``--tests``, 20 %): ``pytest -m cuda --device cuda``: every shipped scene at its smallest size through the
    command line, and the device steps' checks (one read and no write per step, replayed graphs bitwise equal to
    stepping) for WCSPH, SPEM and PIC, on the GPU.
-2. **Scenes** (45 %): every shipped scene at its default on the GPU (frames and VTU off), cheapest first; each
+2. **Scenes** (45 %): every shipped scene at its default on the GPU (frames and VTU off), cheapest first (by the
+   reference's wall times, :func:`scene_order`); each
    analysis figure (the numbers under ``summary["analysis"]``) against the CPU's from ``--reference`` (written on a
    CPU machine by ``--device cpu --write-reference``): the relative difference per figure. A scene's checks against
    its tolerances (``summary["checks"]``) are reported as they are.
-3. **Throughput** (30 %): work items per second at three sizes per family (WCSPH dam break, SPEM cavity, PIC thermal
-   plasma, EFG beam, SPH heat conduction), on the CPU with all its threads and on the GPU, measured side by side in
-   one run (``bench/common.py``: warm-up first, median of timed blocks).
+3. **Throughput** (30 %): work items per second at three sizes per family (the scene of each family whose module
+   declares ``BENCHMARK``: its ``parameter``, ``values`` and ``steps``; ``common.benchmarks``), on the CPU with all
+   its threads and on the GPU, measured side by side in one run (``bench/common.py``: warm-up first, median of timed
+   blocks).
 4. **Choices** (5 %): the forms a GPU could run, timed side by side on it: the quadratic MLS shape functions as one
    kernel (166 registers) or four within 128 (``MLSModel.shape_at(staged=)``; a GPU's default is staged), at the
    beam's Gauss points (192 x 48 cells, d_max 2.5, 3 x 3 points).
@@ -46,17 +48,17 @@ RUN_ALL_SKIPPED = "needs a GPU: run it once on a machine with one (python bench/
 REFERENCE = common.RESULTS / "default_figures.json"
 #: the parts' shares of the budget
 SHARES = {"tests": 0.20, "scenes": 0.45, "throughput": 0.30, "choices": 0.05}
-#: the scenes' defaults, cheapest first (seconds on 2 CPU cores, roughly): a budget cut drops the dearest
-SCENE_ORDER = ["efg_cook", "efg_cylinder", "efg_timoshenko", "efg_l_shape", "heat_conduction_2d", "em_line_1d",
-               "pic_two_stream", "pic_plasma_oscillation", "poiseuille_2d", "taylor_green_2d", "em_cavity_2d",
-               "efg_resistor", "tank_at_rest_2d", "dam_break_2d", "em_waveguide_2d", "pic_diode", "em_plane_wave_2d",
-               "standing_wave_2d", "pic_thermal_plasma", "dam_break_3d"]
-#: family -> (scene, the parameter that sets the size, three values, steps timed per block)
-SIZES = {"wcsph": ("dam_break_2d", "dx", [0.04, 0.02, 0.01], 40),
-         "spem": ("em_cavity_2d", "cells_per_radius", [20, 40, 80], 100),
-         "pic": ("pic_thermal_plasma", "box", [(16.0, 32.0), (32.0, 64.0), (64.0, 128.0)], 20),
-         "efg": ("efg_timoshenko", "cells_x", [24, 48, 96], 1),
-         "heat": ("heat_conduction_2d", "n", [40, 160, 640], 100)}
+#: family -> (scene, the parameter that sets the size, three values, steps timed per block): what the scene of each
+#: family declares in ``BENCHMARK`` (``common.benchmarks``)
+SIZES = {family: (b["scene"], b["parameter"], b["values"], b["steps"]) for family, b in common.benchmarks().items()}
+
+
+def scene_order(reference: dict | None) -> list[str]:
+    """Every shipped scene, cheapest first by the wall time of its default in ``reference`` (a CPU's, from
+    ``--write-reference``); the scenes it lacks last, by name. A budget cut drops the dearest."""
+    cost = {name: entry["wall_s"] for name, entry in (reference or {}).items()
+            if isinstance(entry, dict) and "wall_s" in entry}
+    return sorted(common.scene_files(), key=lambda name: (name not in cost, cost.get(name, 0.0), name))
 
 
 def run_tests(device: str, budget: float) -> dict:
@@ -114,7 +116,7 @@ def compare(figures: dict[str, float], reference: dict[str, float]) -> dict:
     return {"compared": len(diffs), "largest": worst[1], "largest_figure": worst[0], "differences": diffs}
 
 
-def run_scenes(device: str, budget: float, reference: dict | None, scenes: list[str] = SCENE_ORDER) -> list[dict]:
+def run_scenes(device: str, budget: float, reference: dict | None, scenes: list[str]) -> list[dict]:
     rows, start = [], time.perf_counter()
     for name in scenes:
         left = budget - (time.perf_counter() - start)
@@ -234,7 +236,8 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     skip = set(filter(None, args.skip.split(",")))
     left_out = set(filter(None, args.leave_out.split(",")))
-    scenes = [name for name in SCENE_ORDER if name not in left_out]
+    reference = json.loads(Path(args.reference).read_text()) if Path(args.reference).exists() else None
+    scenes = [name for name in scene_order(reference) if name not in left_out]
     start = time.perf_counter()
     if args.write_reference:
         rows = run_scenes(args.device, math.inf, None, scenes)
@@ -242,7 +245,6 @@ def main(argv=None) -> int:
         REFERENCE.write_text(json.dumps({"machine": common.machine_info(), "device": args.device, **ref}, indent=1))
         print(f"wrote {REFERENCE.relative_to(common.ROOT)}")
         return 0
-    reference = json.loads(Path(args.reference).read_text()) if Path(args.reference).exists() else None
     result = {"machine": common.machine_info(), "device": args.device, "budget_s": args.budget}
     try:
         import warp as wp

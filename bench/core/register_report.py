@@ -2,15 +2,16 @@
 
 What it measures
     Every shipped scene runs at its smallest size on the CPU (``warpfree run NAME --set ...SMALLEST``, in this
-    process), which loads every kernel module and compile-time variant the scenes use; each ``warpfree`` module
+    process), and at each of its ``KERNEL_VARIANTS``, which loads every kernel module and compile-time variant the
+    scenes use; each ``warpfree`` module
     loaded is then compiled for ``--arch`` (default sm_90) with the wheel's NVRTC (``warpfree.cuda_compile``), and
     ``cuobjdump --dump-resource-usage`` (pip ``nvidia-cuda-cuobjdump``, in the bench extra) reads each kernel's
     registers per thread (REG), stack frame (STACK, bytes per thread: spilled registers and local arrays) and
     local memory. A kernel at 255 registers, or with a stack, runs at low occupancy on a GPU (an SM holds 64 K
     registers: 128 per thread keeps 512 threads, 16 warps, resident).
 
-    The hot kernels (:data:`HOT`) are checked against the budget: at most :data:`REGISTER_BUDGET` registers and no
-    stack.
+    The hot kernels (:data:`HOT`: those each kernel module names in its ``HOT_KERNELS``) are checked against the
+    budget: at most :data:`REGISTER_BUDGET` registers and no stack.
 
 Usage
     python bench/core/register_report.py [--arch 90] [--cuobjdump PATH]
@@ -39,10 +40,9 @@ RUN_ALL = [[]]
 #: registers per thread a hot kernel may use (an SM's 64 K registers then hold 512 threads)
 REGISTER_BUDGET = 128
 
-#: the kernels that carry a step or a solve, by the name Warp gives them (before its hash suffix)
-HOT = ("shape_functions", "moment_factors", "slope_fits", "slope_solves", "shape_values", "laplace_rows",
-       "edge_gradients", "particle_fits", "rates", "update_electric", "update_magnetic", "conduction_rows",
-       "elastic_rows", "deposit", "gather_field", "push")
+#: kernel module (``wcsph``, ``mls``) -> the kernels that carry a step or a solve, by the name Warp gives them (before
+#: its hash suffix): what each module of kernels/ names in its ``HOT_KERNELS`` (``common.hot_kernels``)
+HOT = common.hot_kernels()
 
 _FUNCTION = re.compile(r"Function (\S+?)_[0-9a-f]{8}_cuda_kernel_forward:")
 _USAGE = re.compile(r"REG:(\d+) STACK:(\d+) SHARED:(\d+) LOCAL:(\d+)")
@@ -63,8 +63,10 @@ def find_cuobjdump(given: str | None) -> str:
     return found
 
 
-#: runs besides the scenes' smallest: variants a scene makes with a parameter other than its default
-EXTRA = [("efg_timoshenko", {"model": "nem"}), ("efg_timoshenko", {"basis": "quadratic"})]
+#: runs besides the scenes' smallest: (scene, settings) for each of the ``KERNEL_VARIANTS`` a scene declares (settings
+#: other than its defaults that load kernels its smallest run does not)
+EXTRA = [(name, variant) for name, path in common.scene_files().items()
+         for variant in common.declared(path, "KERNEL_VARIANTS") or []]
 
 
 def load_scene_modules() -> list[str]:
@@ -164,7 +166,7 @@ def main(argv=None) -> int:
             for cubin in r.paths:
                 for row in resource_usage(cuobjdump, cubin):
                     row.update(kernel=_base(row["kernel"]), module=r.origin.removeprefix("warpfree.kernels."))
-                    row["hot"] = row["kernel"] in HOT
+                    row["hot"] = row["kernel"] in HOT.get(row["module"], ())
                     row["cpu_only"] = r.module in replaced
                     kernels.append(row)
     kernels.sort(key=lambda r: (r["module"], r["kernel"]))

@@ -21,7 +21,8 @@ interior cubic (square in 2D) box of n particles are the particles within the gh
 the 3D dam break is then modelled at 10^6 to 10^9 particles on 1 to 1 024 ranks.
 
 Usage
-    python bench/core/scaling.py [--repeats 3] [--families wcsph,spem,pic,efg] [--size large|small]
+    python bench/core/scaling.py [--repeats 3] [--families wcsph,efg,spem,pic] [--size large|small]
+(families: those whose scene declares ``BENCHMARK["scaling"]``, all by default)
 Writes bench/results/scaling.{json,md,png}. Needs MPI (pip install 'warpfree[mpi]').
 """
 
@@ -46,26 +47,13 @@ import common  # noqa: E402
 #: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
 RUN_ALL = [[]]
 
-#: family -> (scene, the parameter that sets the size, its value for n and for 2n work items, other settings), for
+#: sweep size -> family -> (scene, the settings of n work items, those of 2n): what the scene of each family declares
+#: in ``BENCHMARK["scaling"]`` (``common.benchmarks``; a family whose solver does not distribute declares none), for
 #: the sizes the sweep measures ("large", the default: 2n about 20 000 to 130 000 work items; "small": the smallest
 #: sizes at which each family's step is still mostly compute, a minute's sweep)
-SIZES = {
-    "large": {
-        "wcsph": ("dam_break_2d", "dx", 0.0141, 0.01, {"t_end": 0.03}),
-        "spem": ("em_cavity_2d", "cells_per_radius", 80, 113, {}),
-        "pic": ("pic_thermal_plasma", "box", (32.0, 32.0), (32.0, 64.0), {}),
-        "efg": ("efg_timoshenko", "cells_x", 96, 136, {"cells_y": 24}),
-    },
-    "small": {
-        "wcsph": ("dam_break_2d", "dx", 0.0283, 0.02, {"t_end": 0.06}),
-        "spem": ("em_cavity_2d", "cells_per_radius", 40, 57, {}),
-        "pic": ("pic_thermal_plasma", "box", (16.0, 32.0), (16.0, 64.0), {}),
-        "efg": ("efg_timoshenko", "cells_x", 48, 68, {"cells_y": 12}),
-    },
-}
+SIZES = {size: {family: (b["scene"], *b["scaling"][size]) for family, b in common.benchmarks().items()
+                if "scaling" in b} for size in ("large", "small")}
 CASES = SIZES["large"]
-#: the weak case's 2n size of EFG scales cells_y too (twice the Gauss points)
-EFG_2N = {"large": {"cells_y": 34}, "small": {"cells_y": 17}}
 
 PINGPONG = r'''
 import sys, time, json
@@ -153,9 +141,7 @@ def concurrent_pair(scene: str, settings: dict) -> list[dict]:
 
 
 def measure_family(family: str, repeats: int, size: str = "large") -> dict:
-    scene, param, small, large, extra = SIZES[size][family]
-    n1 = {**extra, param: small}
-    n2 = {**extra, param: large, **(EFG_2N[size] if family == "efg" else {})}
+    scene, n1, n2 = SIZES[size][family]
     runs = {"strong_1": [], "strong_2": [], "threads_2": [], "weak_1x2": [], "weak_2": []}
     for r in range(repeats):  # in turn: a drift of the machine's speed touches every configuration alike
         runs["strong_1"].append(run_scene(scene, n2, 1))

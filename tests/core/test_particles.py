@@ -1,4 +1,4 @@
-"""Particle sets: 1D/2D padding to vec3, float64 coordinates, named fields, views, bad input."""
+"""Particle sets: 1D/2D padding to float32 vec3 positions, named fields, views, bad input."""
 
 import numpy as np
 import pytest

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warpfree.reduce import BLOCK, Reduction, any_set, reduce
+from warpfree.reduce import BLOCK, Reduction, reduce
 
 
 @pytest.mark.parametrize("n", [0, 1, 7, BLOCK, BLOCK + 1, 5 * BLOCK + 3, BLOCK ** 2 + 1, BLOCK ** 3 + 7])
@@ -26,14 +26,6 @@ def test_vector_max_is_componentwise_and_partial_lengths_work(launcher):
     np.testing.assert_array_equal(r.value(), v.max(axis=0))
     r.launch(arr, 100)  # the first 100 items only; the result is read again after a new launch
     np.testing.assert_array_equal(r.value(), v[:100].max(axis=0))
-
-
-def test_any_flag(launcher):
-    flags = np.zeros(5000, dtype=np.int32)
-    assert not any_set(launcher, wp.array(flags))
-    flags[4321] = 2
-    assert any_set(launcher, wp.array(flags))
-    assert not any_set(launcher, wp.array(flags), n=4000)
 
 
 def test_sums_bitwise_identical_for_1_2_3_threads(make_launcher):

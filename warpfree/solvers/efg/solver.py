@@ -615,10 +615,6 @@ class ElasticitySolver(EFGSolver):
         eps = self.strain_from(gradient)
         return u, eps, eps @ self.D.T
 
-    def strain_stress_at(self, points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(u (n, 2), ε (n, 3), σ (n, 3)) at ``points``."""
-        return self._strain_stress(*self.field_at(points))
-
     def gauss_strain(self) -> np.ndarray:
         """ε at the integration points (with integration="scni": the smoothed strains at the nodes)."""
         return self.strain_from(self.gauss_field()[1])

@@ -90,8 +90,3 @@ class Injection:
     def weight(self, wall_length: float, dt: float) -> float:
         """W = Γ L Δt / ``particles_per_step``: real particles (per unit depth) per macro-particle."""
         return self.flux * wall_length * dt / self.particles_per_step
-
-    @property
-    def current_density(self) -> float:
-        """q Γ: the emitted charge per unit wall length and time (e n_ref v_ref)."""
-        return self.species.charge * self.flux
