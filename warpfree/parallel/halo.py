@@ -17,7 +17,6 @@ and the results, are bitwise those of one process.
 from __future__ import annotations
 
 import numpy as np
-import warp as wp
 
 from .decomposition import Decomposition
 from .world import World
@@ -288,11 +287,6 @@ class _RefreshPlan:
 
     def free(self) -> None:
         self.messages.free()
-
-
-def as_warp(values: np.ndarray, dtype, device) -> wp.array:
-    """A Warp array of held rows (a new allocation)."""
-    return wp.array(np.ascontiguousarray(values), dtype=dtype, device=device)
 
 
 def take_rows(start: np.ndarray, count: np.ndarray, index: np.ndarray, rows: np.ndarray,
