@@ -14,7 +14,7 @@ def test_fields_are_copies_of_the_final_state_by_set_name():
     assert set(fields) == set(run.solver.output_fields()) == {"particles"}
     particles = fields["particles"]
     assert particles.name == "particles" and particles.points.shape == (16 * 16, 3)
-    temperature = run.solver.model.particles.numpy("temperature")
+    temperature = run.solver.temperature()
     assert temperature.min() > 200.0  # about 300 K: the zeros written below would show
     np.testing.assert_array_equal(particles.fields["temperature"], temperature)
     particles.fields["temperature"][:] = 0.0  # a copy: the solver's state is untouched

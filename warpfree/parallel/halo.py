@@ -21,7 +21,7 @@ import numpy as np
 from .decomposition import Decomposition
 from .world import World
 
-__all__ = ["Partition", "host_view"]
+__all__ = ["Partition", "host_view", "whole_from_pieces"]
 
 #: refresh plans a part keeps (the lists of arrays it refreshes: two or three per solver)
 MAX_PLANS = 4
@@ -226,6 +226,42 @@ class Partition:
         """The partition for ``summary.json``: items held, owned, ghosts and the neighbouring ranks."""
         return {"held": self.n, "owned": self.n_owned, "ghosts": self.n_ghosts,
                 "neighbours": sorted(set(self.send) | set(self.receive))}
+
+
+def whole_from_pieces(pieces: list[dict], names, ids: str, count: int, owned: str | None = None,
+                      rows: str | None = None) -> dict[str, np.ndarray]:
+    """The whole set's values of ``names`` from the checkpoint pieces of any number of processes (one process's piece
+    holds every item): each piece's held rows (as many as its ``piece[ids]``, or its first ``piece[rows]``), placed at
+    their global ids ``piece[ids]``; with ``owned`` only the rows ``piece[owned]`` marks (a ghost is its owner's copy:
+    without it the first piece's copy of each item is taken). ``count``: the set's global size (every id below it).
+    A piece whose rows do not match its ids: ParameterError naming ``resume``."""
+    from warpfree.errors import ParameterError
+
+    whole: dict[str, np.ndarray] = {}
+    seen = np.zeros(count, dtype=bool)
+    for piece in pieces:
+        held = int(piece[rows]) if rows is not None else np.asarray(piece[ids]).shape[0]
+        gid = np.asarray(piece[ids][:held]).astype(np.int64)
+        if gid.size != held or (held and (gid.min() < 0 or gid.max() >= count)):
+            raise ParameterError("resume", "a checkpoint piece does not match this scene")
+        take = (np.asarray(piece[owned][:held]).astype(bool) if owned is not None
+                else ~seen[gid] & _first_of_each(gid))
+        seen[gid[take]] = True
+        for k in names:
+            values = np.asarray(piece[k])[:held]
+            if k not in whole:
+                whole[k] = np.zeros((count,) + values.shape[1:], dtype=values.dtype)
+            whole[k][gid[take]] = values[take]
+    if not seen.all():
+        raise ParameterError("resume", f"the checkpoint's pieces hold {int(seen.sum())} of the {count} items")
+    return whole
+
+
+def _first_of_each(ids: np.ndarray) -> np.ndarray:
+    """True at the first occurrence of each value of ``ids``."""
+    first = np.zeros(ids.size, dtype=bool)
+    first[np.unique(ids, return_index=True)[1]] = True
+    return first
 
 
 def _in_host_memory(array) -> bool:

@@ -190,7 +190,7 @@ class EFGSolver(StaticSolver):
         #: the Gauss points over the ranks (one process: a one-rank partition, every point), those this process
         #: integrates (a rank's: those its box owns) and their materials
         self.point_part = self._point_partition()
-        self._mine = self.point_part.owned_index
+        self._mine = self.point_part.ids  # every held point is an owned one
         self._points = cells if self.point_part.whole else cells.subset(self._mine)  # smoothing cells: one part
         self._material = None if self.point_material is None else self.point_material[self._mine]
         self._multiplier_scale = 1.0
@@ -287,12 +287,13 @@ class EFGSolver(StaticSolver):
     # -- over the ranks ----------------------------------------------------------------------------------------
     def _point_partition(self) -> Partition:
         """The Gauss points over the ranks: each rank integrates those its box holds (``warpfree.parallel``: cut over
-        the nodes' reach, balancing the points); a point's sums need no other point, so there are no ghosts."""
+        the nodes' reach, balancing the points); a point's sums need no other point, so a rank holds its own only."""
         p = np.zeros((self.cells.position.shape[0], 3))
         p[:, :2] = self.cells.position
         reach = float(getattr(self.model, "reach", 0.0) or 2.0 * float(np.max(self.model.spacing)))
         dec = Decomposition.build(self.world.size, p, None, reach, 2, CutMethod.RCB)
-        return Partition.of_all(self.world, dec, 0.0, p)
+        own = np.flatnonzero(dec.owner(p) == self.world.rank)
+        return Partition.of_items(self.world, dec, 0.0, own, p[own], p.shape[0])
 
     def _pieces(self, sets: list[OutputSet]) -> list[OutputSet]:
         """This process's parts of the output sets: its own Gauss points, and (rank 0) the nodes, which every rank

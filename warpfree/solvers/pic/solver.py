@@ -36,6 +36,7 @@ from warpfree.galerkin.mls import MLSModel
 from warpfree.graph import StepGraph
 from warpfree.kernels import pic as pk
 from warpfree.parallel import world as ranks_of_run
+from warpfree.parallel.halo import whole_from_pieces
 from warpfree.parameters import Choice
 from warpfree.progress import announced
 from warpfree.solver import HostTable, OutputSet, StepRule, TimeDependentSolver
@@ -424,17 +425,11 @@ class PICSolver(TimeDependentSolver):
         ghost is its owner's copy: the pieces agree on every particle they share), spread over this run's ranks as at
         a step's redistribution; the host values (step count, history, tallies: every rank's alike) from the first
         piece. Then as :meth:`after_load`: the run continues bitwise as the uninterrupted one."""
-        rows = {k: [] for k in self.RESTORED}
-        for piece in pieces:
-            n = int(piece["particle_count"])
-            for k in self.RESTORED:
-                rows[k].append(np.asarray(piece[k])[:n])
-        ids = np.concatenate(rows["particle_id"]).astype(np.int64)
-        unique, first = np.unique(ids, return_index=True)
-        whole = {k: np.concatenate(v)[first] for k, v in rows.items()}
+        unique = np.unique(np.concatenate([np.asarray(p["particle_id"])[:int(p["particle_count"])] for p in pieces]))
         if not np.array_equal(unique, np.arange(unique.size)):
             raise ParameterError("resume", "the checkpoint's particle ids are not 0..N-1 (particles were injected "
                                            "or absorbed): it resumes on the number of processes that wrote it")
+        whole = whole_from_pieces(pieces, self.RESTORED, "particle_id", unique.size, rows="particle_count")
         self.spread.respread(whole["position"])
         held = {k: self.spread.particles.take(v) for k, v in whole.items()}
         st = self.state

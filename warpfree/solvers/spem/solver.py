@@ -26,6 +26,7 @@ from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.kernels import spem as K
 from warpfree.graph import StepGraph
 from warpfree.parallel import world as ranks_of_run
+from warpfree.parallel.halo import whole_from_pieces
 from warpfree.parameters import Choice
 from warpfree.progress import announced
 from warpfree.solver import OutputSet, State, StepRule, TimeDependentSolver
@@ -338,19 +339,8 @@ class SPEMSolver(TimeDependentSolver):
         ``magnetic_id``; one process's piece holds every particle), then this rank's held rows of them: the sets are
         static, so the run continues bitwise as the uninterrupted one."""
         counts = {"electric": self.model.layout.n_e, "magnetic": self.model.layout.n_h}
-        whole = {}
-        for piece in pieces:
-            for name, keys in self.RESTORED.items():
-                held = piece[keys[0]].shape[0]
-                ids, owned = piece[f"{name}_id"], piece[f"{name}_owned"].astype(bool)
-                if held != ids.size:
-                    raise ParameterError("resume", "a checkpoint piece does not match this scene")
-                for k in keys:
-                    values = piece[k]
-                    if k not in whole:
-                        whole[k] = np.zeros((counts[name],) + values.shape[1:], dtype=values.dtype)
-                    whole[k][ids[owned]] = values[owned]
         for name, keys in self.RESTORED.items():
+            whole = whole_from_pieces(pieces, keys, f"{name}_id", counts[name], owned=f"{name}_owned")
             part = getattr(self.spread, name)
             for k in keys:
                 getattr(self.state, k).assign(part.take(whole[k]))

@@ -18,6 +18,7 @@ import warp as wp
 
 from warpfree.device import Launcher
 from warpfree.parallel import world as ranks_of_run
+from warpfree.parallel.halo import whole_from_pieces
 from warpfree.errors import ParameterError, RunError, require_memory, require_positive
 from warpfree.kernels import wcsph as K
 from warpfree.parameters import Choice
@@ -482,15 +483,8 @@ class WCSPHSolver(TimeDependentSolver):
         the ones the run had, and it continues as it would have."""
         model = self.model
         nf = model.nf
-        whole = {}
-        for piece in pieces:
-            held = piece["acceleration"].shape[0]
-            ids, owned = piece["fluid_id"], piece["fluid_owned"].astype(bool)
-            for k in self.RESTORED:
-                values = piece[k][:held]
-                if k not in whole:
-                    whole[k] = np.zeros((nf,) + values.shape[1:], dtype=values.dtype)
-                whole[k][ids[owned]] = values[owned]
+        # each piece's fluid rows (its combined arrays hold its walls after them): as many as its ``fluid_id``
+        whole = whole_from_pieces(pieces, self.RESTORED, "fluid_id", nf, owned="fluid_owned")
         mass = model.mass.numpy()
         self.spread.respread(whole["position_at_build"].astype(np.float64))
         self._lay_out_again(self.spread.held_fluid(dict(whole, mass=mass[:nf])),
