@@ -2,10 +2,11 @@
 Gauss point into slots or gathered by node rows, loads, consistent test gradients, smoothed (nodally integrated)
 gradients, field evaluation.
 
-Two race-free forms, bitwise the same for any thread count: every Gauss point writes its own slots (triplets, summed
-on the host by ``warpfree.sparse``), or every node gathers the Gauss points in its support and adds each pair into
-its own row of the matrix's pattern (no triplets). Unknowns are node-major: component k of node I is unknown
-``components·I + k``.
+Each bilinear form is written once, as a ``wp.func`` of one (test node, trial node) pair at one Gauss point
+(:func:`conduction_form`, :func:`elastic_form`); two race-free assembly strategies call it, bitwise the same for any
+thread count: every Gauss point writes its own slots (triplets, summed on the host by ``warpfree.sparse``), or every
+node gathers the Gauss points in its support and adds each pair into its own row of the matrix's pattern (no
+triplets). Unknowns are node-major: component k of node I is unknown ``components·I + k``.
 
 Precision: float64 (the shape functions' precision, ``kernels/mls.py``). Units: the caller's.
 """
@@ -30,6 +31,29 @@ class ShapeRows:
     dphi: wp.array(dtype=wp.vec2d)
 
 
+# --- the forms: the integrand of each bilinear form for a test node I and a trial node J at one Gauss point ------
+
+
+@wp.func
+def conduction_form(test: wp.vec2d, trial: wp.vec2d) -> wp.float64:
+    """∇ψ_I·∇φ_J (Marques 2008, eq. 3.9, per unit w_g k_g): ``test`` ∇ψ_I, ``trial`` ∇φ_J (1/m each)."""
+    return test[0] * trial[0] + test[1] * trial[1]
+
+
+@wp.func
+def elastic_form(test: wp.vec2d, trial: wp.vec2d, dm: wp.mat33d) -> wp.mat22d:
+    """B̂_Iᵀ D B_J (Rocha 2012, eq. 3.35, per unit w_g), B = [[φ,x 0] [0 φ,y] [φ,y φ,x]] (engineering shear strain),
+    B̂_I from the test gradient ``test``, B_J from the trial gradient ``trial``, ``dm`` D (Voigt): the 2 x 2 block whose
+    row is the component of the test node I and column the component of the trial node J (units of D / m²)."""
+    # D B_J (3 x 2), columns for u_x and u_y of J
+    c0 = wp.vec3d(dm[0, 0] * trial[0] + dm[0, 2] * trial[1], dm[1, 0] * trial[0] + dm[1, 2] * trial[1],
+                  dm[2, 0] * trial[0] + dm[2, 2] * trial[1])
+    c1 = wp.vec3d(dm[0, 1] * trial[1] + dm[0, 2] * trial[0], dm[1, 1] * trial[1] + dm[1, 2] * trial[0],
+                  dm[2, 1] * trial[1] + dm[2, 2] * trial[0])
+    return wp.mat22d(test[0] * c0[0] + test[1] * c0[2], test[0] * c1[0] + test[1] * c1[2],
+                     test[1] * c0[1] + test[0] * c0[2], test[1] * c1[1] + test[0] * c1[2])
+
+
 # --- every Gauss point writes its own slots ---------------------------------------------------------------------
 
 
@@ -43,19 +67,19 @@ def conduction_stiffness(
     slot_start: wp.array(dtype=wp.int32),
     out: Triplets,
 ):
-    """K_IJ += w_g k_g ∇ψ_I·∇φ_J (Marques 2008, eq. 3.9 with the material's k; ``weight`` holds w_g |J| k_g); ∇ψ: the test
-    gradients (corrected for consistent integration, or ∇φ itself)."""
+    """K_IJ += w_g :func:`conduction_form` (``weight`` holds w_g |J| k_g; ``test_dphi``: ∇ψ, corrected for consistent
+    integration, or ∇φ itself) for every pair (I, J) of Gauss point g's row, slot ``slot_start[g] + a·n + b``."""
     g = first + wp.tid()
     start = rows.start[g]
     n = rows.count[g]
     s0 = slot_start[g]
     wg = weight[g]
     for a in range(n):
-        ga = test_dphi[start + a]
+        t = test_dphi[start + a]
         ia = rows.index[start + a]
         for b in range(n):
-            gb = dphi[start + b]
-            write_triplet(out, s0 + a * n + b, ia, rows.index[start + b], wg * (ga[0] * gb[0] + ga[1] * gb[1]))
+            q = dphi[start + b]
+            write_triplet(out, s0 + a * n + b, ia, rows.index[start + b], wg * conduction_form(t, q))
 
 
 @wp.kernel
@@ -69,8 +93,8 @@ def elastic_stiffness(
     slot_start: wp.array(dtype=wp.int32),
     out: Triplets,
 ):
-    """K_IJ += w_g B̂_Iᵀ D B_J (Rocha 2012, eq. 3.35), B_I = [[φ,x 0] [0 φ,y] [φ,y φ,x]], B̂ from the test gradients
-    ``test_dphi``; unknowns (u_x, u_y) of node I at 2I, 2I + 1; four slots per node pair."""
+    """K_IJ += w_g :func:`elastic_form` (``weight`` w_g |J|, ``material`` D per point) for every pair (I, J) of Gauss
+    point g's row; unknowns (u_x, u_y) of node I at 2I, 2I + 1; four slots per pair, ``slot_start[g] + 4 (a·n + b)``."""
     g = first + wp.tid()
     start = rows.start[g]
     n = rows.count[g]
@@ -78,22 +102,17 @@ def elastic_stiffness(
     wg = weight[g]
     dm = material[g]
     for a in range(n):
-        ga = dphi[start + a]
+        t = test_dphi[start + a]
         ia = rows.index[start + a]
-        # D B_I (3 x 2), columns for u_x and u_y
-        c0 = wp.vec3d(dm[0, 0] * ga[0] + dm[0, 2] * ga[1], dm[1, 0] * ga[0] + dm[1, 2] * ga[1],
-                      dm[2, 0] * ga[0] + dm[2, 2] * ga[1])
-        c1 = wp.vec3d(dm[0, 1] * ga[1] + dm[0, 2] * ga[0], dm[1, 1] * ga[1] + dm[1, 2] * ga[0],
-                      dm[2, 1] * ga[1] + dm[2, 2] * ga[0])
         for b in range(n):
-            gb = test_dphi[start + b]
+            q = dphi[start + b]
             ib = rows.index[start + b]
+            block = wg * elastic_form(t, q, dm)
             s = s0 + 4 * (a * n + b)
-            # (B̂_J)ᵀ D B_I: the test node J gives the row, the trial node I the column
-            write_triplet(out, s, 2 * ib, 2 * ia, wg * (gb[0] * c0[0] + gb[1] * c0[2]))
-            write_triplet(out, s + 1, 2 * ib, 2 * ia + 1, wg * (gb[0] * c1[0] + gb[1] * c1[2]))
-            write_triplet(out, s + 2, 2 * ib + 1, 2 * ia, wg * (gb[1] * c0[1] + gb[0] * c0[2]))
-            write_triplet(out, s + 3, 2 * ib + 1, 2 * ia + 1, wg * (gb[1] * c1[1] + gb[0] * c1[2]))
+            write_triplet(out, s, 2 * ia, 2 * ib, block[0, 0])
+            write_triplet(out, s + 1, 2 * ia, 2 * ib + 1, block[0, 1])
+            write_triplet(out, s + 2, 2 * ia + 1, 2 * ib, block[1, 0])
+            write_triplet(out, s + 3, 2 * ia + 1, 2 * ib + 1, block[1, 1])
 
 
 @wp.kernel
@@ -222,9 +241,9 @@ def conduction_rows(
     weight: wp.array(dtype=wp.float64),
     values: wp.array(dtype=wp.float64),
 ):
-    """Row I of K_IJ = Σ_g w_g ∇ψ_I(x_g)·∇φ_J(x_g) (Marques 2008, eq. 3.9): node I gathers the Gauss points g in its
-    support (``gather.entries``: the row entries that hold I, in Gauss-point order; ``gather.entry_point``: entry -> g)
-    and adds each pair into its slot of the CSR pattern (:class:`NodeGather`)."""
+    """Row I of K_IJ = Σ_g w_g :func:`conduction_form` (Marques 2008, eq. 3.9): node I gathers the Gauss points g in
+    its support (``gather.entries``: the row entries that hold I, in Gauss-point order; ``gather.entry_point``:
+    entry -> g) and adds each pair into its slot of the CSR pattern (:class:`NodeGather`)."""
     i = first + wp.tid()
     pattern_cols = gather.pattern_cols
     node_entries = gather.entries
@@ -239,7 +258,7 @@ def conduction_rows(
         for b in range(rows.count[g]):
             q = dphi[s + b]
             pos = pattern_position(pattern_cols, lo, hi, rows.index[s + b])
-            values[pos] = values[pos] + wg * (t[0] * q[0] + t[1] * q[1])
+            values[pos] = values[pos] + wg * conduction_form(t, q)
 
 
 @wp.kernel
@@ -253,8 +272,8 @@ def elastic_rows(
     material: wp.array(dtype=wp.mat33d),
     values: wp.array(dtype=wp.mat22d),
 ):
-    """Block row I of K_IJ = Σ_g w_g B̂_Iᵀ D_g B_J (Rocha 2012, eq. 3.35), 2 x 2 blocks (row: component of the test node
-    I, column: of the trial node J), gathered as in :func:`conduction_rows`."""
+    """Block row I of K_IJ = Σ_g w_g :func:`elastic_form` (Rocha 2012, eq. 3.35), 2 x 2 blocks (row: component of the
+    test node I, column: of the trial node J), gathered as in :func:`conduction_rows`."""
     i = first + wp.tid()
     pattern_cols = gather.pattern_cols
     node_entries = gather.entries
@@ -269,15 +288,8 @@ def elastic_rows(
         s = rows.start[g]
         for b in range(rows.count[g]):
             q = dphi[s + b]
-            # D B_J, columns for u_x and u_y of J
-            c0 = wp.vec3d(dm[0, 0] * q[0] + dm[0, 2] * q[1], dm[1, 0] * q[0] + dm[1, 2] * q[1],
-                          dm[2, 0] * q[0] + dm[2, 2] * q[1])
-            c1 = wp.vec3d(dm[0, 1] * q[1] + dm[0, 2] * q[0], dm[1, 1] * q[1] + dm[1, 2] * q[0],
-                          dm[2, 1] * q[1] + dm[2, 2] * q[0])
-            block = wp.mat22d(t[0] * c0[0] + t[1] * c0[2], t[0] * c1[0] + t[1] * c1[2],
-                              t[1] * c0[1] + t[0] * c0[2], t[1] * c1[1] + t[0] * c1[2])
             pos = pattern_position(pattern_cols, lo, hi, rows.index[s + b])
-            values[pos] = values[pos] + wg * block
+            values[pos] = values[pos] + wg * elastic_form(t, q, dm)
 
 
 # --- stabilized conforming nodal integration: smoothed gradients per cell ----------------------------------------

@@ -15,6 +15,9 @@ A HashGrid query returns candidates from nearby and aliased cells: every loop he
 distance. Positions are float32 ``vec3`` (z = 0 in 2D, y = z = 0 in 1D). Gather form: thread ``i``
 writes only its own row or its own image slots, so any thread count gives the same rows in the same
 order.
+
+Fixed points gathering from moving ones (:class:`GatherCopies`): the moving points' grid holds no images; a fixed
+point queries it at each of its own static periodic copies instead (:func:`copy_takes`).
 """
 
 import warp as wp
@@ -138,6 +141,60 @@ def fill_rows(
             if n < capacity:
                 index[base + n] = j
             n += 1
+    count[i] = n
+
+
+@wp.struct
+class GatherCopies:
+    """A grid over moving points that fixed points gather from at their periodic copies, as kernels read it
+    (``warpfree.neighbours.GatherGrid``): the HashGrid ``grid`` over the moving points (no images; cell = ``radius``,
+    the query radius) and fixed point i's copies, float32 offsets ``shift[start[i] : start[i + 1]]`` from the point
+    (its own first, zero); ``periodic`` 1 when the box has a periodic axis."""
+
+    grid: wp.uint64
+    start: wp.array(dtype=wp.int32)
+    shift: wp.array(dtype=wp.vec3)
+    radius: float
+    periodic: int
+
+
+@wp.func
+def copy_takes(copies: GatherCopies, at: wp.vec3, x: wp.vec3) -> bool:
+    """Does the fixed point's copy at ``at`` take the moving point at ``x`` its query returned? In a periodic box only
+    the copy within ``radius`` of it (a side >= 2 radius leaves one such copy: no moving point is found twice);
+    otherwise the point has one copy, which takes every candidate (the caller tests its own distance or support)."""
+    if copies.periodic != 0:
+        r = at - x
+        if wp.dot(r, r) >= copies.radius * copies.radius:
+            return False
+    return True
+
+
+@wp.kernel
+def fill_gather_rows(
+    first: int,
+    copies: GatherCopies,
+    fixed_points: wp.array(dtype=wp.vec3),
+    moving_points: wp.array(dtype=wp.vec3),
+    capacity: int,
+    start: wp.array(dtype=wp.int32),
+    count: wp.array(dtype=wp.int32),
+    index: wp.array(dtype=wp.int32),
+):
+    """Row i: the moving points strictly within ``copies.radius`` of fixed point i (of one of its periodic copies), in
+    copy then HashGrid order; ``capacity`` and ``count`` as in :func:`fill_rows`."""
+    i = first + wp.tid()
+    r2 = copies.radius * copies.radius
+    base = start[i]
+    n = int(0)
+    for s in range(copies.start[i], copies.start[i + 1]):
+        at = fixed_points[i] + copies.shift[s]
+        for p in wp.hash_grid_query(copies.grid, at, copies.radius):
+            d = at - moving_points[p]
+            if wp.dot(d, d) < r2:
+                if n < capacity:
+                    index[base + n] = p
+                n += 1
     count[i] = n
 
 

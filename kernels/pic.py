@@ -11,7 +11,7 @@ Per step (Marques 2008, §2.2, ch. 4 and §5.2):
    the basis scale) — Marques (2008) stores φ and ∇φ per particle (§5.3.2); γ is their compact form: φ_I(x_p) =
    w_I(x_p) γ_p·p((x_I - x_p)/s_p).
 2. :func:`deposit`: each node I gathers the particles in its support through a HashGrid over the particles (in a
-   periodic box, querying at its own periodic copies) and sums Q_I = Σ_p q_p φ_I(x_p) (eq 4.4) — a gather, race-free and bitwise the same for any thread count. Node and
+   periodic box, querying at its own periodic copies: ``warpfree.neighbours.GatherGrid``) and sums Q_I = Σ_p q_p φ_I(x_p) (eq 4.4) — a gather, race-free and bitwise the same for any thread count. Node and
    particle decide membership by the same float64 test on the same offset (``offset2d``), so Σ_I Q_I = Σ_p q_p
    Σ_I φ_I(x_p) = Σ_p q_p to round-off (partition of unity, eq 4.3).
 3. :func:`particle_field`: E(x_p) = -Σ_I u_I ∇φ_I(x_p) (eq 4.5), the same nodes and fit; or the momentum-conserving
@@ -30,6 +30,7 @@ the deposit queries the particle grid at the nodes' copies (no particle images, 
 import warp as wp
 
 from .mls import ALGEBRA, MLSFit, NodeSet, inside_support, serving_node, weight_function
+from .neighbours import GatherCopies, copy_takes
 from .space import Box2d, offset2d, wrap2d
 
 #: the kernels that carry a step or a solve: bench/core/register_report.py holds them to its register budget
@@ -100,10 +101,8 @@ def mls_kernels(basis_terms: int, weight_kind: int = 0, rectangular: bool = Fals
     def deposit(
         first: int,
         ns: NodeSet,
-        grid: wp.uint64,
+        particles: GatherCopies,
         position32: wp.array(dtype=wp.vec3),
-        query_start: wp.array(dtype=wp.int32),
-        query_shift: wp.array(dtype=wp.vec3),
         position: wp.array(dtype=wp.vec2d),
         species: wp.array(dtype=wp.int32),
         macro_charge: wp.array(dtype=wp.float64),
@@ -111,24 +110,21 @@ def mls_kernels(basis_terms: int, weight_kind: int = 0, rectangular: bool = Fals
         fit: wp.array(dtype=MLSFit),
         charge: wp.array(dtype=wp.float64),
     ):
-        """Q_I = Σ_p q_p φ_I(x_p) (Marques 2008, eq. 4.4): node I gathers the particles in its support (``grid``: a HashGrid
-        over the particles, cell = ``ns.reach``); q_p = ``macro_charge[species[p]]``. In a periodic box the node
-        queries at each of its copies whose reach crosses into the box (``query_shift[query_start[I]:...]``, the
-        first the node itself) and takes a particle from the copy within reach of it: a side >= 2 reach leaves one
-        such copy, so no particle is counted twice, and the particles need no images."""
+        """Q_I = Σ_p q_p φ_I(x_p) (Marques 2008, eq. 4.4): node I gathers the particles in its support (``particles``:
+        the HashGrid over the particles, cell = ``ns.reach``, and the nodes' periodic copies,
+        ``warpfree.neighbours.GatherGrid``); q_p = ``macro_charge[species[p]]``. In a periodic box the node queries
+        at each of its copies and takes a particle from the copy within reach of it (``copy_takes``): no particle is
+        counted twice, and the particles need no images."""
         i = first + wp.tid()
         xi = ns.nodes[i]
-        periodic = ns.box.periodic[0] + ns.box.periodic[1] > wp.float64(0.0)
         q = wp.float64(0.0)
-        for s in range(query_start[i], query_start[i + 1]):
-            at = ns.nodes32[i] + query_shift[s]
-            query = wp.hash_grid_query(grid, at, ns.reach)
+        for s in range(particles.start[i], particles.start[i + 1]):
+            at = ns.nodes32[i] + particles.shift[s]
+            query = wp.hash_grid_query(particles.grid, at, ns.reach)
             p = int(0)
             while wp.hash_grid_query_next(query, p):
-                if periodic:
-                    r = at - position32[p]
-                    if wp.dot(r, r) >= ns.reach * ns.reach:
-                        continue
+                if not copy_takes(particles, at, position32[p]):
+                    continue
                 d = offset2d(ns.box, position[p], xi)
                 if not inside_support(ns.params, d, ns.support[i]):
                     continue

@@ -9,10 +9,12 @@
 - :class:`MovingNeighbours`: moving sets with a skin (WCSPH's fluid, and its wall-aware relaxation):
   tables of candidates within radius + skin at the positions of the last build, rebuilt when a particle
   may have moved more than half the skin. Static sets (walls, the relaxation's surface points) query it
-  and are queried by it. PIC keeps no tables: it rebuilds a ``wp.HashGrid`` over its particles every
-  step, which its nodes query at their static periodic copies (``warpfree.solvers.pic.coupling``).
+  and are queried by it.
+- :class:`GatherGrid`: fixed points gathering from a moving set rebuilt every step (PIC's nodes from its
+  particles, ``warpfree.solvers.pic.coupling``): a HashGrid over the moving points with no images, queried by each
+  fixed point at its static periodic copies, so a build only sorts (no count, no placement, no read).
 
-Rows of all three are :class:`warpfree.kernels.neighbours.NeighbourRows` (``.rows``), so a solver
+Rows of all of them are :class:`warpfree.kernels.neighbours.NeighbourRows` (``.rows``), so a solver
 kernel reads any of them the same way. Periodic axes: image points in the grid, original indices in
 the rows, minimum-image displacements in the kernels (``warpfree.space``). Cell width = query radius.
 """
@@ -30,7 +32,7 @@ from .reduce import Reduction
 from .space import Space
 from warpfree.kernels import neighbours as nk
 
-__all__ = ["NeighbourGrid", "NeighbourList", "NeighbourTable", "MovingNeighbours", "empty_rows",
+__all__ = ["NeighbourGrid", "NeighbourList", "NeighbourTable", "MovingNeighbours", "GatherGrid", "empty_rows",
            "neighbour_counts_brute"]
 
 _INT32_MAX = 2**31 - 1
@@ -145,6 +147,70 @@ class NeighbourGrid:
         self.launcher.launch(nk.fill_rows, n, [self.grid.id, query_points, self.points, self.source_id, self.radius,
                                                int(exclude_self), int(capacity), start, count, index])
 
+
+
+class GatherGrid:
+    """A HashGrid over a moving point set, rebuilt every step, that a fixed point set gathers from.
+
+    The moving points get no images. In a periodic box each fixed point queries the grid at its own copies, those
+    ``fixed`` (a :class:`NeighbourGrid` over the fixed set, with its images) holds, read once here: they never change,
+    so a :meth:`build` is Warp's sort alone, with nothing counted, placed or read. A copy takes only the moving points
+    within :attr:`radius` of it; a periodic side >= 2 radius leaves one such copy per point, so no moving point is
+    found twice (``kernels/neighbours.py``: :class:`~warpfree.kernels.neighbours.GatherCopies`, ``copy_takes``).
+
+    ``fixed``: the fixed set's grid; its radius is the query radius (its images cover the copies a query at that
+    radius needs). The hash table has a cell per radius-sized cell of the box and of the copies' reach beyond it
+    (up to 256 a side), so no two cells a query visits share a hash slot. Kernels read :attr:`copies`; :meth:`fill`
+    makes rows (:class:`NeighbourList` or :class:`NeighbourTable` take a GatherGrid as they take a NeighbourGrid, with
+    the fixed set, in its order, as the query points).
+    """
+
+    def __init__(self, fixed: NeighbourGrid):
+        self.launcher = fixed.launcher
+        self.radius = fixed.radius
+        self.space = space = fixed.space
+        dev = self.launcher.device
+        dims = [min(256, int(np.ceil(space.length[a] / self.radius)) + 4) for a in range(space.dim)]
+        self.grid = wp.HashGrid(*(dims + [1] * (3 - len(dims))), device=dev)
+        start, shift = fixed.copies()
+        self.n_fixed = fixed.n_sources
+        self.copies = nk.GatherCopies()
+        self.copies.grid = self.grid.id
+        self.copies.start = wp.array(start, dtype=wp.int32, device=dev)
+        self.copies.shift = wp.array(shift, dtype=wp.vec3, device=dev)
+        self.copies.radius = self.radius
+        self.copies.periodic = int(any(space.periodic[: space.dim]))
+        self.points: wp.array | None = None   # the moving points of the last build
+        self.builds = 0
+
+    @property
+    def id(self):
+        """The Warp hash grid's id, as kernels take it."""
+        return self.grid.id
+
+    def build(self, positions: wp.array) -> None:
+        """(Re)build over the moving ``positions`` (``wp.vec3``; an empty set has nothing to build: no query runs)."""
+        if positions.dtype != wp.vec3:
+            raise ParameterError("positions", f"must be a wp.array of wp.vec3, got {positions.dtype}")
+        if positions.shape[0]:
+            self.grid.build(positions, self.radius)
+        self.points = positions
+        self.builds += 1
+
+    def fill(self, query_points: wp.array, exclude_self: bool, capacity: int,
+             start: wp.array, count: wp.array, index: wp.array) -> None:
+        """Launch :func:`warpfree.kernels.neighbours.fill_gather_rows` for every fixed point (``query_points``: the
+        fixed set's positions, in the order of ``fixed``): row i holds the moving points within the radius."""
+        if exclude_self:
+            raise ParameterError("exclude_self", "a fixed set never holds a moving point")
+        n = query_points.shape[0]
+        if n != self.n_fixed:
+            raise ParameterError("query_points", f"must be the {self.n_fixed} fixed points, got {n}")
+        if self.points is None or self.points.shape[0] == 0:
+            count.zero_()
+            return
+        self.launcher.launch(nk.fill_gather_rows, n, [self.copies, query_points, self.points, int(capacity), start,
+                                                      count, index])
 
 class NeighbourList:
     """Static CSR rows: for each query point, the grid's sources within ``grid.radius``, built once.

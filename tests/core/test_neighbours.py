@@ -1,5 +1,6 @@
 """Neighbour structures against brute force (warpfree/neighbours.py): free and periodic space, static
-CSR lists, fixed-capacity tables, moving sets with a skin, node → particle gathers.
+CSR lists, fixed-capacity tables, moving sets with a skin, node → particle gathers (with a skin, and through the
+GatherGrid rebuilt every step).
 
 Counts from the HashGrid must equal the O(N M) brute-force kernel exactly: both test the same float32
 displacement (``warpfree.kernels.space``) against the radius (strict ``<``), so any difference is a
@@ -8,6 +9,8 @@ minimum image: equality checks the images.
 """
 
 from __future__ import annotations
+
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -347,6 +350,44 @@ def test_node_gathers_from_moving_particles(launcher, vec3):
     np.testing.assert_allclose(out.numpy(), ref, rtol=2e-5)
     assert ref.min() > 1.0
 
+
+
+@pytest.mark.parametrize("axes", [(0, 1), (0,), ()])
+def test_gather_grid_rows_equal_brute_force(launcher, vec3, axes):
+    """Fixed points gather from moving ones through a GatherGrid (no images of the moving points; the fixed points
+    query at their static periodic copies): every row is exactly the set of moving points within the radius
+    (minimum image), none twice, at the first build and after the points moved and the grid was rebuilt. A box
+    2.2 radii wide puts every fixed point within reach of a face, most within reach of two (a corner)."""
+    r = 0.15
+    sp = Space(2, (0.0, 0.0, 0.0), (0.33, 0.5, 0.0), tuple(a in axes for a in range(3)))
+    rng = np.random.default_rng(7 + len(axes))
+    fixed_np = np.zeros((60, 3))
+    fixed_np[:, :2] = rng.uniform(0.0, 1.0, (60, 2)) * sp.length[:2]
+    moving_np = np.zeros((500, 3))
+    moving_np[:, :2] = rng.uniform(0.0, 1.0, (500, 2)) * sp.length[:2]
+    fixed = vec3(fixed_np)
+    gather = nb.GatherGrid(NeighbourGrid(launcher, r, sp, fixed))
+    moving = vec3(moving_np)
+    gather.build(moving)
+    lst = NeighbourList(gather, fixed)
+    check_rows(sp, lst, fixed_np[:, :2], moving_np[:, :2], r)
+    assert lst.counts().mean() > 20.0
+    for _ in range(2):  # move (wrapping across the periodic faces), rebuild, refill a table
+        moving_np = _random_walk(rng, moving_np, 0.05, sp)
+        if axes != (0, 1):  # keep the points in the box along a wall
+            moving_np[:, :2] = np.clip(moving_np[:, :2], 0.0, sp.length[:2])
+        moving.assign(moving_np.astype(np.float32))
+        gather.build(moving)
+        table = NeighbourTable(launcher, capacity=4)
+        table.fill(gather, fixed)
+        assert table.grows >= 1
+        rows = [table.row(i).tolist() for i in range(60)]
+        off = np.r_[0, np.cumsum([len(row) for row in rows])]
+        flat = SimpleNamespace(offsets=lambda: off, indices=lambda: np.array(sum(rows, []), dtype=np.int64))
+        check_rows(sp, flat, fixed_np[:, :2], moving_np[:, :2], r)
+    assert gather.builds == 3
+    with pytest.raises(ParameterError, match="query_points"):
+        NeighbourList(gather, vec3(fixed_np[:10]))
 
 # --- bad input -------------------------------------------------------------------------------------------
 

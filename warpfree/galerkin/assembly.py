@@ -1,7 +1,9 @@
 """Galerkin assembly on any shape model's Gauss points (Warp kernels, ``kernels/galerkin.py``), shared by EFG and the
 PIC field solve: stiffness matrices and load vectors.
 
-Two race-free forms, both bitwise the same for any thread count:
+Each bilinear form is one ``wp.func`` of a (test node, trial node) pair at a Gauss point (``kernels/galerkin.py``:
+``conduction_form``, ``elastic_form``), which two race-free assembly strategies call, both bitwise the same for any
+thread count:
 
 - node rows (stiffness, the default): the pattern of K (node pairs that share a Gauss point, SᵀS of the rows'
   0/1 matrix S) is built once per shape data (:class:`NodeRows`), and each node gathers the Gauss points in its

@@ -1,6 +1,7 @@
 """The particle-node coupling of PIC (Marques 2008, ch. 4): the field at the particles' positions x^n.
 
-    neighbours:  rebuild the HashGrid over the particles (and their periodic images)
+    neighbours:  rebuild the particles' grid (``warpfree.neighbours.GatherGrid``: no images, the nodes query it at
+                 their static periodic copies)
     fits:        the MLS fit of every particle over the nodes (γ, ∂γ: φ_I and ∇φ_I, stored once per step)
     deposit:     Q_I = Σ_p q_p φ_I(x_p), a node gather (eq 4.4)
     solve:       K u = Q + ρ_bg m on the kept factorisation (:class:`~.field.PlasmaPoisson`)
@@ -17,6 +18,7 @@ import warp as wp
 from warpfree.galerkin.mls import RCOND_LIMIT, MLSModel
 from warpfree.kernels import mls as mk
 from warpfree.kernels import pic as pk
+from warpfree.neighbours import GatherGrid
 from warpfree.parameters import Choice
 from warpfree.reduce import Reduction
 from warpfree.solver import PhaseTimes
@@ -60,15 +62,9 @@ class NodeCoupling:
         self.phases = phases
         self.kernels = pk.mls_kernels(*model.settings.kernel_key())
         self.node_set = model.node_set()
-        # the particles' grid holds no images: in a periodic box each node queries it at its own copies (those of
-        # the model's node grid), which are static, so a step counts and places nothing
-        # a hash cell per reach-sized cell of the box and of the copies' reach beyond it (up to 256 a side): no two
-        # cells a query visits share one
-        cells = [min(256, int(np.ceil(length / model.reach)) + 4) for length in model.space.length[:2]]
-        self.particle_grid = wp.HashGrid(*cells, 1, device=dev)
-        start, shift = model.grid.copies()
-        self.query_start = wp.array(start, dtype=wp.int32, device=dev)
-        self.query_shift = wp.array(shift, dtype=wp.vec3, device=dev)
+        # the nodes gather from the particles: a grid over the particles, queried at the nodes' static periodic
+        # copies (those of the model's node grid), so a step's build only sorts
+        self.particle_grid = GatherGrid(model.grid)
         self.inv_scale = wp.float64(1.0 / float(np.mean(model.support_np[:, 0])))
         self._flag_max = Reduction(self.launcher, wp.int32, "max")
         self.charge = wp.zeros(model.node_count, dtype=wp.float64, device=dev)
@@ -101,11 +97,12 @@ class NodeCoupling:
         self.fields_from_grid()
 
     def build_grid(self) -> None:
-        """The particles' HashGrid at x^n (Warp's build: a sort, not a plain launch)."""
+        """The particles' grid at x^n (:class:`~warpfree.neighbours.GatherGrid`; Warp's build: a sort, not a plain
+        launch)."""
         n = self.particles.count
         with self.phases("neighbours"):
             if n:
-                self.particle_grid.build(self.particles.position32[:n], self.model.reach)
+                self.particle_grid.build(self.particles.position32[:n])
 
     def fields_from_grid(self) -> None:
         """Fits, deposit, solve and gather over the built grid: launches only, with the device solve (a graph can
@@ -118,8 +115,8 @@ class NodeCoupling:
         with self.phases("deposit"):
             if n:
                 L.launch(self.kernels.deposit, m.node_count,
-                         [self.node_set, self.particle_grid.id, pa.position32, self.query_start, self.query_shift,
-                          state.position, state.species, self.macro_charge, self.inv_scale, self.fit, self.charge])
+                         [self.node_set, self.particle_grid.copies, pa.position32, state.position, state.species,
+                          self.macro_charge, self.inv_scale, self.fit, self.charge])
             else:
                 self.charge.zero_()
             if self.whole_charge is not None:
