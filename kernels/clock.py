@@ -5,8 +5,8 @@ array of :data:`SLOTS` slots (plus the solver's own report slots after them). :f
 step from the solver's limit (``LIMIT``: its stable step, computed on the device, or the rule's constant step), the
 run's fixed step (``FIXED``, 0: none) and the next landing time (``NEXT_OUTPUT``, ``END``), the solver's kernels read
 it, and :func:`advance` moves the time on; a step ends by advancing and choosing the next step in one launch (for
-WCSPH inside its ``finish_step``), and the host's :meth:`~warpfree.clock.DeviceClock.set` chooses again. Both follow ``warpfree.time_loop.TimeLoop`` line for line (float64,
-the same operations in the same order), so a run with the clock takes bitwise the steps the host loop took.
+WCSPH inside its ``finish_step``), and the host's :meth:`~warpfree.clock.DeviceClock.set` chooses again. This is
+the one place the rule lives: the time loop and every solver read the step it chose.
 Single-thread kernels; float64.
 """
 
@@ -19,7 +19,7 @@ END = wp.constant(3)          # the end of the run
 FIXED = wp.constant(4)        # the run's fixed step (0: the solver's limit each step)
 STATUS = wp.constant(5)       # 0 ok; STATUS_BROKEN: the limit is not a positive number; STATUS_ABOVE: FIXED > limit
 LIMIT = wp.constant(6)        # the solver's stable step for this step (or its rule's constant step)
-# slot 7 is spare
+TAKEN = wp.constant(7)        # Δt of the last step taken (0 before the first)
 SLOTS = wp.constant(8)
 
 STATUS_OK = 0.0
@@ -56,8 +56,10 @@ def choose(clock: wp.array(dtype=wp.float64)):
 
 @wp.func
 def advance(clock: wp.array(dtype=wp.float64)):
-    """t += Δt, or t = the next output time where t + Δt lands on it to 1e-12 (``TimeLoop``'s rule)."""
+    """t += Δt, or t = the next output time where t + Δt lands on it to 1e-12 (``TimeLoop``'s rule); Δt kept as the
+    step taken."""
     t = clock[TIME]
+    clock[TAKEN] = clock[STEP]
     target = clock[NEXT_OUTPUT]
     moved = t + clock[STEP]
     if wp.abs(moved - target) <= wp.float64(1.0e-12) * wp.max(wp.float64(1.0), t):

@@ -94,7 +94,6 @@ class FluidConstants:
     gravity: wp.vec3         # m/s²
     lj_d: float              # Lennard-Jones strength D (m²/s²)
     lj_r0: float             # Lennard-Jones range r0 (m)
-    damping: float           # γ (1/s): v ← v e^(-γΔt) every step while a fluid settles (0 = none)
     shift_coef: float        # A h U (m²/s), particle shifting
     inv_shape_dx: float      # 1/f(dx/h): W_ij/W(dx) = f(q_ij) · inv_shape_dx (shifting's anti-clumping term)
     surface_div: float       # ∇·r below which a particle's support is truncated by a free surface
@@ -215,6 +214,9 @@ class StepLimits:
 #: the clock slots after ``kernels/clock.py``'s own that hold the fluid's reduced step report: max |Δx|², |v|², |a|²,
 #: status
 REPORT_SLOTS = wp.constant(4)
+#: the clock slot after the report that holds the settling damping γ (1/s): v ← v e^(-γΔt) every step while a fluid
+#: settles (0: none); in the clock, so in the state: the model stays as it was made
+DAMPING = wp.constant(int(SLOTS) + 4)
 
 
 @wp.kernel
@@ -504,8 +506,9 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
             f.position[i] = xn
             f.velocity[i] = f.velocity[i] + dt * f.shift_acceleration[i]
             f.density[i] = f.density[i] + dt * f.shift_density_rate[i]
-        if c.damping > 0.0:  # settling only (WCSPHSolver.settle)
-            f.velocity[i] = wp.exp(-c.damping * dt) * f.velocity[i]
+        damping = float(clock[DAMPING])
+        if damping > 0.0:  # settling only (WCSPHSolver.settle)
+            f.velocity[i] = wp.exp(-damping * dt) * f.velocity[i]
         f.report[i] = fluid_report(c, f, i)
 
     kernels = SimpleNamespace(drift=drift, wall_pressure=wall_pressure, rates=rates, kick=kick)

@@ -163,7 +163,7 @@ def build(size: Annotated[float, Param("m", "side of the square of vacuum inside
     def mean_error(s, t):
         if t <= 0:
             return 0.0
-        ez, exact = field_errors(s, t - 0.5 * dt)
+        ez, exact = field_errors(s, s.electric_time)
         return float(np.mean(np.abs(ez - exact)[in_box])) / amplitude
 
     def leakage(s, t):
@@ -171,7 +171,7 @@ def build(size: Annotated[float, Param("m", "side of the square of vacuum inside
 
     def plane_wave_analysis(run, out_dir):
         s = run.solver
-        t_e = s.t - 0.5 * dt
+        t_e = s.electric_time
         ez, exact = field_errors(s, t_e)
         err = np.abs(ez - exact)[in_box] / amplitude
         spread, amplitudes = line_spread(ez, t_e)
@@ -181,10 +181,10 @@ def build(size: Annotated[float, Param("m", "side of the square of vacuum inside
                   "line_amplitude_range": [float(amp.min()), float(amp.max())] if amp.size else None,
                   "lines": len(amplitudes), "leakage": leakage(s, s.t),
                   "max_leakage": max(run.series["leakage"]),
-                  "spacing": layout.spacing, "particles_per_wavelength": C0 / frequency / layout.spacing, "dt": dt,
-                  "courant": dt / s.stable_dt(), "courant_number": C0 * dt / layout.spacing, "time_of_ez": t_e,
+                  "spacing": layout.spacing, "particles_per_wavelength": C0 / frequency / layout.spacing, "dt": s.run_step,
+                  "courant": s.run_step / s.stable_dt(), "courant_number": C0 * s.run_step / layout.spacing, "time_of_ez": t_e,
                   "travel_wavelengths": float(travel * frequency / C0),
-                  "predicted_lag_error": predicted_lag_error(travel, layout.spacing, dt, frequency, angle,
+                  "predicted_lag_error": predicted_lag_error(travel, layout.spacing, s.run_step, frequency, angle,
                                                             h_staggering)}
         result["checks"] = plane_wave_checks(result)
         if out_dir is not None:
@@ -201,7 +201,6 @@ def build(size: Annotated[float, Param("m", "side of the square of vacuum inside
                     output=OutputOptions(vtk=vtk, frames=frames, frame_bounds=((-pml_thickness, size + pml_thickness),
                                                                                 (-pml_thickness, size + pml_thickness)),
                                          frame_range={"ez": (-amplitude, amplitude)}))
-    dt = run.step_size  # the constant step the loop chose: the analyses' E lags H by half of it
     # the farthest the wave travels in the total-field box from where it enters it: the longest chord of the square
     # along its direction, or c t_end
     travel = min((size - 2.0 * margin) / max(abs(direction[0]), abs(direction[1])), C0 * t_end)

@@ -57,7 +57,7 @@ def build(n: Annotated[int, Param("", "particles per side of the periodic box (t
 
     def sine_amplitude(s, t):
         """Projection of T - T0 on sin(kx): the mode's amplitude (K)."""
-        return float(np.dot(s.model.particles.numpy("temperature").astype(np.float64) - 300.0, basis))
+        return float(np.dot(s.temperature().astype(np.float64) - 300.0, basis))
 
     def decay_analysis(run, out_dir):
         t = np.asarray(run.series["time"])

@@ -9,7 +9,9 @@ kernel); :meth:`DeviceClock.set` chooses again after the host changed the landin
 and caches it until the next launch. The host writes only when the run sets the clock up, at each output (the next
 landing time) and for a step taken with a given Δt (:meth:`set_step`, tests and set-up).
 
-The array is part of the solver's state (checkpointed with it: a resumed run continues on the same clock).
+Every time-dependent solver has one, made by the base class (``warpfree.solver``); the time loop sets it up and reads
+it once per step. A solver whose kernels read it keeps the array in its state (checkpointed with it: a resumed run
+continues on the same clock); the rule that picks and lands a step is the kernel's alone (``kernels/clock.py``).
 """
 
 from __future__ import annotations
@@ -23,28 +25,10 @@ from warpfree.kernels import clock as K
 
 from .device import Launcher
 
-__all__ = ["DeviceClock", "choose_step", "refusal"]
+__all__ = ["DeviceClock", "refusal"]
 
 _NAMES = {"time": K.TIME, "step": K.STEP, "next_output": K.NEXT_OUTPUT, "end": K.END, "fixed": K.FIXED,
-          "status": K.STATUS, "limit": K.LIMIT}
-
-
-def choose_step(time: float, next_output: float, end: float, fixed: float, limit: float) -> tuple[float, float]:
-    """(Δt, status) of the step to take now: the host twin of ``kernels/clock.py: choose_step`` (the same float64
-    operations), used by the time loop for solvers without a clock and by a solver deciding on the host what the
-    device's step will be (a neighbour rebuild). ``fixed`` 0: none."""
-    status = K.STATUS_OK
-    if not limit > 0.0:
-        status = K.STATUS_BROKEN
-    elif fixed > 0.0 and fixed > limit * (1.0 + 1e-6):
-        status = K.STATUS_ABOVE
-    dt = fixed if fixed > 0.0 else limit
-    remaining = min(next_output, end) - time
-    if remaining <= dt * (1.0 + 1e-9):
-        dt = remaining
-    elif remaining < 2.0 * dt:
-        dt = 0.5 * remaining
-    return (0.0 if status != K.STATUS_OK else dt), status
+          "status": K.STATUS, "limit": K.LIMIT, "taken": K.TAKEN}
 
 
 def refusal(status: float, fixed: float, limit: float, unit: str = "s") -> str | None:
@@ -86,6 +70,15 @@ class DeviceClock:
             self._host = self.values.numpy().copy()
         return self._host
 
+    @property
+    def report_values(self) -> wp.array:
+        """The solver's report slots on the device (a view of the clock's array after its own slots)."""
+        return self.values[K.SLOTS:]
+
+    def read_report(self) -> np.ndarray:
+        """The solver's report slots on the host, from the clock's one read per step (:meth:`report`)."""
+        return self.report()[K.SLOTS:]
+
     def invalidate(self) -> None:
         """The device array changed (a launch that writes it): the next :meth:`report` reads it again."""
         self._host = None
@@ -97,7 +90,8 @@ class DeviceClock:
 
     @property
     def step(self) -> float:
-        """The time step Δt the clock chose last, read from its report."""
+        """The time step Δt the clock chose last (the next step's, after a step ended; 0 for a refused one), read from
+        its report: the device's choice is the only one (``kernels/clock.py: choose``)."""
         return float(self.report()[K.STEP])
 
     def problem(self, unit: str = "s") -> str | None:
@@ -105,11 +99,15 @@ class DeviceClock:
         r = self.report()
         return refusal(r[K.STATUS], r[K.FIXED], r[K.LIMIT], unit)
 
-    def next_step(self) -> float:
-        """The Δt the device picked for the next step, from the last report (no read if it is cached): the host twin
-        :func:`choose_step` on the clock's slots."""
-        r = self.report()
-        return choose_step(r[K.TIME], r[K.NEXT_OUTPUT], r[K.END], r[K.FIXED], r[K.LIMIT])[0]
+    @property
+    def last_step(self) -> float:
+        """The Δt of the last step taken (0 before the first), read from its report."""
+        return float(self.report()[K.TAKEN])
+
+    @property
+    def limit(self) -> float:
+        """The limit the last choice was made under (the solver's stable step, or the rule's), read from its report."""
+        return float(self.report()[K.LIMIT])
 
     def set_step(self, dt: float) -> None:
         """A step of a given ``dt`` (``solver.step(dt)``): Δt written, no landing time (t + Δt as it is)."""

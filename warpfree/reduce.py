@@ -11,7 +11,6 @@ depend only on n, never on the thread count: sums are bitwise the same for any t
 
 from __future__ import annotations
 
-import numpy as np
 import warp as wp
 
 from .device import Launcher

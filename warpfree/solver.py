@@ -4,9 +4,10 @@ A solver is a static **model** (parameters, materials, neighbour structures, fac
 object another solver may hold), a **state** (the arrays that change; by construction exactly what a
 checkpoint saves), and the launches that advance or solve them. Two kinds:
 
-- :class:`TimeDependentSolver`: ``step(dt)``, ``stable_dt()`` (``math.inf``: no limit) and ``step_rule()``, how
-  the time loop may choose the step (:class:`StepRule`: a new stable step every step, one constant step below a
-  limit, or the solver's own fixed step), run by :class:`warpfree.time_loop.TimeLoop`.
+- :class:`TimeDependentSolver`: ``advance()`` (one step of the Δt its clock holds, the clock moved on),
+  ``stable_dt()`` (``math.inf``: no limit) and ``step_rule()``, how the time loop may choose the step
+  (:class:`StepRule`: a new stable step every step, one constant step below a limit, or the solver's own fixed step),
+  run by :class:`warpfree.time_loop.TimeLoop`; the clock (:class:`warpfree.clock.DeviceClock`) is the base class's.
 - :class:`StaticSolver`: ``solve()``, run once by :class:`warpfree.run.StaticRun`, with the same run
   directory, summary, outputs and errors and no time loop.
 
@@ -30,6 +31,7 @@ from typing import ClassVar
 import numpy as np
 import warp as wp
 
+from .clock import DeviceClock
 from .device import Launcher
 from .errors import ParameterError
 from .parameters import Choice
@@ -288,22 +290,36 @@ class TimeDependentSolver(Solver):
     #: rebuilt inside the phase "neighbours": the benchmark harness forces its rebuilds at a developed flow's
     #: rate when it times steps from rest
     moving_neighbours = None
-    #: the run's time on the device (:class:`warpfree.clock.DeviceClock`, in the state) of a solver whose step needs
-    #: nothing from the host: the time loop then calls :meth:`advance`, which picks Δt on the device, and reads the
-    #: clock's report once per step. None: the loop picks Δt on the host and calls :meth:`step`.
-    clock = None
+    #: slots after the clock's own that the solver's step report fills (:class:`warpfree.clock.DeviceClock`)
+    report_slots: ClassVar[int] = 0
+    #: True when the solver computes its stable step on the device and writes it to the clock (its step's last
+    #: launch: WCSPH's ``finish_step``); False: a variable rule's limit is :meth:`stable_dt`, which the time loop gives
+    #: the clock when it changes
+    limit_on_device: ClassVar[bool] = False
+
+    def __init__(self, model, launcher: Launcher, report_slots: int | None = None):
+        super().__init__(model, launcher)
+        #: the run's time (:class:`warpfree.clock.DeviceClock`, with ``report_slots`` of the solver's own, default
+        #: :attr:`report_slots`): t, Δt and the landing times, on the device. The time loop sets its landing times and
+        #: reads its report once per step; a solver whose step must continue bitwise from a checkpoint's clock keeps
+        #: ``clock.values`` in its state.
+        self.clock = DeviceClock(launcher, self.report_slots if report_slots is None else report_slots)
 
     @abstractmethod
-    def step(self, dt: float) -> None:
-        """Advance the state by ``dt`` seconds."""
-
     def advance(self) -> None:
-        """One step with the Δt the device clock picks (solvers with a :attr:`clock`): no host write, no read."""
-        raise NotImplementedError(f"{type(self).__name__} has no device clock: the time loop calls step(dt)")
+        """One step of the Δt the :attr:`clock` holds (``clock.step``, read on the host or by the kernels on the
+        device), ending with the time moved on and the next step chosen (``clock.launch_advance_and_choose()``, or a
+        kernel of the solver's own that does both): what the time loop calls."""
+
+    def step(self, dt: float) -> None:
+        """One step of ``dt`` (scripts, tests, settling): Δt written to the clock (no landing time), then
+        :meth:`advance`."""
+        self.clock.set_step(dt)
+        self.advance()
 
     def record_step(self):
-        """A :class:`warpfree.graph.StepGraph` that replays :meth:`advance` as recorded Warp graphs (solvers with a
-        :attr:`clock`). None: the solver's step cannot be recorded."""
+        """A :class:`warpfree.graph.StepGraph` that replays :meth:`advance` as recorded Warp graphs. None: the
+        solver's step cannot be recorded."""
         return None
 
     @abstractmethod

@@ -25,7 +25,6 @@ from typing import ClassVar
 
 import numpy as np
 
-from .clock import choose_step, refusal
 from .errors import ParameterError, RunError, RunInterrupted, require_integer, require_positive
 from .io import checkpoint
 from .run import Analysis, OutputOptions, Run, RunDirectory
@@ -125,17 +124,6 @@ class TimeLoop(Run):
         """Outputs 0, 1, 2, ... fall at 0, Δ, 2Δ, ...; ``n_outputs`` have been recorded."""
         return self.n_outputs * self.output_interval
 
-    def next_dt(self) -> float:
-        """The step to take now: stable or fixed, shortened to land on the next output time or the end
-        (``warpfree.clock.choose_step``, the host twin of the device clock's choice)."""
-        limit = self.solver.stable_dt() if self.rule.kind is StepKind.VARIABLE else self.rule.value
-        fixed = self.dt_fixed or 0.0
-        dt, status = choose_step(self.time, self._next_output_time(), self.t_end, fixed, limit)
-        refused = refusal(status, fixed, limit, self.solver.time_unit)
-        if refused:
-            raise RunError(refused, self.step_count)
-        return dt
-
     # -- outputs and the last good state ------------------------------------------------------------
     def _record(self, directory: RunDirectory | None) -> None:
         """Audit, probes, diagnostics and outputs at the current time; keep the state as the last good one."""
@@ -231,8 +219,7 @@ class TimeLoop(Run):
     def load_checkpoint(self, path: str) -> None:
         loop, series, state = checkpoint.load(path)
         self.solver.state.assign(state, f"checkpoint {path}")
-        if self.solver.clock is not None:  # its array was loaded with the state: read it anew
-            self.solver.clock.invalidate()
+        self.solver.clock.invalidate()  # its array may have been loaded with the state: read it anew
         self.solver.after_load()
         self._take_loop(loop, series, path)
 
@@ -302,8 +289,7 @@ class TimeLoop(Run):
         pieces = [checkpoint.load(q) for q in paths]
         loop, series, _ = pieces[0]
         self.solver.restore_pieces([state for _, _, state in pieces])
-        if self.solver.clock is not None:
-            self.solver.clock.invalidate()
+        self.solver.clock.invalidate()
         self._take_loop(loop, series, paths[0])
         if self.world.is_root:
             print(f"warpfree: resuming from step {step} written by {len(paths)} process(es), on {self.world.size}",
@@ -324,41 +310,34 @@ class TimeLoop(Run):
             if directory is not None and self.checkpoint_every:
                 self.save_checkpoint(directory)
         clock = self.solver.clock
-        if clock is not None:
-            self._start_clock(clock)
+        self._start_clock(clock)
+        host_limit = self.rule.kind is StepKind.VARIABLE and not self.solver.limit_on_device
         bar = _progress(self.t_end, self.time, progress and self.world.is_root, self.name, self.solver.time_unit)
         steps0 = self.step_count
         try:
             while self.time < self.t_end * (1 - 1e-12):
                 if self.max_steps is not None and self.step_count - steps0 >= self.max_steps:
                     break
-                if clock is None:
-                    dt = self.next_dt()
-                    t0 = time.perf_counter()
-                    self.solver.step(dt)
-                    problem = self.solver.problem()  # the step's one read-back
-                else:  # the step chosen, taken and timed on the device; its report is the one read-back
-                    t0 = time.perf_counter()
-                    self.solver.advance()
-                    refused = clock.problem(self.solver.time_unit)
-                    if refused:
-                        raise RunError(refused, self.step_count)
-                    problem = self.solver.problem()
+                if host_limit:  # a variable step whose limit the solver computes on the host
+                    limit = self.solver.stable_dt()
+                    if clock.limit != limit:
+                        clock.set(limit=limit)
+                refused = clock.problem(self.solver.time_unit)  # the step the clock chose (the last report's)
+                if refused:
+                    raise RunError(refused, self.step_count)
+                t0 = time.perf_counter()
+                self.solver.advance()  # the step the clock chose, taken; its report is the step's one read-back
+                problem = self.solver.problem()
                 self.step_s += time.perf_counter() - t0
                 self.step_count += 1
                 self.steps_this_run = self.step_count - steps0
                 target = self._next_output_time()
-                if clock is None:
-                    self.time = (target if abs(self.time + dt - target) <= 1e-12 * max(1.0, self.time)
-                                 else self.time + dt)
-                else:
-                    self.time = clock.time
+                self.time = clock.time
                 if problem:
                     raise RunError(problem, self.step_count)
                 if self.time >= target * (1 - 1e-12) or self.time >= self.t_end * (1 - 1e-12):
                     self._record(directory)
-                    if clock is not None:
-                        clock.set(next_output=self._next_output_time())
+                    clock.set(next_output=self._next_output_time())
                 if directory is not None and self.checkpoint_every and self.step_count % self.checkpoint_every == 0:
                     self.save_checkpoint(directory)
                 if bar is not None:
@@ -376,9 +355,9 @@ class TimeLoop(Run):
             raise RunInterrupted(signum, self.step_count, self.time)
 
     def _start_clock(self, clock) -> None:
-        """Set up a device clock (``warpfree.clock``) as :meth:`next_dt` would step: the time, the next output time, the
-        end, the run's fixed step and, for a constant or fixed rule, the limit it is checked against (a variable rule's
-        limit is the solver's, computed on the device every step)."""
+        """Set up the solver's clock (``warpfree.clock``): the time, the next output time, the end, the run's fixed step
+        and, for a constant or fixed rule, the limit it is checked against (a variable rule's limit is the solver's,
+        every step: computed on the device, or given by its ``advance``)."""
         slots = dict(time=self.time, next_output=self._next_output_time(), end=self.t_end,
                      fixed=self.dt_fixed or 0.0)
         if self.rule.kind is not StepKind.VARIABLE:

@@ -1,7 +1,7 @@
 """Steps that never wait on the host: with a device clock (``warpfree.clock``) a time-dependent solver's step picks its
 Δt on the device, writes nothing from the host and reads back one small report; the step can be recorded as Warp
-graphs and replayed, bitwise equal to stepping. PIC (a fixed Δt) reads its report (history row and flags) once a
-step. Counted on the CPU device through the code path a GPU takes (``tests/helpers/host_traffic.py``)."""
+graphs and replayed, bitwise equal to stepping. PIC (a fixed Δt) reads its clock, with its report (history row and
+flags) in the clock's report slots, once a step. Counted on the CPU device through the code path a GPU takes (``tests/helpers/host_traffic.py``)."""
 
 from __future__ import annotations
 
@@ -95,20 +95,22 @@ def test_replayed_steps_are_bitwise_the_stepped_ones(make, steps, device_name):
 @pytest.mark.parametrize("scene,open_walls", [("pic_two_stream", False), ("pic_diode", True)])
 def test_a_pic_step_reads_its_report_and_writes_nothing(scene, open_walls, device_name):
     """A PIC step with the field solved on the device (a GPU's default; on the CPU device its dense map, as Warp's CG
-    checks its residual on the host there) reads one report (its history row and the fits' flag) and writes nothing;
-    with open walls the sort also reads the live count (and, in a step that absorbs particles, their walls and
-    species: two reads more)."""
+    checks its residual on the host there) reads one report (the clock, whose report slots hold its history row and
+    the fits' flag) and writes nothing; with open walls the sort also reads the live count (and, in a step that
+    absorbs particles, their walls and species: two reads more)."""
     device.use(device_name, 2)
     module = load_scene(scene)
     solver = module.build(**module.SMALLEST, frames=False, vtk=False,
                           field_solve="dense" if device_name == "cpu" else "device").solver
+    _start(solver)
+    solver.clock.report()
     steps = 6
     with host_traffic() as traffic:
         for _ in range(steps):
-            solver.step(solver.dt)
-            assert solver.problem() is None
+            solver.advance()
+            assert solver.clock.problem() is None and solver.problem() is None
     reads = [where for kind, where in traffic.where if kind == "read"]
-    report, sort = reads.count("history.py:read"), reads.count("particles.py:sort")
+    report, sort = reads.count("clock.py:report"), reads.count("particles.py:sort")
     assert traffic.writes == 0, traffic.where
     assert report == steps and traffic.reads == report + sort, traffic.where
     if open_walls:
@@ -127,9 +129,11 @@ def test_replayed_pic_steps_are_bitwise_the_stepped_ones(scene, device_name):
     module = load_scene(scene)
     make = lambda: module.build(**module.SMALLEST, frames=False, vtk=False, field_solve="dense").solver  # noqa: E731
     stepped, replayed = make(), make()
+    for s in (stepped, replayed):
+        _start(s)
     steps = 6
     for _ in range(steps):
-        stepped.step(stepped.dt)
+        stepped.advance()
         assert stepped.problem() is None
     graph = replayed.record_step()
     assert graph.graphs == 2

@@ -202,8 +202,9 @@ class RampSolver(TimeDependentSolver):
     def describe(self):
         return {}
 
-    def step(self, dt):
+    def advance(self):
         self.state.steps += 1
+        self.clock.launch_advance_and_choose()
 
     def stable_dt(self):
         return 0.1

@@ -291,7 +291,7 @@ def test_reported_energy_is_the_conserved_one_for_a_white_noise_start(jitter):
     total = np.asarray(loop.diag_series["electric_energy"]) + np.asarray(loop.diag_series["magnetic_energy"])
     assert total.size > 30
     assert np.ptp(total) / total[0] < 2e-6
-    e = solver.model.electric
+    e = solver.electric
     plain = 0.5 * np.sum(e.numpy("permittivity") * e.numpy("ez").astype(float) ** 2 * e.numpy("cell_volume")) \
         + solver.energy()["magnetic_energy"]
     assert abs(plain / total[0] - 1) > 0.1

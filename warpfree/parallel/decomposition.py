@@ -18,7 +18,6 @@ Refused: more ranks than cells to cut along the decomposition's axes (a box woul
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -138,12 +137,6 @@ class Decomposition:
                 g = np.minimum(g, np.maximum(np.maximum(lo - (p[:, a] - length), (p[:, a] - length) - hi), 0.0))
             gap2 += g * g
         return np.sqrt(gap2)
-
-    def thinnest(self) -> float:
-        """The smallest finite side of any box along the cut axes (m)."""
-        sides = self.upper[:, :self.dim] - self.lower[:, :self.dim]
-        finite = sides[np.isfinite(sides)]
-        return float(finite.min()) if finite.size else math.inf
 
     def describe(self) -> dict:
         """The decomposition for ``summary.json``: method, ranks, cell size, each rank's box (None for an unbounded

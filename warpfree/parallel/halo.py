@@ -378,11 +378,6 @@ def _int32(parts: list[np.ndarray], device) -> wp.array:
     return wp.array(values.astype(np.int32), dtype=wp.int32, device=device)
 
 
-def as_warp(values: np.ndarray, dtype, device) -> wp.array:
-    """A Warp array of held rows (a new allocation)."""
-    return wp.array(np.ascontiguousarray(values), dtype=dtype, device=device)
-
-
 def take_rows(start: np.ndarray, count: np.ndarray, index: np.ndarray, rows: np.ndarray,
               columns: "Partition") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The global CSR rows ``rows`` (global row ids, in the order wanted) of a static neighbour structure (``start``,

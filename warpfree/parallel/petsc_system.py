@@ -89,14 +89,6 @@ class _WholeFactorisation:
         y.setArray(z[self.rows])
 
 
-def _defaults(PETSc, options: dict[str, str]) -> None:
-    """PETSc options this module chooses, each unless the user gave it (PETSC_OPTIONS, the command line)."""
-    database = PETSc.Options()
-    for key, value in options.items():
-        if not database.hasName(key):
-            database.setValue(key, value)
-
-
 class PETScSystem:
     """``K u = b`` with prescribed values over ``world``'s ranks, its matrix assembled once and solved many times.
 

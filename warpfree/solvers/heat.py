@@ -4,10 +4,12 @@ It shows every part of the contract (``warpfree/solver.py``) in about a hundred 
 
 - a **model** (:class:`HeatModel`): the static part — particles, volumes, the ``@wp.struct`` constants
   the kernels take, a static neighbour list (the particles do not move), the space (periodic boxes);
-- a **state** (:class:`HeatState`): what changes — here one array, ``temperature``; a checkpoint saves
-  exactly this;
-- a **solver** (:class:`HeatSolver`): ``step(dt)`` orders the launches of ``warpfree.kernels.heat``,
-  ``stable_dt()`` gives the largest stable step, ``output_sets()``, ``diagnostics()``, ``describe()``.
+- a **state** (:class:`HeatState`): what changes — here one array, ``temperature``, made beside the model (the model
+  is never changed); a checkpoint saves exactly this;
+- a **solver** (:class:`HeatSolver`): ``advance()`` orders the launches of ``warpfree.kernels.heat`` for one step of
+  the Δt its clock holds (``self.clock``, made by the core: the time loop sets its landing times) and ends by moving
+  the clock on; ``stable_dt()`` gives the largest stable step, ``output_sets()``, ``diagnostics()``, ``describe()``.
+  ``step(dt)``, for scripts, is the core's: Δt written to the clock, then ``advance()``.
 
 Equation (kernels/heat.py): dT_i/dt = 2α Σ_j V_j (T_i - T_j) F_ij / N_i, F_ij = (r_ij·∇_i W_ij)/(r_ij² + η²),
 N_i the operator's discrete second moment (exact for quadratic fields), forward Euler. Units: SI (m, s, α in m²/s, T in K). ``scenes/heat_conduction_2d.py`` runs it against the
@@ -78,7 +80,7 @@ class HeatSolver(TimeDependentSolver):
         t = np.asarray(temperature, dtype=np.float32)
         if t.shape != (model.particles.n,) or not np.all(np.isfinite(t)):
             raise ParameterError("temperature", f"must be {model.particles.n} finite values")
-        self.state = HeatState(model.particles.add("temperature", t))
+        self.state = HeatState(wp.array(t, dtype=float, device=self.launcher.device))  # the model stays as made
         self.rate = wp.zeros(model.particles.n, dtype=float, device=self.launcher.device)
         # the operator's normalisation and the largest stable step (Gershgorin), once: the particles are static
         m = self.model
@@ -88,9 +90,10 @@ class HeatSolver(TimeDependentSolver):
                                                                   m.particles["volume"], self.normalisation, bound])
         self.dt_max = 1.0 / float(reduce(self.launcher, bound, "max"))
 
-    def step(self, dt: float) -> None:
-        """T ← T + Δt dT/dt: the rate sweep over the neighbour list, then the update."""
-        m = self.model
+    def advance(self) -> None:
+        """T ← T + Δt dT/dt with the Δt the clock holds: the rate sweep over the neighbour list, the update, then the
+        clock's time moved on and its next step picked."""
+        m, dt = self.model, self.clock.step
         with self.phases("rates"):
             self.launcher.launch(K.temperature_rate, m.particles.n, [m.constants, m.neighbours.rows,
                                                                      m.particles.position, m.particles["volume"],
@@ -98,6 +101,11 @@ class HeatSolver(TimeDependentSolver):
                                                                      self.rate])
         with self.phases("integrate"):
             self.launcher.launch(K.euler_update, self.model.particles.n, [float(dt), self.rate, self.state.temperature])
+        self.clock.launch_advance_and_choose()
+
+    def temperature(self) -> np.ndarray:
+        """A copy of every particle's temperature (K)."""
+        return self.state.temperature.numpy().copy()
 
     def stable_dt(self) -> float:
         """The largest explicit step, fixed at set-up (s): the diffusion limit of the particle spacing."""
@@ -115,13 +123,12 @@ class HeatSolver(TimeDependentSolver):
 
     def output_sets(self) -> list[OutputSet]:
         """The particles with their temperature (K), the field frames colour."""
-        p = self.model.particles
-        return [OutputSet("particles", p.numpy("position"), {"temperature": p.numpy("temperature")},
+        return [OutputSet("particles", self.model.particles.numpy("position"), {"temperature": self.temperature()},
                           frame_field="temperature", units={"position": "m", "temperature": "K"})]
 
     def diagnostics(self) -> dict[str, float]:
         """Heat content Σ V_j T_j (K·m^dim; conserved by the symmetric operator) and the extremes of T."""
-        t = self.model.particles.numpy("temperature").astype(np.float64)
+        t = self.temperature().astype(np.float64)
         return {"heat_content": float(np.sum(t) * self.model.dx ** self.dim), "temperature_min": float(t.min()),
                 "temperature_max": float(t.max())}
 

@@ -6,6 +6,8 @@ a resumed run's record covers the whole run. Normalised units (:mod:`.species`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import warp as wp
 import warp.sparse as wsp
@@ -19,7 +21,7 @@ from .device_solve import bsr_matrix
 from .field import PlasmaPoisson
 from .particles import Particles
 
-__all__ = ["Diagnostics", "history_columns", "REPORT", "FIELD_TERMS"]
+__all__ = ["Diagnostics", "history_columns", "report_slots", "REPORT", "FIELD_TERMS"]
 
 #: the columns every PIC history has, in order around the field terms
 FIRST = ("time",)
@@ -30,6 +32,11 @@ OPEN = ("particles", "injected_charge", "wall_charge_lower", "wall_charge_upper"
 REPORT = ("kinetic_energy", "momentum_x", "momentum_y", "bad_particle")
 #: the field terms reduced on the device after each solve
 FIELD_TERMS = FIELD
+
+
+def report_slots(modes) -> int:
+    """The step report's length: :data:`REPORT`, the field terms and each mode's coefficient (real, imaginary)."""
+    return len(REPORT) + len(FIELD_TERMS) + 2 * len(modes)
 
 
 def history_columns(modes: list[tuple[int, int]], open_boundaries: bool) -> list[str]:
@@ -45,14 +52,15 @@ class Diagnostics:
     momentum, as one history row per step: the step report.
 
     The terms are reduced on the device into :attr:`report` (:data:`REPORT` slots, then each mode's coefficient, real
-    and imaginary), which :meth:`read` brings to the host once per step, with the largest bad-particle flag of the
+    and imaginary: the clock's report slots, ``warpfree.clock``), which :meth:`read` brings to the host once per step
+    with the clock's time, with the largest bad-particle flag of the
     step's fits; the host adds the mode energies A |k|² |u_k|² and, with open boundaries, its own tallies. With the
     field solved on the host (SuperLU: u and Q are there already) the field terms are NumPy's, not the device's
     (a dozen small launches a step cost the CPU more than the products).
     """
 
     def __init__(self, field: PlasmaPoisson, coupling: NodeCoupling, particles: Particles, modes,
-                 phases: PhaseTimes):
+                 phases: PhaseTimes, report: wp.array, read_report: Callable[[], np.ndarray]):
         self.field = field
         self.coupling = coupling
         self.particles = particles
@@ -78,7 +86,11 @@ class Diagnostics:
         self._flag_max = Reduction(L, wp.int32, "max")
         self.field_slots = len(FIELD_TERMS) + len(self.mode_rows)
         self.pending = wp.zeros(self.field_slots, dtype=wp.float64, device=dev)  # the field terms of the last solve
-        self.report = wp.zeros(len(REPORT) + self.field_slots, dtype=wp.float64, device=dev)
+        if report.shape[0] != len(REPORT) + self.field_slots:
+            raise ValueError(f"the step report needs {len(REPORT) + self.field_slots} slots (report_slots(modes)), "
+                             f"got {report.shape[0]}")
+        #: the step's report on the device (the clock's report slots) and its one read (the clock's)
+        self.report, self._read_report = report, read_report
         self.pending_tallies: dict[str, float] = {}
         self.row: dict[str, float] | None = None   # the row of the last record, until read
         self.bad_flag = 0
@@ -160,7 +172,7 @@ class Diagnostics:
 
     def read(self) -> None:
         """The step's one read: the report; appends the recorded row (if any) to the history, keeps the flag."""
-        values = self.report.numpy()
+        values = self._read_report()
         if self.combine is not None:
             values = self.combine(values)
         self.bad_flag = int(values[REPORT.index("bad_particle")])

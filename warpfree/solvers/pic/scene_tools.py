@@ -161,7 +161,6 @@ def plot_growth(path: str, time, energy, gamma_theory: float, gamma_fit: float |
     positive = w > floor
     if window is not None:
         t0, t1 = window
-        inside = (t >= t0) & (t <= t1)
         tw = np.linspace(t0, t1, 50)
         w0 = float(np.interp(t0, t, w))
         top.plot(tw, w0 * np.exp(2.0 * gamma_theory * (tw - t0)), "k--", lw=1.3,

@@ -42,7 +42,7 @@ from warpfree.solver import HostTable, OutputSet, StepRule, TimeDependentSolver
 
 from .coupling import FieldSolve, Gather, NodeCoupling
 from .field import PlasmaPoisson
-from .history import REPORT, Diagnostics, history_columns
+from .history import REPORT, Diagnostics, history_columns, report_slots
 from .spread import PlasmaSpread
 from .injection import Injection
 from .particles import Particles, PICState
@@ -105,7 +105,9 @@ class PICSolver(TimeDependentSolver):
                  average_from: float | None = None, field_solve: FieldSolve | None = None,
                  launcher: Launcher | None = None):
         model: MLSModel = field.model
-        super().__init__(model, launcher or model.launcher)
+        modes = [tuple(int(v) for v in m) for m in modes]
+        # the step report (``history.py``) in the clock's report slots: one read a step brings both
+        super().__init__(model, launcher or model.launcher, report_slots=report_slots(modes))
         self.field = field
         self.loads = list(loads)
         self.injections = list(injections)
@@ -146,7 +148,6 @@ class PICSolver(TimeDependentSolver):
                  else np.zeros(0, np.int32))
         self.initial_particle_charge = float(sum(ld.count * q for ld, q in zip(self.loads, self.macro_charge_np)))
         headroom = int(math.ceil(4 * sum(j.particles_per_step for j in self.injections)))
-        modes = [tuple(int(v) for v in m) for m in modes]
         self.world = ranks_of_run()
         #: how the particles are spread over the ranks (one process: a one-rank partition, every particle)
         self.spread = PlasmaSpread(self.world, model, position, self.injections, self.particle_walls)
@@ -171,7 +172,8 @@ class PICSolver(TimeDependentSolver):
                                      wp.array(self.macro_charge_np, dtype=wp.float64, device=dev),
                                      self.background_density, gather, self.phases, field_solve)
         self.particles.on_resize = self.coupling.allocate
-        self.diagnostics_record = Diagnostics(field, self.coupling, self.particles, modes, self.phases)
+        self.diagnostics_record = Diagnostics(field, self.coupling, self.particles, modes, self.phases,
+                                              self.clock.report_values, self.clock.read_report)
         # a rank deposits on its own nodes; the charges of all, and the step's sums
         self.coupling.whole_charge = self.spread.charge_exchange
         self.diagnostics_record.combine = self._combine_report
@@ -262,15 +264,17 @@ class PICSolver(TimeDependentSolver):
                           f"{lam:.3g}); above {HEATING_SPACING} λ_D finite-grid heating sets in: add nodes",
                           stacklevel=3)
 
-    def step(self, dt: float) -> None:
-        """One leapfrog step of the solver's own Δt: push (gather, Boris), then deposit, field solve and the step's
-        report; a different ``dt`` is refused (it would break the staggering)."""
+    def advance(self) -> None:
+        """One leapfrog step of the solver's own Δt (the clock's): push (gather, Boris), then deposit, field solve and
+        the step's report, the clock moved on; another Δt is refused (it would break the staggering)."""
+        dt = self.clock.step
         if abs(dt - self.dt) > 1e-9 * self.dt:
             raise ParameterError("dt", f"the leapfrog keeps v at half steps of its own Δt = {self.dt:.6g}; a step of "
                                        f"{dt:.6g} would break the staggering (make output times multiples of Δt)")
         self._launch_push()
         self._between()
         self._launch_fields()
+        self.clock.launch_advance_and_choose()
         self._after()
 
     # the step's parts: launches only (a graph can record them) and the host's work between them
@@ -361,7 +365,8 @@ class PICSolver(TimeDependentSolver):
             self._launch_push()
         with self.launcher.capturing() as fields:
             self._launch_fields()
-        return StepGraph([push.graph, self._between, fields.graph, self._after])
+            self.clock.launch_advance_and_choose()
+        return StepGraph([push.graph, self._between, fields.graph, self.clock.invalidate, self._after])
 
     def _accumulate_potential(self) -> None:
         if self.average_from is not None and self.t >= self.average_from - 1e-9 * self.dt:
@@ -408,8 +413,8 @@ class PICSolver(TimeDependentSolver):
 
     @property
     def t(self) -> float:
-        """The time of x^n, n Δt (ω_pe⁻¹)."""
-        return self.state.steps * self.dt
+        """The time of x^n (ω_pe⁻¹): the clock's."""
+        return self.clock.time
 
     #: the per-particle arrays a checkpoint piece carries (its first ``particle_count`` slots)
     RESTORED = ("position", "velocity", "species", "particle_id")

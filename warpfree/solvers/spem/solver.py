@@ -20,7 +20,6 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from warpfree.clock import DeviceClock
 from warpfree.device import Launcher, current_launcher
 from warpfree.distribution import Distribution, launch_order
 from warpfree.errors import ParameterError, require_finite, require_positive
@@ -204,7 +203,6 @@ class SPEMSolver(TimeDependentSolver):
         self._curl = None
         self.distribution = distribution
         self.world = ranks_of_run()
-        self.clock = DeviceClock(self.launcher)
         from .spread import FieldSpread
 
         #: the E and H sets over the ranks (one process: a one-rank partition of the model's sets)
@@ -251,15 +249,9 @@ class SPEMSolver(TimeDependentSolver):
         return ez, hxy[:, 0].copy(), hxy[:, 1].copy()
 
     # -- stepping --------------------------------------------------------------------------------
-    def step(self, dt: float) -> None:
-        """Ez to t + Δt/2, sources there, then H to t + Δt (3.13-3.15), with the given Δt (written to the clock)."""
-        self.clock.set_step(dt)
-        self._launch_step()
-        self.clock.launch_advance()
-
     def advance(self) -> None:
-        """One step of the Δt the device clock picked (the run's constant step, shortened to land on an output), then
-        the time moved on and the next step picked."""
+        """Ez to t + Δt/2, sources there, then H to t + Δt (3.13-3.15), with the Δt the clock holds (the run's
+        constant step, shortened to land on an output), then the time moved on and the next step picked."""
         self._launch_step()
         self.clock.launch_advance_and_choose()
 
@@ -311,6 +303,17 @@ class SPEMSolver(TimeDependentSolver):
     def t(self) -> float:
         """The time of H (s), the clock's (read once after a step)."""
         return self.clock.time
+
+    @property
+    def run_step(self) -> float:
+        """The run's constant Δt (s): the one the time loop announced (:meth:`use_step`), else the last step taken."""
+        return self._run_step if self._run_step is not None else self.clock.last_step
+
+    @property
+    def electric_time(self) -> float:
+        """The time of Ez (s): half the run's step behind H's, t - Δt/2 (the staggered leapfrog: Ez^{n+1/2} and H^{n+1}
+        after a step to t = (n + 1) Δt)."""
+        return self.t - 0.5 * self.run_step
 
     def problem(self) -> str | None:
         """None: a SPEM step has nothing to refuse (the step is fixed below its limit at set-up)."""
@@ -387,7 +390,7 @@ class SPEMSolver(TimeDependentSolver):
         float64, from the float32 state."""
         e, h, m = self.model.electric, self.model.magnetic, self.model
         if dt is None:
-            dt = self._run_step if self._run_step is not None else self.clock.step
+            dt = self.run_step
         ez = self.electric.numpy("ez").astype(np.float64)
         hx, hy = self.magnetic.numpy("hx").astype(np.float64), self.magnetic.numpy("hy").astype(np.float64)
         if self._curl is None:  # the E rows as host CSR matrices (set-up, once)

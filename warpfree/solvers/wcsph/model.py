@@ -261,7 +261,6 @@ class WCSPHModel:
         c.inv_c2 = 1.0 / P.c0 ** 2
         c.gravity = wp.vec3(*[float(g) for g in P.gravity])
         c.lj_d, c.lj_r0 = float(P.lj_d), float(P.lj_r0)
-        c.damping = 0.0
         c.shift_coef = P.shifting * h * P.shift_speed
         c.inv_shape_dx = 1.0 / float(kernel_profile(P.kernel, P.dim, 1.0 / P.h_factor))
         #: ∇·r of a full support on the lattice is d·S (S without the 0.01h² term); a particle within about one

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from warpfree.errors import ParameterError, require_integer, require_positive
+from warpfree.errors import ParameterError, require_positive
 
 from .model import BoundaryModel
 

@@ -25,7 +25,6 @@ from warpfree.parameters import Choice
 from warpfree.neighbours import MovingNeighbours, NeighbourGrid, NeighbourList, empty_rows
 from warpfree.particles import ParticleSet, to_vec3
 from warpfree.progress import announced, group_digits
-from warpfree.clock import DeviceClock
 from warpfree.graph import StepGraph
 from warpfree.kernels import clock as ck
 from warpfree.reduce import Reduction
@@ -90,6 +89,8 @@ class WCSPHSolver(TimeDependentSolver):
     name = "wcsph"
     distributes = True
     work_unit = "particle-steps"
+    report_slots = K.REPORT_SLOTS + 1  # the step report, then the settling damping (``kernels/wcsph.py``)
+    limit_on_device = True
 
     @announced(lambda self, model, *a, **k: f"fluid solver made ({group_digits(model.nf)} fluid, "
                f"{group_digits(model.nb)} wall particles)")
@@ -109,7 +110,6 @@ class WCSPHSolver(TimeDependentSolver):
         self.world = ranks_of_run()
         #: how the fluid is spread over the ranks (one process: a one-rank partition, the whole fluid)
         self.spread = FluidSpread(self.world, model)
-        self.clock = DeviceClock(launcher, K.REPORT_SLOTS)
         self.kernels = K.make_kernels(model.terms)
         self._report = Reduction(launcher, wp.vec4, "max")
         self._walls_in_order = None  # the wall-pressure pass's launch order (:meth:`_wall_order`)
@@ -264,8 +264,7 @@ class WCSPHSolver(TimeDependentSolver):
         transient). Returns the step count and the kinetic energy and largest speed at the end of the settling."""
         require_positive("settle", duration)
         require_positive("damping", damping)
-        c = self.model.constants
-        c.damping = float(damping)
+        self._set_damping(damping)
         t, steps = 0.0, 0
         try:
             while t < duration:
@@ -277,11 +276,18 @@ class WCSPHSolver(TimeDependentSolver):
                 if problem:
                     raise RunError(f"settling failed at t = {t:.4g} s: {problem}")
         finally:
-            c.damping = 0.0
+            self._set_damping(0.0)
         d = self.diagnostics()
         self.fluid["velocity"].zero_()
         self.initialise()
         return {"steps": steps, "kinetic_energy": d["kinetic_energy"], "max_speed": d["max_speed"]}
+
+    def _set_damping(self, damping: float) -> None:
+        """The settling damping γ (1/s) in the clock's slot (``kernels/wcsph.py: DAMPING``): state, not model."""
+        values = self.clock.report().copy()
+        values[K.DAMPING] = float(damping)
+        self.clock.values.assign(values)
+        self.clock.invalidate()
 
     # -- stepping --------------------------------------------------------------------------------
     def compute_rates(self) -> None:
@@ -346,15 +352,10 @@ class WCSPHSolver(TimeDependentSolver):
         on the device from the last report (``kernels/wcsph.py: finish_step``), read with it."""
         return float(self.clock.report()[ck.LIMIT])
 
-    def step(self, dt: float) -> None:
-        """Advance one leapfrog step of ``dt`` seconds (kick–drift, rates, kick), the Δt written to the clock."""
-        moved_bound = self._moved_bound(dt)
-        self.clock.set_step(dt)
-        self._launch_step(moved_bound)
-
     def advance(self) -> None:
-        """One step of the Δt the device clock picks (the stable step, or the run's, landing on outputs)."""
-        self._launch_step(self._moved_bound(self.clock.next_step()))
+        """One leapfrog step (kick–drift, rates, kick) of the Δt the clock holds (the stable step, or the run's,
+        landing on outputs); its last launch moves the time on and picks the next step."""
+        self._launch_step(self._moved_bound(self.clock.step))
 
     def record_step(self) -> StepGraph:
         """:meth:`advance` as two Warp graphs around the host's rebuild decision: (drift), then a neighbour
@@ -374,7 +375,7 @@ class WCSPHSolver(TimeDependentSolver):
                 self._rebuild()
 
         def decide():
-            self._bound = self._moved_bound(self.clock.next_step())
+            self._bound = self._moved_bound(self.clock.step)
 
         return StepGraph([decide, first.graph, rebuild_if_needed, second.graph], after=self.clock.invalidate)
 
