@@ -389,10 +389,12 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
         f.pressure[i] = tait_pressure(re, c.rho0, c.b, c.gamma)
 
     @wp.kernel(module="unique")
-    def wall_pressure(first: int, c: FluidConstants, f: FluidArrays, wall_fluid: NeighbourRows):
-        """Adami 2012 eq. 27: pressure, density and no-slip ghost velocity of wall particle k (index nf + k),
-        from the fluid candidates in row k of ``wall_fluid``."""
-        k = first + wp.tid()
+    def wall_pressure(first: int, c: FluidConstants, f: FluidArrays, wall_fluid: NeighbourRows,
+                      order: wp.array(dtype=wp.int32)):
+        """Adami 2012 eq. 27: pressure, density and no-slip ghost velocity of wall particle k = ``order[first +
+        tid]`` (index nf + k), from the fluid candidates in row k of ``wall_fluid``. ``order``: a permutation of the
+        walls (the launch's chunks get their share of the walls next to the water: ``distribution.dealt_blocks``)."""
+        k = order[first + wp.tid()]
         i = f.nf + k
         xi = f.position[i]
         sw = float(0.0)

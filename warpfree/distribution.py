@@ -16,6 +16,10 @@ The thesis's four strategies, as index maps for ``parts`` chunks:
   and nearly the same total cost; within a chunk in index order.
 
 Each map fills the chunks of ``Launcher.chunks(n, parts)`` exactly (their sizes differ by at most one).
+
+:func:`dealt_blocks` is a fifth map, for a set whose work gathers in one run of indices that changes during a run
+(the walls next to the water of a dam break): blocks of consecutive indices dealt round-robin to the chunks, so that
+each chunk holds a share of every region without reading the work, and threads write apart from each other.
 """
 
 from __future__ import annotations
@@ -25,7 +29,11 @@ import numpy as np
 from warpfree.errors import ParameterError, require_integer
 from warpfree.parameters import Choice
 
-__all__ = ["Distribution", "launch_order"]
+__all__ = ["Distribution", "launch_order", "dealt_blocks"]
+
+#: indices per block of :func:`dealt_blocks`: 64 float32 (256 bytes, 4 cache lines) per item array, so two threads
+#: share a cache line at a block's edge at most, and a run of a few thousand busy items still spans dozens of blocks
+DEALT_BLOCK = 64
 
 
 class Distribution(Choice):
@@ -72,3 +80,16 @@ def launch_order(kind: Distribution, n: int, parts: int, cost: np.ndarray | None
     for chunk, group in zip(np.argsort(sizes, kind="stable"), sorted(groups, key=len)):
         placed[chunk] = group
     return np.concatenate(placed).astype(np.int32)
+
+
+def dealt_blocks(n: int, parts: int, block: int = DEALT_BLOCK) -> np.ndarray:
+    """The index map (int32) that deals blocks of ``block`` consecutive indices round-robin to ``parts`` chunks
+    (block b to chunk b mod parts), cut at ``Launcher.chunks(n, parts)``'s boundaries: each chunk holds every
+    ``parts``-th block (up to one block more or less where the blocks do not divide evenly), in index order. A work
+    that varies slowly along the indices is then shared evenly whatever region holds it; one chunk (a GPU launch)
+    gets the identity."""
+    require_integer("parts", parts, minimum=1)
+    require_integer("block", block, minimum=1)
+    index = np.arange(n)
+    owner = (index // int(block)) % int(parts)
+    return np.concatenate([index[owner == c] for c in range(int(parts))] or [index]).astype(np.int32)

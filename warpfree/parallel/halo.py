@@ -10,13 +10,18 @@ and the results, are bitwise those of one process.
 - :meth:`Partition.of_all`: the rank's part when every rank knows every item (at set-up);
 - :meth:`Partition.redistribute`: each rank sends its own items to every rank that needs them (their new owner and
   the ranks whose boxes they are near) and the part is made anew from what arrives (moving items, at a rebuild);
-- :meth:`Partition.refresh`: ghosts get their owners' current values (every step, for the fields a step reads);
+- :meth:`Partition.refresh`: ghosts get their owners' current values (every step, for the fields a step reads),
+  packed and unpacked on the arrays' device (``kernels/halo.py``); :meth:`Partition.start_refresh` and
+  :meth:`Partition.finish_refresh` split it around work that reads no ghost;
 - :meth:`Partition.gather`: owned values of every rank in global-id order (outputs, diagnostics).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+import warp as wp
 
 from .decomposition import Decomposition
 from .world import World
@@ -62,6 +67,8 @@ class Partition:
         self.receive = receive
         self.count = int(count)
         self._plans: dict[tuple, _RefreshPlan] = {}
+        self._pending: _RefreshPlan | None = None   # the plan whose messages start_refresh started
+        self._ghost_rows: dict[str, wp.array] = {}     # device -> the ghosts' held rows (int32), for set_ghosts
 
     @property
     def whole(self) -> bool:
@@ -166,16 +173,21 @@ class Partition:
         return np.array(values) if self.whole else np.asarray(values)[self.ids]
 
     def refresh(self, *arrays) -> None:
-        """Give every ghost its owner's current values in each of ``arrays`` (held rows: Warp or NumPy arrays).
+        """Give every ghost its owner's current values in each of ``arrays`` (held rows: 1-D Warp arrays on one
+        device): :meth:`start_refresh` then :meth:`finish_refresh`."""
+        self.start_refresh(*arrays)
+        self.finish_refresh()
 
-        Arrays in host memory (NumPy, Warp CPU) go through a :class:`_RefreshPlan` made at their first refresh on
-        this part and kept while the part and the arrays are: its buffers, its host views and its persistent MPI
-        requests are made once, so a refresh is a gather into the send buffer per array, one start and wait of
-        every message, and a scatter out of the receive buffer per array. GPU arrays stage through the host."""
+    def start_refresh(self, *arrays) -> None:
+        """Pack the rows every neighbour rank needs of ``arrays`` on the device and start the messages; the ghosts
+        change only at :meth:`finish_refresh`, which must come before anything reads a ghost row of ``arrays`` or
+        writes an owned one (work that does neither may run between the two). Nothing to do in one process.
+
+        The first refresh of a list of arrays on this part makes its :class:`_RefreshPlan` (index arrays, buffers,
+        recorded launches, persistent MPI requests), kept while the part and the arrays are."""
+        if self._pending is not None:
+            raise RuntimeError("a refresh is under way on this part: finish_refresh() first")
         if not self.send and not self.receive:
-            return
-        if not all(_in_host_memory(a) for a in arrays):
-            self._refresh_staged(arrays)
             return
         key = tuple(_address(a) for a in arrays)
         plan = self._plans.pop(key, None)
@@ -184,26 +196,36 @@ class Partition:
             while len(self._plans) >= MAX_PLANS:  # the oldest: arrays a rebuild has replaced
                 self._plans.pop(next(iter(self._plans))).free()
         self._plans[key] = plan                   # the most recently used last
-        plan.run()
+        plan.start()
+        self._pending = plan
+
+    def finish_refresh(self) -> None:
+        """Wait for the messages :meth:`start_refresh` started and unpack them into the ghost rows (nothing when no
+        refresh is under way)."""
+        plan, self._pending = self._pending, None
+        if plan is not None:
+            plan.finish()
+
+    def set_ghosts(self, array, value) -> None:
+        """Set every ghost row of ``array`` (held rows, a 1-D Warp array) to ``value`` on its device: a reduction over
+        the held rows then sees the owned rows and ``value`` alone (a neutral value: 0 in a max of values >= 0).
+        Nothing in one process."""
+        if self.n_ghosts == 0:
+            return
+        from warpfree.kernels.halo import fill_rows
+
+        rows = self._ghost_rows.get(str(array.device))
+        if rows is None:
+            rows = _int32([np.flatnonzero(~self.owned)], array.device)
+            self._ghost_rows[str(array.device)] = rows
+        wp.launch(fill_rows, dim=rows.shape[0], inputs=[0, rows, value, array], device=array.device)
 
     def release(self) -> None:
         """Free the refresh plans' MPI requests (a part that a redistribution has replaced)."""
+        self.finish_refresh()
         for plan in self._plans.values():
             plan.free()
         self._plans.clear()
-
-    def _refresh_staged(self, arrays) -> None:
-        """:meth:`refresh` through host copies (arrays on a GPU)."""
-        views = [host_view(a) for a in arrays]
-        sends = {r: _field_blocks([v[index] for v, _ in views]) for r, index in self.send.items()}
-        row = sum(_rows(v[:0]).shape[1] for v, _ in views)
-        received = self.world.exchange(sends, {s: index.size * row for s, index in self.receive.items()})
-        for s, index in self.receive.items():
-            for (v, _), block in zip(views, _split_blocks(received[s], [v for v, _ in views], index.size)):
-                v[index] = block
-        for _, write_back in views:
-            if write_back is not None:
-                write_back()
 
     def gather(self, values) -> np.ndarray:
         """The owned rows of ``values`` (held rows) of every rank, in global-id order, on every rank (a copy)."""
@@ -264,65 +286,132 @@ def _first_of_each(ids: np.ndarray) -> np.ndarray:
     return first
 
 
-def _in_host_memory(array) -> bool:
-    return isinstance(array, np.ndarray) or array.device.is_cpu
-
-
 def _address(array) -> tuple:
-    """What identifies an array's memory (a refresh plan holds views of it)."""
-    if isinstance(array, np.ndarray):
-        return (array.__array_interface__["data"][0], array.shape, array.dtype.str)
-    return (array.ptr, array.shape, str(array.dtype))
-
-
-def _field_blocks(values: list[np.ndarray]) -> np.ndarray:
-    """One uint8 message of several arrays of n rows: each array's bytes in turn (field-major)."""
-    return np.concatenate([np.ascontiguousarray(v).reshape(-1).view(np.uint8) for v in values]) if values else \
-        np.zeros(0, np.uint8)
-
-
-def _split_blocks(message: np.ndarray, like: list[np.ndarray], n: int) -> list[np.ndarray]:
-    """The arrays of n rows a :func:`_field_blocks` message holds, each of the dtype and trailing shape of ``like``
-    (views of the message)."""
-    out, at = [], 0
-    for ref in like:
-        size = n * int(np.prod(ref.shape[1:], dtype=np.int64)) * ref.dtype.itemsize
-        out.append(message[at:at + size].view(ref.dtype).reshape((n,) + ref.shape[1:]))
-        at += size
-    return out
+    """What identifies an array's memory (a refresh plan holds it, its packed views and recorded launches)."""
+    if not isinstance(array, wp.array):
+        raise TypeError(f"refresh takes Warp arrays, got {type(array).__name__}")
+    return (array.ptr, array.shape, str(array.dtype), str(array.device))
 
 
 class _RefreshPlan:
-    """The made-once parts of refreshing one list of host arrays on one :class:`Partition`: the arrays' NumPy
-    views; per neighbour rank a send and a receive buffer, laid out field-major (each array's rows in turn), with
-    typed views of each field's block; the persistent MPI requests of every message."""
+    """The made-once parts of refreshing one list of arrays (1-D Warp arrays on one device) on one
+    :class:`Partition`.
+
+    Per direction one byte buffer on the arrays' device holds every neighbour's message in turn (neighbours in rank
+    order); a message holds the fields in turn (each array's rows, in the part's ``send[r]``/``receive[s]`` order),
+    every block starting on a multiple of ``align`` bytes (16 and every field's item size), so that each field sees
+    the whole buffer as an array of its type. Per field, one launch packs every outgoing row
+    (``kernels/halo.py: pack_rows``, over all neighbours, through the int32 held rows and slots made here) and one
+    unpacks every incoming row; the launches are recorded once and replayed. The MPI requests are persistent, made
+    here over the buffers MPI reads and writes:
+
+    - CPU arrays: the device buffers themselves (host memory; their NumPy views, no copy);
+    - GPU arrays, CUDA-aware MPI (:func:`~warpfree.parallel.world.cuda_aware_mpi`): the device buffers (Warp arrays,
+      through ``__cuda_array_interface__``);
+    - GPU arrays otherwise: one pinned host buffer per direction, with one copy each way per refresh.
+    """
 
     def __init__(self, part: Partition, arrays):
-        self.arrays = arrays                       # kept alive while the plan holds views of them
-        self.views = [host_view(a)[0] for a in arrays]
-        self.gathers = []                          # (held rows to send, the send buffer's typed block) per field
-        self.scatters = []                         # (held rows to receive, the receive buffer's typed block)
-        sends, receives = {}, {}
-        row = sum(_rows(v[:0]).shape[1] for v in self.views)
-        for r, index in part.send.items():
-            sends[r] = np.empty(index.size * row, np.uint8)
-            for v, block in zip(self.views, _split_blocks(sends[r], self.views, index.size)):
-                self.gathers.append((v, index, block))
-        for s, index in part.receive.items():
-            receives[s] = np.empty(index.size * row, np.uint8)
-            for v, block in zip(self.views, _split_blocks(receives[s], self.views, index.size)):
-                self.scatters.append((v, index, block))
-        self.messages = part.world.persistent_exchange(sends, receives)
+        from warpfree.kernels.halo import TYPES, pack_rows, unpack_rows
 
-    def run(self) -> None:
-        for v, index, block in self.gathers:
-            np.take(v, index, axis=0, out=block, mode="clip")   # indices are held rows: in range
-        self.messages.start_and_wait()
-        for v, index, block in self.scatters:
-            v[index] = block
+        from .world import cuda_aware_mpi
+
+        if not arrays:
+            raise ValueError("refresh: no array given")
+        device = arrays[0].device
+        for a in arrays:
+            if a.ndim != 1 or a.device != device or a.dtype not in TYPES:
+                raise ValueError(f"refresh takes 1-D arrays of {', '.join(t.__name__ for t in TYPES)} on one device; "
+                                 f"got {a.dtype.__name__} {a.shape} on {a.device}")
+        self.arrays = arrays                       # kept alive while the plan packs and unpacks them
+        self.device = device
+        sizes = [wp.types.type_size_in_bytes(a.dtype) for a in arrays]
+        self.align = math.lcm(16, *sizes)
+        staged = device.is_cuda and not cuda_aware_mpi()
+        self._send = _Direction(part.send, arrays, sizes, self.align, device, staged)
+        self._receive = _Direction(part.receive, arrays, sizes, self.align, device, staged)
+        self._pack = self._send.launches(pack_rows, outgoing=True)
+        self._unpack = self._receive.launches(unpack_rows, outgoing=False)
+        self.messages = part.world.persistent_exchange(self._send.messages(), self._receive.messages())
+
+    def start(self) -> None:
+        """Pack, hand the packed bytes to MPI (a copy to pinned memory when staged), start every message."""
+        for launch in self._pack:
+            launch.launch()
+        if self.device.is_cuda:
+            if self._send.host is not None:
+                wp.copy(self._send.host, self._send.buffer)
+            wp.synchronize_stream(wp.get_stream(self.device))   # MPI reads the bytes now
+        self.messages.start()
+
+    def finish(self) -> None:
+        """Wait for every message, then unpack (after a copy from pinned memory when staged)."""
+        self.messages.wait()
+        if self._receive.host is not None:
+            wp.copy(self._receive.buffer, self._receive.host)  # on the stream the unpacking runs on
+        for launch in self._unpack:
+            launch.launch()
 
     def free(self) -> None:
         self.messages.free()
+
+
+class _Direction:
+    """One direction of a :class:`_RefreshPlan`: the messages to (or from) each neighbour rank, laid out in one
+    buffer on the device (``buffer``; ``host``: its pinned host copy when staged, else None), the held rows
+    (``rows``, int32, neighbours in turn) and, per field, each row's element in the buffer seen as that field's
+    type (``slots``)."""
+
+    def __init__(self, index: dict[int, np.ndarray], arrays, sizes: list[int], align: int, device, staged: bool):
+        self.arrays, self.sizes, self.device = arrays, sizes, device
+        self.ranges: dict[int, tuple[int, int]] = {}   # neighbour -> (first byte, bytes) of its message
+        rows, slots, at = [], [[] for _ in arrays], 0
+        for rank in sorted(index):
+            held = np.asarray(index[rank], dtype=np.int64)
+            start = at
+            for f, size in enumerate(sizes):
+                slots[f].append(at // size + np.arange(held.size, dtype=np.int64))
+                at += _round_up(held.size * size, align)
+            self.ranges[rank] = (start, at - start)
+            rows.append(held)
+        self.count = int(sum(r.size for r in rows))
+        self.bytes = at
+        self.buffer = wp.zeros(max(at, 1), dtype=wp.uint8, device=device)
+        self.host = wp.zeros(max(at, 1), dtype=wp.uint8, device="cpu", pinned=True) if staged else None
+        self.rows = _int32(rows, device)
+        self.slots = [_int32(s, device) for s in slots]
+        # each field's view of the whole buffer (the buffer keeps the memory)
+        self.views = [wp.array(ptr=self.buffer.ptr, dtype=a.dtype, shape=(max(at, 1) // size,), device=device)
+                      for a, size in zip(arrays, sizes)]
+
+    def launches(self, kernel, outgoing: bool) -> list:
+        """The recorded launches of ``kernel`` (pack or unpack), one per field over every row of this direction."""
+        if self.count == 0:
+            return []
+        out = []
+        for values, view, slots in zip(self.arrays, self.views, self.slots):
+            inputs = [0, values, self.rows, slots, view] if outgoing else [0, view, slots, self.rows, values]
+            out.append(wp.launch(kernel, dim=self.count, inputs=inputs, device=self.device, record_cmd=True))
+        return out
+
+    def messages(self) -> dict:
+        """Per neighbour rank, the bytes MPI sends from (or receives into): slices of the host buffer (NumPy) or of the
+        device buffer (a GPU array, for a CUDA-aware MPI)."""
+        if self.host is not None or self.device.is_cpu:
+            whole = (self.host if self.host is not None else self.buffer).numpy()
+            return {r: whole[a:a + n] for r, (a, n) in self.ranges.items()}
+        return {r: self.buffer[a:a + n] for r, (a, n) in self.ranges.items()}
+
+
+def _round_up(n: int, align: int) -> int:
+    return -(-n // align) * align
+
+
+def _int32(parts: list[np.ndarray], device) -> wp.array:
+    values = np.concatenate(parts) if parts else np.zeros(0, np.int64)
+    if values.size and values.max() > np.iinfo(np.int32).max:
+        raise ValueError("a halo of more than 2**31 rows or buffer elements")
+    return wp.array(values.astype(np.int32), dtype=wp.int32, device=device)
 
 
 def take_rows(start: np.ndarray, count: np.ndarray, index: np.ndarray, rows: np.ndarray,

@@ -18,10 +18,13 @@ import numpy as np
 
 from warpfree.errors import ParameterError
 
-__all__ = ["World", "world", "launched_ranks", "MPI_EXTRA"]
+__all__ = ["World", "world", "launched_ranks", "cuda_aware_mpi", "MPI_EXTRA", "CUDA_AWARE_VARIABLE"]
 
 #: what to install for a distributed run
 MPI_EXTRA = "pip install 'warpfree[mpi]'"
+#: the environment variable that says whether the MPI library takes GPU memory: 1 (pass device buffers to MPI), 0
+#: (stage them through pinned host memory); unset: ask the library (:func:`cuda_aware_mpi`)
+CUDA_AWARE_VARIABLE = "WARPFREE_CUDA_AWARE_MPI"
 
 #: environment variables an MPI launcher sets to the number of ranks (Open MPI, MPICH/Hydra and PMI, PMIx)
 _SIZE_VARIABLES = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "MPI_LOCALNRANKS", "PMIX_SIZE")
@@ -34,6 +37,47 @@ def launched_ranks() -> int:
         if value.isdigit() and int(value) > 1:
             return int(value)
     return 1
+
+
+_cuda_aware: bool | None = None
+
+
+def cuda_aware_mpi() -> bool:
+    """Does the MPI library send and receive from GPU memory (is it CUDA-aware)? ``WARPFREE_CUDA_AWARE_MPI`` decides
+    when set (1 or 0); otherwise Open MPI is asked (``MPIX_Query_cuda_support()``, its extension, looked up in the
+    ``libmpi`` mpi4py loaded: 1 when the library was built with CUDA and its runtime supports CUDA buffers); any other
+    MPI (MPICH, Cray MPICH, Intel MPI), or an Open MPI without the extension, counts as not CUDA-aware unless the
+    variable says it is. Asked once per process, after MPI is initialised."""
+    global _cuda_aware
+    if _cuda_aware is None:
+        setting = os.environ.get(CUDA_AWARE_VARIABLE, "").strip()
+        if setting:
+            if setting not in ("0", "1"):
+                raise ParameterError(CUDA_AWARE_VARIABLE, f"must be 1 (the MPI library takes GPU memory) or 0, "
+                                                          f"got {setting!r}")
+            _cuda_aware = setting == "1"
+        else:
+            _cuda_aware = _open_mpi_cuda_support()
+    return _cuda_aware
+
+
+def _open_mpi_cuda_support() -> bool:
+    """Open MPI's ``MPIX_Query_cuda_support()`` from the ``libmpi`` this process loaded (False where there is none)."""
+    import ctypes
+
+    try:
+        with open("/proc/self/maps") as maps:
+            libraries = sorted({line.split()[-1] for line in maps if "/libmpi.so" in line})
+    except OSError:  # not Linux
+        return False
+    for path in libraries:
+        try:
+            query = ctypes.CDLL(path).MPIX_Query_cuda_support
+        except (OSError, AttributeError):
+            continue
+        query.restype = ctypes.c_int
+        return bool(query())
+    return False
 
 
 class World:
@@ -164,10 +208,11 @@ class World:
             MPI.Request.Waitall(requests)
         return received
 
-    def persistent_exchange(self, sends: dict[int, np.ndarray], receives: dict[int, np.ndarray]) -> "Messages":
+    def persistent_exchange(self, sends: dict, receives: dict) -> "Messages":
         """The messages of an exchange repeated many times with the same buffers (``sends[r]`` to rank r, from each
-        rank s into ``receives[s]``: uint8, their sizes agreed by both sides' plans), made once as persistent MPI
-        requests: :meth:`Messages.start_and_wait` runs them."""
+        rank s into ``receives[s]``: uint8 NumPy arrays, or GPU arrays (``__cuda_array_interface__``) for a
+        CUDA-aware MPI; their sizes agreed by both sides' plans), made once as persistent MPI requests:
+        :meth:`Messages.start` and :meth:`Messages.wait` run them."""
         return Messages(self.comm, sends, receives)
 
     def exchange_sizes(self, sizes: dict[int, int]) -> dict[int, int]:
@@ -198,14 +243,19 @@ class Messages:
         for dest, buffer in sends.items():
             self.requests.append(comm.Send_init(buffer, dest=dest, tag=self.TAG))
 
-    def start_and_wait(self) -> None:
-        """Start every persistent request of the exchange and wait for all of them."""
-        if not self.requests:
-            return
-        from mpi4py import MPI
+    def start(self) -> None:
+        """Start every persistent request of the exchange (the send buffers must hold their values)."""
+        if self.requests:
+            from mpi4py import MPI
 
-        MPI.Prequest.Startall(self.requests)
-        MPI.Request.Waitall(self.requests)
+            MPI.Prequest.Startall(self.requests)
+
+    def wait(self) -> None:
+        """Wait until every message started has been sent and received."""
+        if self.requests:
+            from mpi4py import MPI
+
+            MPI.Request.Waitall(self.requests)
 
     def free(self) -> None:
         """Free the persistent requests."""

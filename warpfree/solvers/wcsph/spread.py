@@ -11,8 +11,9 @@ laid out as the one process's, [held fluid | held walls]. A step then needs, bes
 
 - the walls' pressure, density and no-slip velocity after the wall-pressure pass (a ghost wall's fluid neighbours
   are not all held);
-- the fluid's state after the kick (:data:`STEP_FIELDS`: what the next drift and the report read), so that a ghost
-  drifts exactly as its owner does.
+- the fluid's state after the kick (:data:`STEP_FIELDS`: what the next drift reads), so that a ghost drifts exactly
+  as its owner does. It travels while the step's report is reduced (over the owned rows: the ghosts' rows of the
+  report are set to zero first, neutral in its max) and the reduction's one Allreduce runs.
 
 At a neighbour rebuild the fluid moves to the boxes that now hold it (:meth:`FluidSpread.redistribute`, carrying
 :data:`MOVING_FIELDS`); when the ranks' work (the neighbour pairs they own) has drifted apart by more than
@@ -31,7 +32,7 @@ from warpfree.parallel import CutMethod, Decomposition, Partition, World, imbala
 __all__ = ["FluidSpread", "MOVING_FIELDS", "STEP_FIELDS"]
 
 #: the fluid arrays a ghost gets from its owner after every kick (held fluid rows)
-STEP_FIELDS = ("position", "velocity", "density", "acceleration", "density_rate", "report")
+STEP_FIELDS = ("position", "velocity", "density", "acceleration", "density_rate")
 #: the fluid arrays that move with a particle at a rebuild (after the drift: the predicted values included)
 MOVING_FIELDS = ("position", "velocity", "density", "pressure", "acceleration", "density_rate", "velocity_eval",
                  "density_eval")
