@@ -94,7 +94,7 @@ class Diagnostics:
         self.pending_tallies: dict[str, float] = {}
         self.row: dict[str, float] | None = None   # the row of the last record, until read
         self.bad_flag = 0
-        #: a distributed run's combination of the ranks' reports (their particle sums), None in one process
+        #: the combination of the ranks' reports (their particle sums added in rank order; one process's own), or None
         self.combine = None
 
     def _sum_into(self, values: wp.array, n: int, slot: int, out: wp.array, scale: float = 1.0) -> None:

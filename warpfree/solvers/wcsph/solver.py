@@ -62,7 +62,9 @@ class WCSPHState(State):
 
     position, velocity, density, pressure (n); acceleration, density_rate (nf); position_at_build (nf):
     the fluid positions of the last neighbour-table build (the tables are rebuilt from it on resume); clock: the
-    device clock's array (``warpfree.clock``: t, Δt, the next stable step and the last step report).
+    clock's array (``warpfree.clock``: t, Δt, the next stable step, the last step report and the settling damping);
+    fluid_id, fluid_owned (host, set by the layout): which fluid particles the arrays hold, and which of them this
+    process owns (every one, in one process), so that a checkpoint reads on any number of processes.
     """
 
     def __init__(self, position, velocity, density, pressure, acceleration, density_rate, position_at_build, clock):
