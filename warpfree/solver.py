@@ -286,10 +286,6 @@ class TimeDependentSolver(Solver):
     #: normalised units, e.g. PIC's 1/ω_pe)
     time_unit: ClassVar[str] = "s"
     state: State
-    #: the :class:`~warpfree.neighbours.MovingNeighbours` of a solver whose particles move (None otherwise),
-    #: rebuilt inside the phase "neighbours": the benchmark harness forces its rebuilds at a developed flow's
-    #: rate when it times steps from rest
-    moving_neighbours = None
     #: slots after the clock's own that the solver's step report fills (:class:`warpfree.clock.DeviceClock`)
     report_slots: ClassVar[int] = 0
     #: True when the solver computes its stable step on the device and writes it to the clock (its step's last
