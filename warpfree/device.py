@@ -210,7 +210,10 @@ class Launcher:
             return 1
         if self.min_items_per_thread is not None:
             return max(1, min(self.threads, n // self.min_items_per_thread))
-        t = self._timings.get(self.site(kernel, n, args))
+        return self._measured_split(self._timings.get(self.site(kernel, n, args)), n)
+
+    def _measured_split(self, t: "_Timing | None", n: int) -> int:
+        """:meth:`split_count` from a launch site's timing ``t`` (None: never launched)."""
         if t is None or t.whole is None:
             return 1
         whole = t.whole * n  # the launch's expected time run whole
@@ -248,21 +251,31 @@ class Launcher:
         if self._pool is None or n == 1:  # one item (a clock's or a report's single thread): nothing to split or time
             self._run(kernel, 0, n, inputs)
             return
-        args = inputs
-        chunks = self.chunks(n, self.threads if once else self.split_count(kernel, n, args))
+        timed = self.min_items_per_thread is None and not once
+        if timed:  # the launch site's timing, looked up once (its key walks the arguments)
+            site = self.site(kernel, n, inputs)
+            timing = self._timings.get(site)
+            count = self._measured_split(timing, n)
+        else:
+            count = self.threads if once else self.split_count(kernel, n, inputs)
         t0 = time.perf_counter()
-        futures = [self._pool.submit(self._run, kernel, first, cnt, inputs) for first, cnt in chunks[1:]]
-        first, cnt = chunks[0]
-        try:
-            self._run(kernel, first, cnt, inputs)
-        finally:
-            for f in futures:
-                f.result()  # wait for every chunk; re-raise any error from a worker
-        if self.min_items_per_thread is None and not once:
-            if len(self._timings) > self.MAX_SITES:  # sites with fresh arrays each launch: start over
-                self._timings.clear()
-            self._timings.setdefault(self.site(kernel, n, args), _Timing(self.TRIAL)).add(
-                (time.perf_counter() - t0) / n, len(chunks) > 1)
+        if count == 1:  # whole, on this thread
+            self._run(kernel, 0, n, inputs)
+        else:
+            chunks = self.chunks(n, count)
+            futures = [self._pool.submit(self._run, kernel, first, cnt, inputs) for first, cnt in chunks[1:]]
+            first, cnt = chunks[0]
+            try:
+                self._run(kernel, first, cnt, inputs)
+            finally:
+                for f in futures:
+                    f.result()  # wait for every chunk; re-raise any error from a worker
+        if timed:
+            if timing is None:
+                if len(self._timings) > self.MAX_SITES:  # sites with fresh arrays each launch: start over
+                    self._timings.clear()
+                timing = self._timings[site] = _Timing(self.TRIAL)
+            timing.add((time.perf_counter() - t0) / n, count > 1)
 
     def _run(self, kernel, first: int, count: int, inputs: list) -> None:
         """One launch of ``count`` items from ``first``, replayed from a recorded command when it can be.
