@@ -16,7 +16,10 @@ particles N_i varies and conservation holds only to the truncation error.
 Forward Euler, T ← T + Δt dT/dt, is stable for Δt <= 2/λ_max of the operator; Gershgorin's bound
 λ_max <= 2 max_i D_i with D_i = 2α Σ_j V_j |F_ij| / N_i gives the step Δt = 1/max_i D_i.
 
-Neighbours: a static list (particles do not move), displacements from the shared space function.
+Neighbours: a static list (particles do not move), displacements from the shared space function. Each launch runs
+over ``order``: thread item ``first + tid`` computes particle ``order[first + tid]`` (a rank's own particles, in the
+load distribution over threads, ``warpfree/distribution.py``); every particle writes only its own slots (a gather), so
+the results do not depend on the order.
 """
 
 import warp as wp
@@ -55,6 +58,7 @@ def brookshaw_factor(c: HeatConstants, rij: wp.vec3, r2: float) -> float:
 @wp.kernel
 def temperature_rate(
     first: int,
+    order: wp.array(dtype=wp.int32),
     c: HeatConstants,
     rows: NeighbourRows,
     position: wp.array(dtype=wp.vec3),
@@ -64,7 +68,7 @@ def temperature_rate(
     rate: wp.array(dtype=float),
 ):
     """rate[i] = dT_i/dt = 2α Σ_j V_j (T_i - T_j) F_ij / N_i."""
-    i = first + wp.tid()
+    i = order[first + wp.tid()]
     xi = position[i]
     ti = temperature[i]
     s = float(0.0)
@@ -80,6 +84,7 @@ def temperature_rate(
 @wp.kernel
 def operator_geometry(
     first: int,
+    order: wp.array(dtype=wp.int32),
     c: HeatConstants,
     rows: NeighbourRows,
     position: wp.array(dtype=wp.vec3),
@@ -89,7 +94,7 @@ def operator_geometry(
 ):
     """Once (static particles): N_i = -(1/d) Σ_j V_j F_ij r_ij² and the Gershgorin diagonal
     D_i = 2α Σ_j V_j |F_ij| / N_i (1/s), with λ_max <= 2 max D_i."""
-    i = first + wp.tid()
+    i = order[first + wp.tid()]
     xi = position[i]
     moment = float(0.0)
     s = float(0.0)
@@ -106,7 +111,8 @@ def operator_geometry(
 
 
 @wp.kernel
-def euler_update(first: int, dt: float, rate: wp.array(dtype=float), temperature: wp.array(dtype=float)):
+def euler_update(first: int, order: wp.array(dtype=wp.int32), dt: float, rate: wp.array(dtype=float),
+                 temperature: wp.array(dtype=float)):
     """T_i ← T_i + Δt dT_i/dt."""
-    i = first + wp.tid()
+    i = order[first + wp.tid()]
     temperature[i] = temperature[i] + dt * rate[i]

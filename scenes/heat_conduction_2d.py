@@ -23,9 +23,14 @@ from warpfree.time_loop import TimeLoop
 #: bench/compare_commits.py run it (literal values only)
 SMALLEST = {"n": 16, "t_end": 2.0, "output_interval": 0.25}
 #: what the benchmarks run of this scene for its family (bench/common.py ``benchmarks``): bench/core/gpu_check.py's
-#: throughput at three sizes (``parameter`` set to each of ``values``, ``steps`` timed per block); no ``scaling``:
-#: the heat solver does not distribute over ranks
-BENCHMARK = {"parameter": "n", "values": [40, 160, 640], "steps": 100}
+#: throughput at three sizes (``parameter`` set to each of ``values``, ``steps`` timed per block) and
+#: bench/core/scaling.py's n and 2n work items on one and two ranks (the settings of each, per sweep size: n² particles,
+#: about 100 steps of the larger, the stable step falling as dx²)
+BENCHMARK = {"parameter": "n", "values": [40, 160, 640], "steps": 100,
+             "scaling": {"large": [{"n": 160, "t_end": 0.07, "output_interval": 0.07},
+                                   {"n": 226, "t_end": 0.07, "output_interval": 0.07}],
+                         "small": [{"n": 80, "t_end": 0.28, "output_interval": 0.28},
+                                   {"n": 113, "t_end": 0.28, "output_interval": 0.28}]}}
 
 #: ``warpfree validate --quick``: 20 particles per wavelength (the tolerance's basis: ``rate_tolerance``)
 QUICK = {"n": 20}

@@ -53,6 +53,28 @@ def test_stable_step_from_gershgorin_bound_is_stable_and_twice_it_is_not():
     assert amplitude[1.0] < 0.5 and amplitude[2.5] > 10.0
 
 
+def test_every_load_distribution_over_threads_gives_the_same_temperature_bitwise():
+    """The launches run over an index map of the particles (``distribution``): which thread computes a particle changes,
+    not what it computes (every kernel is a gather), so two threads give bitwise the result of contiguous blocks."""
+    device.use("cpu", 2, min_items_per_thread=1)  # split every launch in two
+    n = 16
+    g = (np.arange(n) + 0.5) / n
+    x = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
+    space = Space(2, (0, 0, 0), (1, 1, 0), (True, True, False))
+    t0 = 300.0 + np.random.default_rng(1).uniform(-1.0, 1.0, n * n)
+    result = {}
+    for distribution in ("blocks", "alternating", "random", "neighbours"):
+        solver = HeatSolver(HeatModel(x, 1.0 / n, 0.01, space), t0, distribution=distribution)
+        for _ in range(10):
+            solver.step(solver.stable_dt())
+        result[distribution] = solver.temperature()
+    assert not np.array_equal(result["blocks"], t0.astype(np.float32))  # the steps changed it
+    for distribution, t in result.items():
+        assert np.array_equal(t, result["blocks"]), distribution
+    with pytest.raises(ParameterError, match="distribution"):
+        HeatSolver(HeatModel(x, 1.0 / n, 0.01, space), t0, distribution="diagonal")
+
+
 @pytest.mark.parametrize("setting,name", [("n=0", "n"), ("n=3", "n"), ("mode=0", "mode"), ("mode=20", "mode"),
                                           ("length=0", "length"), ("amplitude=nan", "amplitude"),
                                           ("alpha=-1", "alpha")])

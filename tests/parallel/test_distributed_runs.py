@@ -21,10 +21,14 @@ needs_mpi = pytest.mark.skipif(find_mpiexec() is None, reason=f"no MPI here: {MP
 
 #: (scene, ranks): walls and a rebalancing cut (2D dam break), a rank that starts with no fluid (3D), periodic
 #: axes cut across (Taylor-Green, Poiseuille), a settled tank given its wave (standing wave); SPEM in 1D, with a PML
-#: and a point source (waveguide), with a total-field box (plane wave)
+#: and a point source (waveguide), with a total-field box (plane wave); the example solver in a doubly periodic box
+#: (heat conduction: its 16 × 16 particles cut in 2 and in 3)
 CASES = [("dam_break_2d", 2), ("dam_break_2d", 3), ("dam_break_3d", 3), ("taylor_green_2d", 3),
          ("poiseuille_2d", 2), ("standing_wave_2d", 2), ("em_line_1d", 3), ("em_waveguide_2d", 3),
-         ("em_plane_wave_2d", 2), ("em_cavity_2d", 2)]
+         ("em_plane_wave_2d", 2), ("em_cavity_2d", 2), ("heat_conduction_2d", 2), ("heat_conduction_2d", 3)]
+
+#: the model's count of each scene family's main set, and the set's name in the distributed layout and the outputs
+MAIN_SETS = {"n_fluid": "fluid", "n_electric": "electric", "n_particles": "particles"}
 
 
 def run_distributed(ranks: int, args: list[str]) -> subprocess.CompletedProcess:
@@ -49,11 +53,8 @@ def test_a_distributed_run_gives_the_one_process_outputs_bitwise(scene, ranks, t
     assert b["ranks"]["size"] == ranks and len(b["ranks"]["phases_s"]) == ranks
     spread = b["model"]["distributed"]
     assert spread["ghost_fraction"] > 0
-    main_set = "fluid" if "n_fluid" in a["model"] else "electric"
-    if main_set == "fluid":
-        assert sum(spread["fluid_owned"]) == a["model"]["n_fluid"]
-    else:
-        assert sum(spread["electric_owned"]) == a["model"]["n_electric"]
+    count, main_set = next((k, v) for k, v in MAIN_SETS.items() if k in a["model"])
+    assert sum(spread[f"{main_set}_owned"]) == a["model"][count]
     assert list((many / "vtk").glob(f"{main_set}_*_0001.vtu")) and list((many / "vtk").glob(f"{main_set}_*.pvtu"))
 
 
@@ -116,10 +117,12 @@ def resume_copy(part, again, ranks: int, t_end: str):
     return again, done
 
 
-#: (scene, settings, stop, end, checkpoint every): the waveguide (PML, a point source: static E and H sets) and the
+#: (scene, settings, stop, end, checkpoint every): the waveguide (PML, a point source: static E and H sets), the
 #: two-stream plasma (moving particles, each piece holding its owned particles and the ghosts, one copy kept by id)
+#: and the example solver (static particles, each step the stable one or shorter to land on an output)
 RESUME_CASES = [("em_waveguide_2d", ["--set", "particles_per_wavelength=20", "--set", "output_interval=0.41e-9"],
                  "0.82e-9", "1.64e-9", "5"),
+                ("heat_conduction_2d", smallest_sets("heat_conduction_2d", without=("t_end",)), "1.0", "2.0", "4"),
                 ("pic_two_stream", smallest_sets("pic_two_stream", without=("t_end",)), "1.2", "2.4", "4")]
 
 
@@ -155,14 +158,35 @@ def test_a_distributed_run_is_refused_in_one_line_without_mpi_for_python(tmp_pat
     assert not (tmp_path / "run").exists()
 
 
+#: a scene whose solver declares that it runs in one process only (every shipped solver distributes)
+ONE_PROCESS_SCENE = '''"""Heat conduction on a solver that declares it runs in one process only."""
+from warpfree.geometry import lattice_box
+from warpfree.solvers.heat import HeatModel, HeatSolver
+from warpfree.space import Space
+from warpfree.time_loop import TimeLoop
+
+
+class OneProcessSolver(HeatSolver):
+    name, distributes = "one_process", False
+
+
+def build():
+    space = Space(2, (0.0, 0.0, 0.0), (1.0, 1.0, 0.0), (True, True, False))
+    model = HeatModel(lattice_box((0.0, 0.0), (1.0, 1.0), 0.0625), 0.0625, 0.01, space)
+    return TimeLoop(OneProcessSolver(model, [300.0] * model.particles.n), t_end=0.5, output_interval=0.25)
+'''
+
+
 @needs_mpi
 def test_a_solver_that_does_not_distribute_is_refused_on_several_ranks(tmp_path):
-    """The heat example solver has no partitions: on two ranks it is refused in one line naming ``ranks``, exit 2,
+    """A solver whose ``distributes`` is False: on two ranks it is refused in one line naming ``ranks``, exit 2,
     nothing written (the run directory --out names stays empty)."""
-    done = run_distributed(2, ["run", "heat_conduction_2d", "--out", str(tmp_path / "run"), "--no-progress"])
-    assert done.returncode == 2
-    assert ("warpfree: error: ranks: the heat solver runs in one process only: start it without mpiexec (this run "
-            "has 2 ranks)") in done.stderr.splitlines()
+    scene = tmp_path / "one_process_heat.py"
+    scene.write_text(ONE_PROCESS_SCENE, encoding="utf-8")
+    done = run_distributed(2, ["run", str(scene), "--out", str(tmp_path / "run"), "--no-progress"])
+    assert done.returncode == 2, done.stderr[-3000:]
+    assert ("warpfree: error: ranks: the one_process solver runs in one process only: start it without mpiexec (this "
+            "run has 2 ranks)") in done.stderr.splitlines()
     assert not any((tmp_path / "run").glob("*"))
 
 
