@@ -38,6 +38,12 @@ __all__ = ["NeighbourGrid", "NeighbourList", "NeighbourTable", "MovingNeighbours
 _INT32_MAX = 2**31 - 1
 
 
+def _require_points(positions: wp.array) -> None:
+    """Refuse a point set a hash grid cannot take (it needs ``wp.vec3`` positions), naming ``positions``."""
+    if positions.dtype != wp.vec3:
+        raise ParameterError("positions", f"must be a wp.array of wp.vec3, got {positions.dtype}")
+
+
 def _grid_dims(dim: int, n_points: int) -> tuple[int, int, int]:
     """Hash table size: about one cell per point, at most 256 (2D) or 128 (3D) per axis (the hash wraps beyond)."""
     if dim < 3:
@@ -83,8 +89,7 @@ class NeighbourGrid:
 
     def build(self, positions: wp.array) -> None:
         """(Re)build over ``positions`` (and their images across periodic faces)."""
-        if positions.dtype != wp.vec3:
-            raise ParameterError("positions", f"must be a wp.array of wp.vec3, got {positions.dtype}")
+        _require_points(positions)
         n = positions.shape[0]
         self.n_sources = n
         dev = self.launcher.device
@@ -190,8 +195,7 @@ class GatherGrid:
 
     def build(self, positions: wp.array) -> None:
         """(Re)build over the moving ``positions`` (``wp.vec3``; an empty set has nothing to build: no query runs)."""
-        if positions.dtype != wp.vec3:
-            raise ParameterError("positions", f"must be a wp.array of wp.vec3, got {positions.dtype}")
+        _require_points(positions)
         if positions.shape[0]:
             self.grid.build(positions, self.radius)
         self.points = positions
