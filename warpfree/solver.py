@@ -342,16 +342,11 @@ class TimeDependentSolver(Solver):
     def after_load(self) -> None:
         """Rebuild derived structures (neighbour tables, reductions) after the state was loaded."""
 
-    @property
-    def restores_pieces(self) -> bool:
-        """Whether this solver takes a checkpoint written by any number of processes (:meth:`restore_pieces`); a
-        distributed run of such a solver resumes through it on its own rank count too, as its particles move between
-        ranks and each rank's checkpoint holds the layout of the step it was written at."""
-        return type(self).restore_pieces is not TimeDependentSolver.restore_pieces
-
     def restore_pieces(self, pieces: list[dict]) -> None:
-        """Take the state from a checkpoint written by another number of processes: ``pieces``, each process's
-        state (rank order; one piece from one process), into this process's part (then as :meth:`after_load`)."""
+        """Take the state from a checkpoint written by any number of processes: ``pieces``, each process's state
+        (rank order; one piece from one process), into this process's part (then as :meth:`after_load`). A solver that
+        ``distributes`` implements it: its distributed runs resume through it on any rank count, their own included,
+        as each rank's checkpoint holds the layout of the step it was written at."""
         raise ParameterError("resume", f"a {self.name} run resumes only on the number of processes that wrote its "
                                        "checkpoint")
 

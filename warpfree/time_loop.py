@@ -248,7 +248,7 @@ class TimeLoop(Run):
         processes is spread anew (:meth:`_resume_spread`)."""
         skipped = []
         paths = checkpoint.newest_first(directory.checkpoints, self._piece)
-        if (not paths or (self.world.distributed and self.solver.restores_pieces)) and self._resume_spread(directory):
+        if (not paths or self.world.distributed) and self._resume_spread(directory):
             return  # written by another number of processes, or by moving particles whose layout the pieces carry
         if self.world.distributed:
             every = self.world.comm.allgather([checkpoint.step_of(q) for q in paths])
@@ -277,9 +277,6 @@ class TimeLoop(Run):
         """Resume from the newest complete checkpoint of another rank count (or of one process): every rank reads
         every piece and the solver takes the whole state from them (``restore_pieces``). False when there is none."""
         sets = checkpoint.piece_sets(directory.checkpoints)
-        relaid = self.world.distributed and self.solver.restores_pieces
-        sets = {size: steps for size, steps in sets.items()
-                if size != self.world.size or not self.world.distributed or relaid}
         candidates = [(step, paths) for steps in sets.values() for step, paths in steps.items()]
         serial = checkpoint.newest_first(directory.checkpoints) if self.world.distributed else []
         candidates += [(checkpoint.step_of(q), [q]) for q in serial]

@@ -1,8 +1,11 @@
 """Runs over several processes (MPI ranks): the ranks (:mod:`.world`), the cut of space between them
-(:mod:`.decomposition`) and the items each rank holds with their ghosts (:mod:`.halo`)."""
+(:mod:`.decomposition`), the items each rank holds with their ghosts (:mod:`.halo`) and the items that move between
+them (:mod:`.moving`)."""
 
 from .decomposition import CutMethod, Decomposition, imbalance
 from .halo import Partition
+from .moving import MovingSpread, points3
 from .world import MPI_EXTRA, World, launched_ranks, world
 
-__all__ = ["CutMethod", "Decomposition", "Partition", "World", "world", "launched_ranks", "imbalance", "MPI_EXTRA"]
+__all__ = ["CutMethod", "Decomposition", "Partition", "MovingSpread", "points3", "World", "world", "launched_ranks",
+           "imbalance", "MPI_EXTRA"]

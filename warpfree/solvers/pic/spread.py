@@ -22,42 +22,37 @@ from collections.abc import Callable
 import numpy as np
 
 from warpfree.errors import ParameterError
-from warpfree.parallel import CutMethod, Decomposition, Partition, World
+from warpfree.parallel import CutMethod, MovingSpread, Partition, World, points3
 from warpfree.parallel.halo import host_view
 
 __all__ = ["PlasmaSpread"]
 
 
-def _points3(xy: np.ndarray) -> np.ndarray:
-    out = np.zeros((len(xy), 3))
-    out[:, :2] = xy
-    return out
-
-
-class PlasmaSpread:
-    """The decomposition of a plasma over ``world``'s ranks: the particles' :class:`~warpfree.parallel.Partition`
-    (global ids: the particles' ids) and the nodes each rank's box owns."""
+class PlasmaSpread(MovingSpread):
+    """The decomposition of a plasma over ``world``'s ranks: the particles are the moving set (:attr:`particles`;
+    global ids: the particles' ids), the nodes each rank's box owns deposit there."""
 
     def __init__(self, world: World, model, positions: np.ndarray, injections=(), particle_walls=(),
                  method: CutMethod = CutMethod.RCB):
         if world.distributed:
             self.refuse_open_boundaries(injections, particle_walls)
-        self.world = world
         space = model.space
-        self.depth = float(model.reach) * (1.0 + 1e-9)
-        self.decomposition = Decomposition.build(world.size, _points3(positions), None, float(model.reach), 2, method,
-                                                 space.lower, space.upper, space.periodic)
-        self.particles = Partition.of_all(world, self.decomposition, self.depth, _points3(positions))
-        owner = self.decomposition.owner(_points3(model.nodes_np))
-        #: the nodes this rank deposits on (its box's), and every node's owner
-        self.my_nodes = np.flatnonzero(owner == world.rank)
-        self.node_owner = owner
-        self._node_order = np.concatenate([np.flatnonzero(owner == r) for r in range(world.size)])
+        self.nodes = points3(model.nodes_np)
+        super().__init__(world, positions, cell=float(model.reach), depth=float(model.reach) * (1.0 + 1e-9), dim=2,
+                         lower=space.lower, upper=space.upper, periodic=space.periodic, method=method)
+        self.follow_cut()
 
     @property
-    def whole(self) -> bool:
-        """True in one process: every particle and node is this rank's."""
-        return self.particles.whole
+    def particles(self) -> Partition:
+        """This rank's part of the particles (the moving set)."""
+        return self.moving
+
+    def follow_cut(self) -> None:
+        """The nodes this rank deposits on (its box's), every node's owner, and the nodes in rank order."""
+        owner = self.decomposition.owner(self.nodes)
+        self.my_nodes = np.flatnonzero(owner == self.world.rank)
+        self.node_owner = owner
+        self._node_order = np.concatenate([np.flatnonzero(owner == r) for r in range(self.world.size)])
 
     def room(self, held: int, injected: int) -> int:
         """Slots to keep free beyond the ``held`` particles: ``injected`` (what sources add between two sorts) in one
@@ -69,7 +64,7 @@ class PlasmaSpread:
         box holds them): all of them in one process, without a read."""
         if self.whole:
             return np.ones(count, dtype=bool)
-        return self.decomposition.owner(_points3(positions.numpy()[:count])) == self.world.rank
+        return self.decomposition.owner(points3(positions.numpy()[:count])) == self.world.rank
 
     def gather_particles(self, values: dict[str, np.ndarray], owned: np.ndarray) -> dict[str, np.ndarray]:
         """Every rank's own particles' ``values`` (held rows, one of them ``particle_id``), in id order, on every
@@ -97,20 +92,8 @@ class PlasmaSpread:
         """Every rank's own particles (``held()`` rows where ``owned``: position, velocity, species, particle_id) to
         the ranks that now need them; ``lay_out`` takes the new held rows, in id order. Nothing moves in one process:
         neither is called."""
-        if self.whole:
-            return
-        values = held()
-        ids = values["particle_id"].astype(np.int64)
-        part = Partition(self.world, self.decomposition, self.depth, ids, owned, {}, {}, self.particles.count)
-        self.particles, out = part.redistribute(self.decomposition, _points3(values["position"]), values)
-        lay_out(out)
-
-    def respread(self, positions: np.ndarray) -> None:
-        """Hold the parts of every particle at ``positions`` (all N, by id: a checkpoint read on another number of
-        processes)."""
-        part = Partition.of_all(self.world, self.decomposition, self.depth, _points3(positions))
-        self.particles.release()
-        self.particles = part
+        if not self.whole:
+            lay_out(self.migrate(held(), owned=owned, ids="particle_id"))
 
     @property
     def charge_exchange(self) -> Callable[[np.ndarray], np.ndarray] | None:
@@ -135,17 +118,7 @@ class PlasmaSpread:
             raise ParameterError("particle_walls", "a distributed run cannot absorb particles at the walls yet: run "
                                                    "this scene in one process, or with reflecting walls")
 
-    def describe(self) -> dict:
-        """The distributed layout for ``summary.json`` (``{"distributed": ...}``; nothing in one process): particles
-        owned and ghost, and nodes, per rank; imbalance."""
-        if self.whole:
-            return {}
-        counts = np.concatenate(self.world.allgather(np.array(
-            [self.particles.n_owned, self.particles.n_ghosts, self.my_nodes.size], dtype=np.int64)))
-        counts = counts.reshape(self.world.size, 3)
-        held = counts[:, 0] + counts[:, 1]
-        return {"distributed": {"ranks": self.world.size, "depth": self.depth,
-                                "particles_owned": counts[:, 0].tolist(), "particles_ghosts": counts[:, 1].tolist(),
-                                "nodes_owned": counts[:, 2].tolist(),
-                                "ghost_fraction": float(counts[:, 1].sum() / max(held.sum(), 1)),
-                                "decomposition": self.decomposition.describe()}}
+    def counts(self) -> dict[str, int]:
+        """Particles owned and ghost, and nodes, on this rank."""
+        return {"particles_owned": self.particles.n_owned, "particles_ghosts": self.particles.n_ghosts,
+                "nodes_owned": int(self.my_nodes.size)}

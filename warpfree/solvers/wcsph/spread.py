@@ -26,8 +26,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from warpfree.errors import ParameterError
-from warpfree.parallel import CutMethod, Decomposition, Partition, World, imbalance
+from warpfree.parallel import CutMethod, Partition, World
+from warpfree.parallel.moving import MovingSpread
 
 __all__ = ["FluidSpread", "MOVING_FIELDS", "STEP_FIELDS"]
 
@@ -40,9 +40,9 @@ MOVING_FIELDS = ("position", "velocity", "density", "pressure", "acceleration", 
 WALL_COST = 0.5
 
 
-class FluidSpread:
-    """The decomposition of a :class:`~warpfree.solvers.wcsph.model.WCSPHModel` over ``world``'s ranks, and the
-    fluid's and walls' :class:`~warpfree.parallel.Partition` on it.
+class FluidSpread(MovingSpread):
+    """The decomposition of a :class:`~warpfree.solvers.wcsph.model.WCSPHModel` over ``world``'s ranks: the fluid is
+    the moving set (:attr:`fluid`), the walls the fixed one (:attr:`walls`, cut anew with the fluid).
 
     Parameters
     ----------
@@ -52,40 +52,31 @@ class FluidSpread:
     """
 
     def __init__(self, world: World, model, method: CutMethod = CutMethod.RCB, rebalance: float = 1.2):
-        if not rebalance >= 1.0:
-            raise ParameterError("rebalance", f"must be >= 1 (max/mean of the ranks' work), got {rebalance!r}")
         P = model.params
-        self.world = world
         self.model = model
-        self.method = method
-        self.rebalance_above = float(rebalance)
-        self.depth = P.support + model.skin
-        self.cell = P.support
-        self.rebalances = 0
         x = model.position_np.astype(np.float64)
         self.fluid_start = x[: model.nf]
         self.wall_points = x[model.nf:]
-        cost = np.concatenate([np.ones(model.nf), np.full(model.nb, WALL_COST)])
-        self.decomposition = self._cut(x, cost)
-        self.fluid = Partition.of_all(world, self.decomposition, self.depth, self.fluid_start)
-        self.walls = Partition.of_all(world, self.decomposition, self.depth, self.wall_points)
-        self.last_imbalance = None
+        self.walls: Partition | None = None
+        super().__init__(world, self.fluid_start, cell=P.support, depth=P.support + model.skin, dim=P.dim,
+                         lower=P.container_lo, upper=P.container_hi, periodic=P.periodic, method=method,
+                         rebalance=rebalance)
+        self.follow_cut()
 
-    def _cut(self, points: np.ndarray, cost: np.ndarray) -> Decomposition:
-        P = self.model.params
-        periodic = tuple(bool(p) for p in P.periodic)
-        lo = np.asarray(P.container_lo, float)
-        finite = np.isfinite(lo) & (np.abs(lo) < 1e20)
-        origin = np.where(finite, lo, points.min(axis=0) if len(points) else 0.0)
-        dec = Decomposition.build(self.world.size, points, cost, self.cell, P.dim, self.method, origin,
-                                  P.container_hi, periodic)
-        for a in range(P.dim):
-            if periodic[a] and dec.period[a] < 2.0 * self.depth * 1.0000001 and self.world.size > 1:
-                cut = np.unique(dec.lower[:, a]).size > 1
-                if cut:
-                    raise ParameterError("ranks", f"the periodic side {dec.period[a]:.4g} m along {'xyz'[a]} is too "
-                                                  f"thin to cut: a ghost layer is {self.depth:.4g} m deep")
-        return dec
+    @property
+    def fluid(self) -> Partition:
+        """This rank's part of the fluid (the moving set)."""
+        return self.moving
+
+    def fixed_items(self) -> tuple[np.ndarray, np.ndarray]:
+        """The wall particles, each :data:`WALL_COST` of a fluid particle before neighbour counts are known."""
+        return self.wall_points, np.full(len(self.wall_points), WALL_COST)
+
+    def follow_cut(self) -> None:
+        """The walls' part on the current cut."""
+        if self.walls is not None:
+            self.walls.release()
+        self.walls = Partition.of_all(self.world, self.decomposition, self.depth, self.wall_points)
 
     # -- the held arrays ------------------------------------------------------------------------------------
     def n_container_walls(self) -> int:
@@ -104,7 +95,7 @@ class FluidSpread:
         """The grid points the one process's hash tables are sized for (fluid at its start, walls), which every rank
         sizes its tables for (its neighbours then come in the one process's order); None in one process (each grid
         sizes itself for its first build: the whole set)."""
-        if self.fluid.whole:
+        if self.whole:
             return None
         import warp as wp
 
@@ -124,52 +115,22 @@ class FluidSpread:
                      work: Callable[[], tuple[np.ndarray, np.ndarray]],
                      lay_out: Callable[[dict[str, np.ndarray], dict[str, np.ndarray]], None]) -> None:
         """Move the fluid to the boxes that hold it now and lay the arrays out anew: ``held_fluid()`` gives its held
-        rows (:data:`MOVING_FIELDS` and mass, NumPy), ``work()`` the owned work per held fluid and wall row (e.g.
+        rows (:data:`MOVING_FIELDS` and mass, NumPy), ``work()`` the work per held fluid and wall row (e.g.
         neighbour counts: the decomposition is cut anew first when it is out of balance), ``lay_out(fluid, walls)``
         takes the new held rows. In one process nothing moves: none of them is called."""
-        if self.fluid.whole:
+        if self.whole:
             return
-        fluid_fields = held_fluid()
-        fluid_cost, wall_cost = work()
-        work_here = float(np.sum(fluid_cost[self.fluid.owned_index]) + np.sum(wall_cost[self.walls.owned_index]))
-        per_rank = np.concatenate(self.world.allgather(np.array([work_here])))
-        self.last_imbalance = imbalance(per_rank)
-        if self.last_imbalance > self.rebalance_above:
-            points = np.vstack(self.world.allgather(np.asarray(fluid_fields["position"], np.float64)
-                                                     [self.fluid.owned_index])
-                               + self.world.allgather(self.wall_points[self.walls.ids[self.walls.owned_index]]))
-            cost = np.concatenate(self.world.allgather(fluid_cost[self.fluid.owned_index].astype(np.float64))
-                                  + self.world.allgather(wall_cost[self.walls.owned_index].astype(np.float64)))
-            self.decomposition = self._cut(points, cost)
-            self.walls.release()
-            self.walls = Partition.of_all(self.world, self.decomposition, self.depth, self.wall_points)
-            self.rebalances += 1
-        self.fluid, held = self.fluid.redistribute(self.decomposition, fluid_fields["position"], fluid_fields)
+
+        def own_work():
+            fluid_cost, wall_cost = work()
+            own = self.walls.owned_index
+            return fluid_cost, self.wall_points[self.walls.ids[own]], np.asarray(wall_cost, np.float64)[own]
+
+        held = self.migrate(held_fluid(), work=own_work)
         lay_out(held, self.held_walls({"position": self.wall_points.astype(np.float32),
                                        "mass": self.model.mass.numpy()[self.model.nf:]}))
 
-    def respread(self, fluid_at_build: np.ndarray) -> None:
-        """Cut anew for the whole fluid at its build positions (a checkpoint read on another number of ranks) and
-        hold the parts of that cut."""
-        cost = np.concatenate([np.ones(len(fluid_at_build)), np.full(len(self.wall_points), WALL_COST)])
-        self.decomposition = self._cut(np.vstack([fluid_at_build, self.wall_points]), cost)
-        self.fluid.release()
-        self.walls.release()
-        self.fluid = Partition.of_all(self.world, self.decomposition, self.depth, fluid_at_build)
-        self.walls = Partition.of_all(self.world, self.decomposition, self.depth, self.wall_points)
-
-    def describe(self) -> dict:
-        """The distributed layout for ``summary.json`` (``{"distributed": ...}``; nothing in one process): fluid and
-        wall particles owned and ghost per rank, imbalance."""
-        if self.fluid.whole:
-            return {}
-        counts = np.concatenate(self.world.allgather(np.array(
-            [self.fluid.n_owned, self.fluid.n_ghosts, self.walls.n_owned, self.walls.n_ghosts], dtype=np.int64)))
-        counts = counts.reshape(self.world.size, 4)
-        held = counts[:, 0] + counts[:, 1]
-        return {"distributed": {"ranks": self.world.size, "method": self.method, "depth": self.depth,
-                "fluid_owned": counts[:, 0].tolist(), "fluid_ghosts": counts[:, 1].tolist(),
-                "walls_owned": counts[:, 2].tolist(), "walls_ghosts": counts[:, 3].tolist(),
-                "ghost_fraction": float(counts[:, 1].sum() / max(held.sum(), 1)),
-                "imbalance_owned_fluid": imbalance(counts[:, 0]), "last_work_imbalance": self.last_imbalance,
-                "rebalances": self.rebalances, "decomposition": self.decomposition.describe()}}
+    def counts(self) -> dict[str, int]:
+        """Fluid and wall particles owned and ghost on this rank."""
+        return {"fluid_owned": self.fluid.n_owned, "fluid_ghosts": self.fluid.n_ghosts,
+                "walls_owned": self.walls.n_owned, "walls_ghosts": self.walls.n_ghosts}
