@@ -423,10 +423,13 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
             f.ghost_velocity[k] = f.velocity[i]
 
     @wp.kernel(module="unique")
-    def rates(first: int, c: FluidConstants, f: FluidArrays, fluid_fluid: NeighbourRows, fluid_wall: NeighbourRows):
-        """dρ/dt and dv/dt of fluid particle i (continuity 4-37, momentum 4-38; see the module docstring): one
-        sweep over its fluid candidates, one over its wall candidates (wall j is particle nf + j)."""
-        i = first + wp.tid()
+    def rates(first: int, c: FluidConstants, f: FluidArrays, fluid_fluid: NeighbourRows, fluid_wall: NeighbourRows,
+              rows: wp.array(dtype=wp.int32)):
+        """dρ/dt and dv/dt of fluid particle i = rows[tid] (continuity 4-37, momentum 4-38; see the module
+        docstring): one sweep over its fluid candidates, one over its wall candidates (wall j is particle nf + j).
+        ``rows``: the fluid rows whose rates are needed (every row in one process; a rank's own, its ghosts taking
+        their owners' after the kick)."""
+        i = rows[first + wp.tid()]
         xi = f.position[i]
         vi = f.velocity_eval[i]
         rhoi = f.density_eval[i]

@@ -88,7 +88,8 @@ def measure(physics: str, threads: int, args, old) -> dict:
         s.step(s.stable_dt())
     old_args, drho_old, acc_old = baseline_inputs(s)
     a, c, nf = s.arrays, s.model.constants, s.model.nf
-    new_launch = lambda: L.launch(s.kernels.rates, nf, [c, a, s.fluid_fluid.rows, s.fluid_wall.rows])  # noqa: E731
+    rows = wp.array(np.arange(nf, dtype=np.int32), dtype=wp.int32, device=L.device)
+    new_launch = lambda: L.launch(s.kernels.rates, nf, [c, a, s.fluid_fluid.rows, s.fluid_wall.rows, rows])  # noqa: E731
     old_launch = lambda: L.launch(old.fluid_rates, nf, old_args)  # noqa: E731
     new_launch()
     old_launch()

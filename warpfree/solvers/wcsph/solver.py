@@ -173,6 +173,8 @@ class WCSPHSolver(TimeDependentSolver):
         # which fluid particles the arrays hold: a checkpoint read on another number of processes needs it
         S.fluid_id = self.spread.fluid.ids.astype(np.int64)
         S.fluid_owned = self.spread.fluid.owned.astype(np.int8)
+        #: the fluid rows this rank computes rates for: its own (a ghost's come from its owner)
+        self._own_rows = arr(self.spread.fluid.owned_index.astype(np.int32), wp.int32)
         self.mass = arr(np.concatenate([fluid["mass"], walls["mass"]]), float)
         self.arrays = K.FluidArrays()
         a = self.arrays
@@ -302,7 +304,8 @@ class WCSPHSolver(TimeDependentSolver):
             with self.phases("exchange"):  # a ghost wall's fluid neighbours are not all held: its owner's values
                 self.spread.walls.refresh(*self._walls_view.values())
         with self.phases("rates"):
-            L.launch(self.kernels.rates, self.nf, [c, a, self.fluid_fluid.rows, self.fluid_wall.rows])
+            L.launch(self.kernels.rates, self._own_rows.shape[0], [c, a, self.fluid_fluid.rows, self.fluid_wall.rows,
+                                                                    self._own_rows])
         if self.solids is not None:
             with self.phases("surfaces"):
                 L.launch(add_surface_penalty, self.nf, [self._penalty, self.fluid_wall.rows.count,
