@@ -204,7 +204,7 @@ class SpeciesTable:
 class ParticleArrays:
     """The particles' slots as kernels read them: float64 ``position`` and ``velocity``, ``species``,
     ``particle_id``, the float32 ``position32`` the HashGrid queries take, and ``exit_wall`` (w + 1 for a particle
-    that left through wall w, 0 inside)."""
+    that left through wall w, 0 inside; 5 for an injected particle another rank holds, which this rank drops)."""
 
     position: wp.array(dtype=wp.vec2d)
     velocity: wp.array(dtype=wp.vec2d)
@@ -378,7 +378,8 @@ def cell_keys(
     cell + id), so that particles sharing nodes sit together in memory (the deposit's node gather reads them) in an
     order that depends on their positions and ids alone, not on the order before (a part of the particles, as a rank
     of a distributed run holds them, sorts into the order they have among all); an absorbed particle (``exit_wall``
-    w + 1 > 0) gets cell ``dead_key`` + w, past every cell: the sort moves it to the end, grouped by wall."""
+    w + 1 > 0; 5: another rank's) gets cell ``dead_key`` + w, past every cell: the sort moves it to the end, grouped
+    by wall."""
     i = first + wp.tid()
     values[i] = i
     cell = int(0)

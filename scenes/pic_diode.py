@@ -134,7 +134,7 @@ def build(voltage: Annotated[float, Param(UNITS["potential"], "anode potential V
                   "beam_through_limit_over_child_langmuir": float(beam_through_limit(v0, voltage, gap)
                                                                   / child_langmuir_flux(voltage, gap)),
                   "charge_balance_error": float(np.max(np.abs(balance)) / max(abs(h["injected_charge"][-1]), 1e-300)),
-                  "particles": s.count, "nodes": model.node_count}
+                  "particles": s.n, "nodes": model.node_count}
         if flux > virtual_cathode_floor(v0, voltage, gap):
             result["steady_virtual_cathode_over_child_langmuir"] = float(
                 virtual_cathode_transmitted_flux(flux, v0, voltage, gap) / child_langmuir_flux(voltage, gap))

@@ -80,6 +80,115 @@ def test_a_distributed_plasma_moves_its_particles_bitwise_and_sums_them_to_round
     assert sum(b["model"]["distributed"]["particles_owned"]) == a["model"]["particles"]
 
 
+#: the vacuum diode beyond its space-charge limit (6 Γ_CL), small: its source fills an empty box (cut over the nodes),
+#: the beam reaches the anode and its virtual cathode turns electrons back to the cathode within 80 steps, so both
+#: walls absorb; as wide as the gap, the box is cut across x first (2 ranks: both share each wall, and particles
+#: absorbed near the cut are ghosts on the other rank), then across y (3 ranks: the beam crosses from rank to rank)
+#: (t_end set by each test)
+DIODE = smallest_sets("pic_diode", without=("t_end", "particles_per_step", "output_every", "width")) + [
+    "--set", "width=1.0", "--set", "injected_fraction=6", "--set", "particles_per_step=10", "--set", "output_every=10"]
+#: the diode's history columns a distributed run gives bitwise: the tallies every rank keeps alike or sums as integers,
+#: and the terms of the replicated field
+OPEN_TALLIES = ("particles", "injected_charge", "wall_charge_lower", "wall_charge_upper", "deposited_charge",
+                "field_energy")
+
+
+@needs_mpi
+@pytest.mark.parametrize("ranks", [2, 3])
+def test_a_distributed_diode_injects_and_absorbs_its_particles_bitwise(ranks, tmp_path):
+    """A wall source and absorbing walls on several ranks: every snapshot (the particles' positions, velocities and
+    ids, the nodes' potential and charge) bitwise the one process's; the tallies (live count, injected charge, each
+    wall's charge) and the field terms bitwise, and so the analysis made of them (currents, charge balance); the
+    particle sums (kinetic energy, momentum) to round-off (< 1e-12: another order of the same additions)."""
+    one, many = tmp_path / "one", tmp_path / "many"
+    sets = [*DIODE, "--set", "t_end=1.6"]
+    assert main(["run", "pic_diode", *sets, "--out", str(one), "--no-progress", "--no-frames", "--threads", "1"]) == 0
+    done = run_distributed(ranks, ["run", "pic_diode", *sets, "--out", str(many), "--no-progress", "--no-frames"])
+    assert done.returncode == 0, done.stderr[-3000:]
+    a, b = summary(one), summary(many)
+    assert a["diagnostics"]["wall_charge_lower"] < 0 and a["diagnostics"]["wall_charge_upper"] < 0  # both absorbed
+    assert snapshot_differences(one, many) == []
+    for key in OPEN_TALLIES:
+        assert a["diagnostics"][key] == b["diagnostics"][key], key
+    for key, rel in relative_differences(a["diagnostics"], b["diagnostics"]).items():
+        assert (abs(a["diagnostics"][key] - b["diagnostics"][key]) if "momentum" in key else rel) < 1e-12, key
+    assert relative_differences(a["analysis"], b["analysis"]) == {}
+    owned = b["model"]["distributed"]["particles_owned"]
+    assert sum(owned) == a["model"]["particles"] and min(owned) > 0
+
+
+@needs_mpi
+def test_a_distributed_diode_resumes_on_another_rank_count_and_in_one_process_bitwise(tmp_path):
+    """Stopped on 2 ranks after particles were injected and absorbed at both walls (the checkpoint's ids are sparse),
+    resumed on 3 ranks and in one process: each continues as the uninterrupted one-process run, its snapshots, tallies
+    and analysis bitwise."""
+    sets = DIODE
+    full, part = tmp_path / "full", tmp_path / "part"
+    assert main(["run", "pic_diode", *sets, "--set", "t_end=1.8", "--out", str(full), "--no-progress", "--no-frames",
+                 "--threads", "1"]) == 0
+    done = run_distributed(2, ["run", "pic_diode", *sets, "--set", "t_end=1.4", "--checkpoint-every", "7",
+                               "--out", str(part), "--no-progress", "--no-frames"])
+    assert done.returncode == 0, done.stderr[-3000:]
+    stopped = summary(part)["diagnostics"]
+    assert stopped["wall_charge_lower"] < 0 and stopped["wall_charge_upper"] < 0
+    for ranks in (3, 1):
+        again, done = resume_copy(part, tmp_path / f"again_{ranks}", ranks, "1.8")
+        assert "resuming from step 70 written by 2 process(es)" in done.stderr
+        assert snapshot_differences(full, again) == [], ranks
+        a, b = summary(full), summary(again)
+        for key in OPEN_TALLIES:
+            assert a["diagnostics"][key] == b["diagnostics"][key], (ranks, key)
+        assert relative_differences(a["analysis"], b["analysis"]) == {}, ranks
+
+
+#: a loaded plasma with open boundaries: warm electrons and ions (cut over their positions) between grounded absorbing
+#: walls, both species leaving through both walls, and a thermal source on the upper wall whose particles (ids after
+#: the 1200 loaded ones) enter at random places along it and move sideways across the cuts
+OPEN_PLASMA_SCENE = '''"""Warm electrons and ions between absorbing walls, a thermal source on the upper wall."""
+import numpy as np
+
+from warpfree.galerkin.mls import MLSModel, MLSSettings
+from warpfree.solvers.pic import Injection, PICSolver, PlasmaPoisson, Species, load_species, random_positions
+from warpfree.solvers.pic.scene_tools import lattice_nodes, walled_box
+from warpfree.time_loop import TimeLoop
+
+
+def build(t_end: float = 3.0):
+    space = walled_box(1.0, 1.0)
+    model = MLSModel(lattice_nodes(space, 0.125), MLSSettings(d_max=2.0), space=space)
+    rng = np.random.default_rng(3)
+    loads = [load_species(Species(name, q, m, 1.0, temperature=0.01), space, random_positions(space, 600, rng),
+                          rng=rng) for name, q, m in (("e", -1.0, 1.0), ("i", 1.0, 4.0))]
+    source = Injection(Species("hot", -1.0, 1.0, 0.5, temperature=0.04), "upper", 7.5, seed=11)
+    solver = PICSolver(PlasmaPoisson(model, walls=(0.0, 0.0)), loads, 0.1, particle_walls="absorb",
+                       injections=[source], modes=())
+    return TimeLoop(solver, t_end=t_end, output_interval=0.5)
+'''
+
+
+@needs_mpi
+def test_a_loaded_plasma_with_a_source_and_absorbing_walls_runs_and_resumes_bitwise_on_any_rank_count(tmp_path):
+    """Run on 2 ranks to t = 2 with checkpoints, resumed on 3 ranks and in one process to t = 3: every snapshot (the
+    2-rank run's, then the resumed runs') bitwise the uninterrupted one-process run's, and its tallies (live count,
+    injected and each wall's charge) bitwise."""
+    scene = tmp_path / "open_plasma.py"
+    scene.write_text(OPEN_PLASMA_SCENE, encoding="utf-8")
+    full, part = tmp_path / "full", tmp_path / "part"
+    assert main(["run", str(scene), "--out", str(full), "--no-progress", "--threads", "1"]) == 0
+    done = run_distributed(2, ["run", str(scene), "--set", "t_end=2.0", "--checkpoint-every", "5", "--out", str(part),
+                               "--no-progress"])
+    assert done.returncode == 0, done.stderr[-3000:]
+    a = summary(full)["diagnostics"]
+    assert a["wall_charge_lower"] < 0 and a["wall_charge_upper"] < 0 and a["injected_charge"] < 0
+    for ranks in (3, 1):
+        again, done = resume_copy(part, tmp_path / f"again_{ranks}", ranks, "3.0")
+        assert "resuming from step 20 written by 2 process(es)" in done.stderr
+        assert snapshot_differences(full, again) == [], ranks
+        b = summary(again)["diagnostics"]
+        for key in OPEN_TALLIES:
+            assert a[key] == b[key], (ranks, key)
+
+
 def _at(tree: dict, key: str):
     for part in key.split("/"):
         tree = tree[int(part)] if isinstance(tree, list) else tree[part]

@@ -160,6 +160,44 @@ def test_one_process_refreshes_nothing():
     assert part.whole and not part._plans
 
 
+def test_whole_from_pieces_joins_owned_rows_by_id_and_refuses_a_missing_or_twice_owned_item():
+    """Two pieces of a 5-item set, each holding its own items and a ghost: row i of the whole is item i, from its
+    owner's piece; an item no piece owns, or two pieces own, is refused."""
+    from warpfree.errors import ParameterError
+    from warpfree.parallel.halo import whole_from_pieces
+
+    a = {"id": np.array([0, 2, 3]), "own": np.array([1, 1, 0]), "v": np.array([10.0, 12.0, -1.0])}
+    b = {"id": np.array([1, 3, 4, 2]), "own": np.array([1, 1, 1, 0]), "v": np.array([11.0, 13.0, 14.0, -2.0])}
+    whole = whole_from_pieces([a, b], ["v"], "id", 5, owned="own")
+    assert np.array_equal(whole["v"], [10.0, 11.0, 12.0, 13.0, 14.0])
+    with pytest.raises(ParameterError, match="4 of the 5"):
+        whole_from_pieces([a, dict(b, own=np.array([1, 1, 0, 0]))], ["v"], "id", 5, owned="own")
+    with pytest.raises(ParameterError, match="twice"):
+        whole_from_pieces([a, dict(b, own=np.array([1, 1, 1, 1]))], ["v"], "id", 5, owned="own")
+
+
+def test_whole_from_pieces_of_sparse_ids_gives_the_items_present_in_id_order():
+    """Ids a set issued and partly retired (items that joined and left): with no ``count``, the rows of the ids present,
+    ascending, the first copy of each (ghosts are their owners' copies), each piece's first ``rows`` rows only."""
+    from warpfree.parallel.halo import whole_from_pieces
+
+    a = {"id": np.array([17, 3, 40, 99], np.int32), "n": 3, "v": np.array([1.7, 0.3, 4.0, -9.0])}
+    b = {"id": np.array([40, 8], np.int32), "n": 2, "v": np.array([4.0, 0.8])}
+    whole = whole_from_pieces([a, b], ["v"], "id", None, rows="n")
+    assert np.array_equal(whole["id"], [3, 8, 17, 40]) and np.array_equal(whole["v"], [0.3, 0.8, 1.7, 4.0])
+    with_ids = whole_from_pieces([a, b], ["v", "id"], "id", None, rows="n")
+    assert with_ids["id"].dtype == np.int32 and np.array_equal(with_ids["id"], [3, 8, 17, 40])
+
+
+def test_a_part_of_sparse_ids_gathers_its_rows_in_id_order():
+    """A part of a set whose ids are sparse (count: the ids issued, 50; 4 items, held out of id order): its owned rows
+    in id order, and no row for an id no item has."""
+    ids = np.array([9, 2, 41, 30])
+    values = ids[:, None] * np.array([1.0, 0.5])
+    part = Partition(Loopback(), None, 1.0, ids, np.ones(4, bool), {}, {}, 50)
+    assert np.array_equal(part.gather(values), [[2.0, 1.0], [9.0, 4.5], [30.0, 15.0], [41.0, 20.5]])
+
+
 RANKS_SCRIPT = r"""
 import numpy as np, warp as wp
 from warpfree.device import init_warp

@@ -14,6 +14,11 @@ and the results, are bitwise those of one process.
   packed and unpacked on the arrays' device (``kernels/halo.py``); :meth:`Partition.start_refresh` and
   :meth:`Partition.finish_refresh` split it around work that reads no ghost;
 - :meth:`Partition.gather`: owned values of every rank in global-id order (outputs, diagnostics).
+
+A set's ids need not be 0..N-1: a set that items join and leave (a plasma with wall sources and absorbing walls)
+issues each new item the next id and never reuses one, so its ids are sparse and ``count``, the size of the id space
+(every id is below it), is the number of ids ever issued. Nothing here scales with ``count`` but :meth:`gather` of a
+set whose ids are 0..N-1 (an array of N rows, which it fills).
 """
 
 from __future__ import annotations
@@ -53,7 +58,8 @@ def _rows(values: np.ndarray) -> np.ndarray:
 class Partition:
     """This rank's part of one item set: ``ids`` (sorted global ids of the items it holds), ``owned`` (bool, per held
     item), ``send[r]`` (held indices of owned items rank r holds as ghosts) and ``receive[s]`` (held indices of the
-    ghosts rank s owns), both in global-id order; ``count``: the set's global size."""
+    ghosts rank s owns), both in global-id order; ``count``: the size of the id space (every id is below it: the set's
+    global size when its ids are 0..N-1, the ids ever issued when items join and leave)."""
 
     def __init__(self, world: World, decomposition: Decomposition, depth: float, ids: np.ndarray, owned: np.ndarray,
                  send: dict[int, np.ndarray], receive: dict[int, np.ndarray], count: int):
@@ -228,15 +234,18 @@ class Partition:
         self._plans.clear()
 
     def gather(self, values) -> np.ndarray:
-        """The owned rows of ``values`` (held rows) of every rank, in global-id order, on every rank (a copy)."""
+        """The owned rows of ``values`` (held rows) of every rank, in global-id order, on every rank (a copy): as many
+        rows as the set has items (fewer than ``count`` when its ids are sparse)."""
         v, _ = host_view(values)
         if self.whole:
             return np.array(v)
         ids = self.world.allgather(self.ids[self.owned_index].astype(np.int64))
-        rows = self.world.allgather(np.ascontiguousarray(v[self.owned_index]))
+        rows = np.concatenate(self.world.allgather(np.ascontiguousarray(v[self.owned_index])))
         all_ids = np.concatenate(ids)
+        if all_ids.size != self.count:  # sparse ids: the rows sorted by id
+            return rows[np.argsort(all_ids, kind="stable")]
         out = np.empty((self.count,) + v.shape[1:], dtype=v.dtype)
-        out[all_ids] = np.concatenate(rows)
+        out[all_ids] = rows
         return out
 
     def owned_values(self, values) -> np.ndarray:
@@ -250,40 +259,45 @@ class Partition:
                 "neighbours": sorted(set(self.send) | set(self.receive))}
 
 
-def whole_from_pieces(pieces: list[dict], names, ids: str, count: int, owned: str | None = None,
+def whole_from_pieces(pieces: list[dict], names, ids: str, count: int | None, owned: str | None = None,
                       rows: str | None = None) -> dict[str, np.ndarray]:
     """The whole set's values of ``names`` from the checkpoint pieces of any number of processes (one process's piece
-    holds every item): each piece's held rows (as many as its ``piece[ids]``, or its first ``piece[rows]``), placed at
-    their global ids ``piece[ids]``; with ``owned`` only the rows ``piece[owned]`` marks (a ghost is its owner's copy:
-    without it the first piece's copy of each item is taken). ``count``: the set's global size (every id below it).
-    A piece whose rows do not match its ids: ParameterError naming ``resume``."""
+    holds every item), in id order: each piece's held rows (as many as its ``piece[ids]``, or its first
+    ``piece[rows]``) with their global ids ``piece[ids]``; with ``owned`` only the rows ``piece[owned]`` marks (a ghost
+    is its owner's copy: without it the first piece's copy of each item is taken). ``count``: the set's global size
+    when its ids are 0..count-1 (each must be there: row i is item i); None for sparse ids (a set that items joined
+    and left: the rows of the ids present, ascending, which the result holds under ``ids`` too). A piece whose rows do
+    not match its ids, an item owned twice or, with ``count``, one missing: ParameterError naming ``resume``."""
     from warpfree.errors import ParameterError
 
-    whole: dict[str, np.ndarray] = {}
-    seen = np.zeros(count, dtype=bool)
+    gids, takes = [], []
     for piece in pieces:
         held = int(piece[rows]) if rows is not None else np.asarray(piece[ids]).shape[0]
         gid = np.asarray(piece[ids][:held]).astype(np.int64)
-        if gid.size != held or (held and (gid.min() < 0 or gid.max() >= count)):
+        if gid.size != held or (held and (gid.min() < 0 or (count is not None and gid.max() >= count))):
             raise ParameterError("resume", "a checkpoint piece does not match this scene")
-        take = (np.asarray(piece[owned][:held]).astype(bool) if owned is not None
-                else ~seen[gid] & _first_of_each(gid))
-        seen[gid[take]] = True
-        for k in names:
-            values = np.asarray(piece[k])[:held]
-            if k not in whole:
-                whole[k] = np.zeros((count,) + values.shape[1:], dtype=values.dtype)
-            whole[k][gid[take]] = values[take]
-    if not seen.all():
-        raise ParameterError("resume", f"the checkpoint's pieces hold {int(seen.sum())} of the {count} items")
+        gids.append(gid)
+        takes.append(np.asarray(piece[owned][:held]).astype(bool) if owned is not None else None)
+    every = np.concatenate(gids) if gids else np.zeros(0, np.int64)
+    if owned is None:   # the first copy of each item, in piece order
+        taken = np.zeros(every.size, dtype=bool)
+        taken[np.unique(every, return_index=True)[1]] = True
+    else:
+        taken = np.concatenate(takes) if takes else np.zeros(0, bool)
+    kept = every[taken]
+    order = np.argsort(kept, kind="stable")
+    kept = kept[order]
+    if kept.size > 1 and np.any(kept[1:] == kept[:-1]):
+        raise ParameterError("resume", "the checkpoint's pieces own an item twice")
+    if count is not None and not np.array_equal(kept, np.arange(count)):
+        raise ParameterError("resume", f"the checkpoint's pieces hold {kept.size} of the {count} items")
+    whole: dict[str, np.ndarray] = {}
+    for k in names:
+        parts = [np.asarray(piece[k])[:gid.size] for piece, gid in zip(pieces, gids)]
+        whole[k] = np.concatenate(parts)[taken][order]
+    if count is None and ids not in whole:
+        whole[ids] = kept
     return whole
-
-
-def _first_of_each(ids: np.ndarray) -> np.ndarray:
-    """True at the first occurrence of each value of ``ids``."""
-    first = np.zeros(ids.size, dtype=bool)
-    first[np.unique(ids, return_index=True)[1]] = True
-    return first
 
 
 def _address(array) -> tuple:

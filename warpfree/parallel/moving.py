@@ -85,8 +85,10 @@ class MovingSpread:
     # -- the cut ----------------------------------------------------------------------------------------------
     def cut(self, points: np.ndarray, cost: np.ndarray) -> Decomposition:
         """Boxes of whole cells for ``points`` (n, 3) balancing ``cost`` (n,), counted from the domain's lower
-        corner where it is finite (else the items'). A periodic side too thin for a ghost layer on each side of a
-        cut: ParameterError naming ``ranks``."""
+        corner where it is finite (else the items'); weightless items (a cost of 0 in all) balance their count. A
+        periodic side too thin for a ghost layer on each side of a cut: ParameterError naming ``ranks``."""
+        if not np.sum(cost) > 0:
+            cost = np.ones(len(points))
         finite = np.isfinite(self.lower) & (np.abs(self.lower) < 1e20)
         origin = np.where(finite, self.lower, points.min(axis=0) if len(points) else 0.0)
         dec = Decomposition.build(self.world.size, points, cost, self.cell, self.dim, self.method, origin,
@@ -133,15 +135,24 @@ class MovingSpread:
         self.rebalances += 1
         self.follow_cut()
 
-    def respread(self, positions) -> None:
-        """Cut anew for every moving item at ``positions`` (all n, global order: a checkpoint read on another number
-        of ranks) and the fixed items, and hold the parts of that cut."""
+    def respread(self, positions, ids: np.ndarray | None = None, count: int | None = None) -> np.ndarray:
+        """Cut anew for the moving items at ``positions`` (a checkpoint read on any number of ranks: every item, in
+        the order of their ascending global ``ids``, default 0..n-1; ``count``: the ids issued, default n) and the
+        fixed items, and hold the part of that cut; returns the rows of ``positions`` held (every row in one
+        process)."""
         moving = points3(positions)
+        ids = np.arange(len(moving), dtype=np.int64) if ids is None else np.asarray(ids, np.int64)
         fixed, fixed_cost = self.fixed_items()
         self.decomposition = self.cut(np.vstack([moving, fixed]), np.concatenate([np.ones(len(moving)), fixed_cost]))
+        held = self.decomposition.owner(moving) == self.world.rank
+        if not self.whole:
+            held |= self.decomposition.near(moving, self.world.rank, self.depth)
+        rows = np.flatnonzero(held)
         self.moving.release()
-        self.moving = Partition.of_all(self.world, self.decomposition, self.depth, moving)
+        self.moving = Partition.of_items(self.world, self.decomposition, self.depth, ids[rows], moving[rows],
+                                         len(moving) if count is None else int(count))
         self.follow_cut()
+        return rows
 
     # -- the layout in summary.json ---------------------------------------------------------------------------
     def counts(self) -> dict[str, int]:

@@ -140,8 +140,8 @@ class Diagnostics:
                                  "coefficients": np.column_stack([coeff.real, coeff.imag]).ravel()}
         pa = self.particles
         if pa.open_boundaries:
-            wall = pa.state.wall_charge
-            self.pending_tallies = dict(particles=float(pa.count), injected_charge=float(pa.state.injected_charge),
+            wall = pa.wall_charge
+            self.pending_tallies = dict(particles=float(pa.live_total), injected_charge=float(pa.state.injected_charge),
                                         wall_charge_lower=float(wall[2]), wall_charge_upper=float(wall[3]))
 
     def record(self, time: float) -> None:

@@ -4,7 +4,9 @@ capacity grown on demand, the sort by cell that also takes absorbed particles ou
 Open boundaries (walls along y): particles that cross an absorbing wall leave (their charge is added to the wall's
 tally), sources inject new ones; the particle arrays have spare capacity, grown (doubled) when a step needs more, and
 every launch runs over the live count: slots [0, ``state.particle_count``) hold the live particles. float64 positions
-and velocities; float32 copies of the positions serve the ``wp.HashGrid`` queries.
+and velocities; float32 copies of the positions serve the ``wp.HashGrid`` queries. On several ranks a rank's slots
+hold its part of the particles (:class:`~.spread.PlasmaSpread`): it keeps the injected particles its part holds and
+counts the absorbed ones it owns; the counts are summed over the ranks (integers: exact).
 """
 
 from __future__ import annotations
@@ -20,11 +22,16 @@ from warpfree.kernels import pic as pk
 from warpfree.solver import HostTable, State
 
 from .injection import Injection
+from .spread import PlasmaSpread
 
-__all__ = ["PICState", "Particles", "PARTICLE_ARRAYS"]
+__all__ = ["PICState", "Particles", "PARTICLE_ARRAYS", "WALLS", "ELSEWHERE"]
 
 #: the state's per-particle arrays (they share one capacity: slots [0, particle_count) hold the live particles)
 PARTICLE_ARRAYS = ("position", "velocity", "species", "particle_id")
+#: the walls a particle can leave through (w = 2 axis + side; ``exit_wall`` w + 1)
+WALLS = 4
+#: the ``exit_wall`` of an injected particle another rank's part holds, not this one's: the sort drops it uncounted
+ELSEWHERE = WALLS + 1
 
 
 class PICState(State):
@@ -32,16 +39,18 @@ class PICState(State):
 
     Device arrays, one capacity for all: ``position`` x^n (vec2d), ``velocity`` v^{n-1/2} (vec2d), ``species`` (index
     into the solver's species: loads, then sources), ``particle_id`` (the particle's index at load time, or its count
-    at injection: the arrays are re-sorted by cell every step). Host values: ``steps`` (the step count n: t = n Δt
-    survives a resume), ``particle_count`` (the live particles), ``injected`` (particles injected so far: ids and
-    random streams), ``injection_carry`` (each source's fraction of a particle owed), ``wall_charge`` (charge absorbed
-    by each wall: index 2·axis + side), ``injected_charge``, ``history`` (the per-step diagnostics,
+    at injection: ids are never reused, and the arrays are re-sorted by cell every step). Host values: ``steps`` (the
+    step count n: t = n Δt survives a resume), ``particle_count`` (the live particles this process holds),
+    ``injected`` (particles injected so far: ids and random streams), ``injection_carry`` (each source's fraction of a
+    particle owed), ``absorbed`` (int64 (4, species): the particles each wall absorbed, index 2·axis + side, of each
+    species, over every rank; the wall's charge is :attr:`Particles.wall_charge`), ``injected_charge``, ``history`` (the
+    per-step diagnostics,
     :class:`~warpfree.solvers.pic.history.Diagnostics`: a resumed run's ``history.csv`` covers the whole run) and,
     when the potential is averaged, ``potential_sum`` and ``potential_samples``.
     """
 
     def __init__(self, position: np.ndarray, velocity: np.ndarray, species: np.ndarray, capacity: int, sources: int,
-                 device: str, history_columns: list[str]):
+                 device: str, history_columns: list[str], kinds: int = 1):
         n = len(species)
 
         def padded(a: np.ndarray) -> np.ndarray:
@@ -57,7 +66,7 @@ class PICState(State):
         self.particle_count = n
         self.injected = 0
         self.injection_carry = np.zeros(max(sources, 1))
-        self.wall_charge = np.zeros(4)
+        self.absorbed = np.zeros((WALLS, max(kinds, 1)), dtype=np.int64)
         self.injected_charge = 0.0
         self.history = HostTable(history_columns)
 
@@ -89,13 +98,22 @@ class Particles:
     state: the :class:`PICState`; box: the space's ``Box2d``; sort_cell: the side of a sort cell (the supports'
     reach); macro_charge: each species' macro-particle charge (host); injections and their kernel bundles
     (``sources``, ``pk.WallSource``); open_boundaries: absorbing walls or sources (the sort then drops absorbed
-    particles); on_resize: called with the new capacity after the arrays grew (the other parts' work arrays).
+    particles); spread: the particles' spread over the ranks (which injected particles this rank keeps and which
+    absorbed ones it counts); on_resize: called with the new capacity after the arrays grew (the other parts' work
+    arrays).
     """
 
     def __init__(self, launcher: Launcher, state: PICState, space, box, sort_cell: float, macro_charge: np.ndarray,
-                 injections: list[Injection], sources: list, loaded_count: int, dt: float, open_boundaries: bool):
+                 injections: list[Injection], sources: list, loaded_count: int, dt: float, open_boundaries: bool,
+                 spread: PlasmaSpread):
         self.launcher = launcher
         self.state = state
+        self.spread = spread
+        #: the particles this rank's last sort found absorbed and owns, per wall and species (summed over the ranks
+        #: into the state's ``absorbed`` by :meth:`count_over_ranks`)
+        self.absorbed_here = np.zeros_like(state.absorbed)
+        #: the live particles of every rank (:meth:`count_over_ranks`)
+        self.live_total = state.particle_count
         self.box = box
         self.macro_charge_np = macro_charge
         self.injections = injections
@@ -170,8 +188,10 @@ class Particles:
     def sort(self, total: int) -> None:
         """Reorder slots [0, ``total``) by cell (row-major, cells of the support reach), then particle id: the deposit
         gathers each node's particles from contiguous memory. Every step, so the order depends on the positions and ids
-        only (a resumed run sorts as the uninterrupted one did, a distributed run's rank as the one process does). Absorbed particles sort past every cell, grouped by wall: their
-        charge goes to the wall's tally and the live count drops to the particles before them."""
+        only (a resumed run sorts as the uninterrupted one did, a distributed run's rank as the one process does).
+        Absorbed particles sort past every cell, grouped by wall (then those another rank holds, :data:`ELSEWHERE`):
+        the live count drops to the particles before them, and the absorbed ones this rank owns are counted in
+        :attr:`absorbed_here`."""
         L, st = self.launcher, self.state
         if self.sort_particles or self.open_boundaries:
             L.launch(pk.cell_keys, total, [self.box, wp.float64(1.0 / self.sort_cell), self.sort_cells_x,
@@ -187,15 +207,38 @@ class Particles:
             self._live.zero_()
             L.launch(pk.count_live, total, [total, self.dead_key, self.sort_keys, self._live])
             live = int(self._live.numpy()[0])
-            if live < total:  # the absorbed: their charge to their walls' tallies
-                walls = self.sort_keys[live:total].numpy() // 2 ** 31 - self.dead_key
-                species = st.species[live:total].numpy()
-                np.add.at(st.wall_charge, walls, self.macro_charge_np[species])
+            if live < total:
+                self.count_absorbed(live, total)
         st.particle_count = live
+
+    def count_absorbed(self, first: int, last: int) -> None:
+        """Add the absorbed particles in the sorted dead slots [``first``, ``last``) that this rank owns to
+        :attr:`absorbed_here`, per wall and species (those of :data:`ELSEWHERE` are another rank's)."""
+        walls = self.sort_keys[first:last].numpy() // 2 ** 31 - self.dead_key
+        species = self.state.species[first:last].numpy()
+        counted = (walls < WALLS) & self.spread.owned_slots(self.state.position, first, last)
+        np.add.at(self.absorbed_here, (walls[counted], species[counted]), 1)
+
+    def count_over_ranks(self, owned: np.ndarray) -> None:
+        """After a sort, with open boundaries: the live particles (this rank's ``owned`` slots) and the absorbed ones
+        (:attr:`absorbed_here`) added over the ranks, into :attr:`live_total` and the state's ``absorbed``."""
+        st = self.state
+        counts = np.concatenate([[int(np.count_nonzero(owned))], self.absorbed_here.ravel()])
+        totals = self.spread.sum_over_ranks(counts)
+        self.live_total = int(totals[0])
+        st.absorbed = st.absorbed + totals[1:].reshape(st.absorbed.shape)
+        self.absorbed_here[:] = 0
+
+    @property
+    def wall_charge(self) -> np.ndarray:
+        """The charge each wall absorbed (index 2·axis + side): its count of each species × the species'
+        macro-charge, summed over the species (the same bits on every rank count)."""
+        return (self.state.absorbed * self.macro_charge_np).sum(axis=1)
 
     def inject(self) -> int:
         """Each source's particles for this step into the slots after the live ones (:mod:`.injection`); returns the
-        slots now filled (live + new)."""
+        slots now filled (live + new). Every rank makes every new particle (the same ids, positions and velocities as
+        the one process); those its part does not hold are marked :data:`ELSEWHERE` for the sort to drop."""
         st = self.state
         carry = st.injection_carry
         injected = st.injected
@@ -216,9 +259,20 @@ class Particles:
             slot += new
             injected += new
             charge += new * self.macro_charge_np[source.species]
+        self.spread.issued(self.loaded_count + injected)
+        self._drop_elsewhere(self.count, slot)
         st.injected = injected
         st.injected_charge = st.injected_charge + charge
         return slot
+
+    def _drop_elsewhere(self, first: int, last: int) -> None:
+        """Mark the new particles in slots [``first``, ``last``) that this rank's part does not hold
+        :data:`ELSEWHERE` (no read in one process: it holds them all)."""
+        drop = self.spread.injected_elsewhere(self.state.position, first, last)
+        if drop.size:
+            codes = self.exit_wall[first:last].numpy().copy()
+            codes[drop - first] = ELSEWHERE
+            self.exit_wall[first:last].assign(codes)
 
     @staticmethod
     def wall_source(index: int, injection: Injection) -> pk.WallSource:

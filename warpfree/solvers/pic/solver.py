@@ -151,13 +151,14 @@ class PICSolver(TimeDependentSolver):
         headroom = int(math.ceil(4 * sum(j.particles_per_step for j in self.injections)))
         self.world = ranks_of_run()
         #: how the particles are spread over the ranks (one process: a one-rank partition, every particle)
-        self.spread = PlasmaSpread(self.world, model, position, self.injections, self.particle_walls)
+        self.spread = PlasmaSpread(self.world, model, position)
         held = self.spread.particles
-        ids = held.take(np.arange(index.size, dtype=np.int32))
+        loaded = index.size   # every rank's: the ids 0..loaded-1; injected particles take the next
+        ids = held.take(np.arange(loaded, dtype=np.int32))
         position, velocity, index = held.take(position), held.take(velocity), held.take(index)
         self.state = PICState(position, velocity, index,
                               max(1, index.size + self.spread.room(index.size, headroom)), len(self.injections), dev,
-                              history_columns(modes, open_boundaries))
+                              history_columns(modes, open_boundaries), len(self.species_list))
         self.state.particle_id[:index.size].assign(ids)
         self.average_from = None if average_from is None else require_finite("average_from", average_from)
         if self.average_from is not None:
@@ -165,7 +166,7 @@ class PICSolver(TimeDependentSolver):
             self.state.potential_samples = 0
         sources = [Particles.wall_source(len(self.loads) + k, j) for k, j in enumerate(self.injections)]
         self.particles = Particles(self.launcher, self.state, space, model.box, model.reach, self.macro_charge_np,
-                                   self.injections, sources, index.size, self.dt, open_boundaries)
+                                   self.injections, sources, loaded, self.dt, open_boundaries, self.spread)
         self.particles.sync_position32()
         if field_solve is None:
             field_solve = FieldSolve.HOST if self.launcher.is_cpu else FieldSolve.DEVICE
@@ -294,7 +295,7 @@ class PICSolver(TimeDependentSolver):
         self.diagnostics_record.begin_row(self.t)
         self.state.steps += 1
         with self.phases("exchange"):
-            self.spread.redistribute(self.particle_slots, self._owned, self._refill)
+            self.spread.redistribute(self._moving_slots, self._owned, self._refill)
         with self.phases("sort"):
             total = pa.inject() if self.injections else self.count
             pa.sort(total)
@@ -318,8 +319,17 @@ class PICSolver(TimeDependentSolver):
 
     # -- a distributed run -----------------------------------------------------------------------------------
     def _find_owned(self) -> None:
-        """Which held slots this rank owns (its box holds them): after every sort."""
+        """Which held slots this rank owns (its box holds them): after every sort; with open boundaries the live and
+        absorbed particles counted over the ranks (:meth:`_count_open`)."""
         self._owned = self.spread.owned(self.state.position, self.count)
+        if self.particles.open_boundaries:
+            self._count_open()
+
+    def _count_open(self) -> None:
+        """With sources or absorbing walls, after a sort: the live particles and the step's absorbed ones of every
+        rank (``Particles.count_over_ranks``), and the particles' partition made of the slots now held."""
+        self.particles.count_over_ranks(self._owned)
+        self.spread.hold(self.state.particle_id, self._owned)
 
     def particle_slots(self) -> dict[str, np.ndarray]:
         """Position, velocity, species and id of the live slots (host copies, slot order)."""
@@ -327,16 +337,22 @@ class PICSolver(TimeDependentSolver):
         return {"position": st.position.numpy()[:n], "velocity": st.velocity.numpy()[:n],
                 "species": st.species.numpy()[:n], "particle_id": st.particle_id.numpy()[:n]}
 
+    def _moving_slots(self) -> dict[str, np.ndarray]:
+        """What a particle takes to the ranks that hold it next: :meth:`particle_slots` and its ``exit_wall`` (the
+        push's mark of an absorbed particle, which the next sort drops)."""
+        return {**self.particle_slots(), "exit_wall": self.particles.exit_wall.numpy()[:self.count]}
+
     def _refill(self, new: dict[str, np.ndarray]) -> None:
-        """The state's slots refilled with the held particles after a redistribution (in id order, sorted next)."""
-        st = self.state
+        """The slots refilled with the held particles after a redistribution (in id order, sorted next)."""
+        st, pa = self.state, self.particles
         count = new["position"].shape[0]
-        self.particles.ensure_capacity(count)
-        for name in ("position", "velocity", "species", "particle_id"):
-            if count:
+        pa.ensure_capacity(count)
+        if count:
+            for name in ("position", "velocity", "species", "particle_id"):
                 getattr(st, name)[:count].assign(new[name])
+            pa.exit_wall[:count].assign(new["exit_wall"])
         st.particle_count = count
-        self.particles.sync_position32()
+        pa.sync_position32()
 
     def _combine_report(self, values: np.ndarray) -> np.ndarray:
         """The step report over every rank: its own particles' sums added (rank order), the bad-particle flag's
@@ -422,16 +438,16 @@ class PICSolver(TimeDependentSolver):
 
     def restore_pieces(self, pieces: list[dict]) -> None:
         """The whole plasma from every process's checkpoint: each piece's live particles, one copy of each by id (a
-        ghost is its owner's copy: the pieces agree on every particle they share), spread over this run's ranks as at
-        a step's redistribution; the host values (step count, history, tallies: every rank's alike) from the first
-        piece. Then as :meth:`after_load`: the run continues bitwise as the uninterrupted one."""
-        unique = np.unique(np.concatenate([np.asarray(p["particle_id"])[:int(p["particle_count"])] for p in pieces]))
-        if not np.array_equal(unique, np.arange(unique.size)):
-            raise ParameterError("resume", "the checkpoint's particle ids are not 0..N-1 (particles were injected "
-                                           "or absorbed): it resumes on the number of processes that wrote it")
-        whole = whole_from_pieces(pieces, self.RESTORED, "particle_id", unique.size, rows="particle_count")
-        self.spread.respread(whole["position"])
-        held = {k: self.spread.particles.take(v) for k, v in whole.items()}
+        ghost is its owner's copy: the pieces agree on every particle they share; ids are sparse once particles were
+        injected or absorbed), spread over this run's ranks as at a step's redistribution; the host values (step
+        count, history, tallies: every rank's alike) from the first piece. Then as :meth:`after_load`: the run
+        continues bitwise as the uninterrupted one."""
+        whole = whole_from_pieces(pieces, self.RESTORED, "particle_id", None, rows="particle_count")
+        issued = self.particles.loaded_count + int(pieces[0]["injected"])
+        if whole["particle_id"].size and whole["particle_id"][-1] >= issued:
+            raise ParameterError("resume", "the checkpoint's particle ids do not match this scene")
+        rows = self.spread.respread(whole["position"], whole["particle_id"], issued)
+        held = {k: whole[k][rows] for k in self.RESTORED}
         st = self.state
         for k, v in st.host_values().items():
             if k == "particle_count":
@@ -457,6 +473,8 @@ class PICSolver(TimeDependentSolver):
         pa.allocate(self.state.capacity)
         self.coupling.allocate(self.state.capacity)
         pa.sync_position32()
+        pa.exit_wall.zero_()   # a checkpoint holds live particles only
+        self.spread.issued(pa.loaded_count + self.state.injected)
         pa.sort(self.count)
         self._find_owned()
         self.coupling.fields_at_particles()

@@ -13,6 +13,23 @@ process's terms in its order. A rank deposits on the nodes its box owns; one gat
 the whole charge vector (:meth:`PlasmaSpread.whole_charge`), bitwise the one process's, and so the same potential.
 The step's particle sums (kinetic energy, momentum) are each rank's own particles', added in rank order: these, unlike
 the state, agree with the one process to round-off only (its reduction adds the particles in another order).
+
+Open boundaries (sources and absorbing walls: :meth:`PlasmaSpread.injected_elsewhere`,
+:meth:`PlasmaSpread.owned_slots`, :meth:`PlasmaSpread.sum_over_ranks`, :meth:`PlasmaSpread.issued`):
+
+- a wall source's particles are counter-based random numbers of their ids (``kernels/pic.py: inject_particles``), and
+  every rank issues the same ids (the sources' counts are every rank's alike): every rank makes every injected
+  particle, as the one process does, and keeps those its box owns or holds as ghosts, so an injected particle has the
+  one process's id, position and velocity wherever it lands;
+- an absorbed particle is taken out by every rank that holds it (a ghost is pushed as its owner pushes it, so the
+  wall test gives every holder the same answer) and counted once, by the rank whose box holds where it landed (its
+  owner after the step's redistribution); the counts of absorbed particles per wall and species are integers, summed
+  over the ranks every step (:meth:`sum_over_ranks`), so the walls' charge (count × macro-charge) is bitwise the one
+  process's, and so is the live count;
+- the ids are then sparse: an id is issued once (loaded particles 0..N-1, each injected one the next) and never
+  reused; the particles' :class:`~warpfree.parallel.Partition` counts the ids issued (``count``), and a checkpoint's
+  pieces are joined by id (:meth:`respread`).
+A plasma with no loaded particle (a diode filled by its source) is cut over its nodes (:meth:`fixed_items`).
 """
 
 from __future__ import annotations
@@ -21,7 +38,6 @@ from collections.abc import Callable
 
 import numpy as np
 
-from warpfree.errors import ParameterError
 from warpfree.parallel import CutMethod, MovingSpread, Partition, World, points3
 from warpfree.parallel.halo import host_view
 
@@ -32,10 +48,7 @@ class PlasmaSpread(MovingSpread):
     """The decomposition of a plasma over ``world``'s ranks: the particles are the moving set (:attr:`particles`;
     global ids: the particles' ids), the nodes each rank's box owns deposit there."""
 
-    def __init__(self, world: World, model, positions: np.ndarray, injections=(), particle_walls=(),
-                 method: CutMethod = CutMethod.RCB):
-        if world.distributed:
-            self.refuse_open_boundaries(injections, particle_walls)
+    def __init__(self, world: World, model, positions: np.ndarray, method: CutMethod = CutMethod.RCB):
         space = model.space
         self.nodes = points3(model.nodes_np)
         super().__init__(world, positions, cell=float(model.reach), depth=float(model.reach) * (1.0 + 1e-9), dim=2,
@@ -46,6 +59,11 @@ class PlasmaSpread(MovingSpread):
     def particles(self) -> Partition:
         """This rank's part of the particles (the moving set)."""
         return self.moving
+
+    def fixed_items(self) -> tuple[np.ndarray, np.ndarray]:
+        """The nodes, weightless: the cut balances the particles, or the nodes when there is no particle yet (a box
+        that wall sources fill: the cut cannot follow particles that are not there)."""
+        return self.nodes, np.zeros(len(self.nodes))
 
     def follow_cut(self) -> None:
         """The nodes this rank deposits on (its box's), every node's owner, and the nodes in rank order."""
@@ -62,9 +80,7 @@ class PlasmaSpread(MovingSpread):
     def owned(self, positions, count: int) -> np.ndarray:
         """Which of the first ``count`` held particles (``positions``: their Warp array, (n, 2)) this rank owns (its
         box holds them): all of them in one process, without a read."""
-        if self.whole:
-            return np.ones(count, dtype=bool)
-        return self.decomposition.owner(points3(positions.numpy()[:count])) == self.world.rank
+        return self.owned_slots(positions, 0, count)
 
     def gather_particles(self, values: dict[str, np.ndarray], owned: np.ndarray) -> dict[str, np.ndarray]:
         """Every rank's own particles' ``values`` (held rows, one of them ``particle_id``), in id order, on every
@@ -108,15 +124,48 @@ class PlasmaSpread(MovingSpread):
         out[self._node_order] = np.concatenate(parts)
         return out
 
-    @staticmethod
-    def refuse_open_boundaries(injections, particle_walls) -> None:
-        """Sources and absorbing walls change the particles' count on one rank and their ids: not distributed yet."""
-        if injections:
-            raise ParameterError("injections", "a distributed run cannot inject particles yet (wall sources): run "
-                                               "this scene in one process")
-        if "absorb" in particle_walls:
-            raise ParameterError("particle_walls", "a distributed run cannot absorb particles at the walls yet: run "
-                                                   "this scene in one process, or with reflecting walls")
+    # -- open boundaries: sources and absorbing walls --------------------------------------------------------
+    def owned_slots(self, positions, first: int, last: int) -> np.ndarray:
+        """Which held slots [``first``, ``last``) this rank owns (``positions``: the slots' Warp array, (n, 2)): the
+        box that holds a slot's position, inside the box or beyond a wall (an absorbed particle, where it landed);
+        all of them in one process, without a read."""
+        if self.whole:
+            return np.ones(last - first, dtype=bool)
+        return self.decomposition.owner(points3(positions[first:last].numpy())) == self.world.rank
+
+    def injected_elsewhere(self, positions, first: int, last: int) -> np.ndarray:
+        """Of the injected particles in slots [``first``, ``last``) (every rank makes every one), those this rank
+        neither owns nor holds as ghosts (their slots, ascending: the caller drops them); none in one process, without
+        a read."""
+        if self.whole or last <= first:
+            return np.zeros(0, dtype=np.int64)
+        points = points3(positions[first:last].numpy())
+        held = ((self.decomposition.owner(points) == self.world.rank)
+                | self.decomposition.near(points, self.world.rank, self.depth))
+        return first + np.flatnonzero(~held)
+
+    def issued(self, count: int) -> None:
+        """The particle ids issued so far (loaded and injected: ``count``): the id space of the particles'
+        partition."""
+        self.moving.count = int(count)
+
+    def hold(self, particle_id, owned: np.ndarray) -> None:
+        """The particles' partition made of the held slots after a sort (``particle_id``: their Warp array; ``owned``:
+        which of the first ``owned.size`` this rank owns), for :meth:`describe`: sources and walls change the held
+        set after the redistribution. Nothing in one process (its part is every particle)."""
+        if self.whole:
+            return
+        ids = particle_id[:owned.size].numpy().astype(np.int64)
+        order = np.argsort(ids, kind="stable")
+        part = Partition(self.world, self.decomposition, self.depth, ids[order], owned[order], {}, {},
+                         self.particles.count)
+        self.moving.release()
+        self.moving = part
+
+    def sum_over_ranks(self, counts: np.ndarray) -> np.ndarray:
+        """Every rank's integer ``counts`` added (exact in any order: the one process's totals); a copy in one
+        process."""
+        return self.world.allreduce(np.asarray(counts, dtype=np.int64), "sum")
 
     def counts(self) -> dict[str, int]:
         """Particles owned and ghost, and nodes, on this rank."""
