@@ -1,5 +1,5 @@
 """The linear solve of a distributed EFG run, by measurement: SciPy's SuperLU on the whole system in every process
-against PETSc's Krylov solves of the ranks' parts (``warpfree.parallel.PETScSystem``), at 1 and 2 ranks.
+against PETSc's Krylov solves of the ranks' rows (``warpfree.parallel.PETScSystem``), at 1 and 2 ranks.
 
 The case: the Timoshenko beam (``scenes/efg_timoshenko.py``, consistent integration) at several node counts, with
 its Lagrange multipliers (a saddle-point system) and with the penalty method, and NEM on the same nodes (direct

@@ -309,10 +309,10 @@ def _has_petsc() -> bool:
 
 needs_petsc = pytest.mark.skipif(not _has_petsc(), reason=f"no PETSc here: {PETSC_EXTRA}")
 
-#: (scene, ranks, settings): the beam's saddle point (Lagrange multipliers) and its penalty form, the two-material
-#: resistor (Nitsche interface terms, rank 0 alone adding them), Cook's membrane, NEM on the beam's Delaunay
-#: triangles (direct substitution: prescribed values eliminated from every rank's part), there also with algebraic
-#: multigrid
+#: (scene, ranks, settings): the beam's saddle point (Lagrange multipliers, their rows rank 0's) and its penalty
+#: form, the two-material resistor (Nitsche interface terms, each rank's rows of them), Cook's membrane, NEM on the
+#: beam's Delaunay triangles (direct substitution: prescribed values eliminated from every rank's rows), there also
+#: with algebraic multigrid
 #: (three ranks need a beam of 24 cells: the smallest's 12 span two supports)
 WIDER = ["--set", "cells_x=24", "--set", "cells_y=6"]
 GALERKIN_CASES = [("efg_timoshenko", 2, []), ("efg_timoshenko", 3, WIDER + ["--set", "method=penalty"]),
@@ -332,7 +332,7 @@ GALERKIN_RTOL = 1e-7
 @pytest.mark.parametrize("scene,ranks,settings", GALERKIN_CASES)
 def test_a_distributed_galerkin_solve_through_petsc_gives_the_one_process_results_to_its_tolerance(
         scene, ranks, settings, tmp_path):
-    """Each rank integrates its own Gauss points, PETSc solves the ranks' parts as one matrix: the analysis (errors
+    """Each rank assembles its nodes' rows, PETSc solves the ranks' rows as one matrix: the analysis (errors
     against the exact or reference solution) and every output field agree with one process's SuperLU solve to
     the Krylov solve's tolerance, and summary.json names the solve and its relative residual."""
     sets = smallest_sets_then(scene, settings)

@@ -50,13 +50,8 @@ ORDERS = (1, 2, 3)
 FULL_RANK = 1e-10
 
 
-def _one_process(values: np.ndarray) -> np.ndarray:
-    return values
-
-
 def consistent_test_gradients(model: ShapeModel, shape: ShapeData, weight, boundary: list, order: int = 2,
-                              point_material=None, regions: int | None = None,
-                              total=_one_process) -> tuple[wp.array, np.ndarray]:
+                              point_material=None, regions: int | None = None) -> tuple[wp.array, np.ndarray]:
     """(∇ψ per entry of ``shape``, c_{I,1} (N, regions, 2) the constant part of the correction) for consistency of
     ``order`` n (1, 2, 3; module docstring): per node I and region m, c_I solves the n (n + 1) / 2 × 2 constraints
 
@@ -77,10 +72,11 @@ def consistent_test_gradients(model: ShapeModel, shape: ShapeData, weight, bound
     ``point_material`` (n,) the Gauss points' regions 0..M-1 (None: one region); ``boundary``: (ShapeData, weights
     (m,), outward normals (m, 2), region) for every piece that closes a region (outer boundary and both sides of
     every interface), the same points the boundary integrals use: per region the theorem then holds, so
-    piecewise-polynomial fields with flux continuity are integrated exactly too. A distributed run's rank passes
-    its own Gauss points, the number of ``regions`` and ``total``, the sum over the ranks of the Gauss points'
-    per-node sums (the boundary's are every rank's alike: added once, after). Set-up, once: the moments in NumPy
-    (float64), one small solve per node, the corrected gradients by a kernel (``kernels/galerkin.py``)."""
+    piecewise-polynomial fields with flux continuity are integrated exactly too. Each node's sums run over the
+    entries that hold it in the points' order (``np.bincount``), so a node whose support's points are all in
+    ``shape`` (a distributed run's rank: its own nodes, ``regions`` given) gets the one process's correction, bit for
+    bit, whatever other points ``shape`` holds. Set-up, once: the moments in NumPy (float64), one small solve per
+    node, the corrected gradients by a kernel (``kernels/galerkin.py``)."""
     order = require_integer("order", order, minimum=ORDERS[0], maximum=ORDERS[-1])
     terms = order * (order + 1) // 2
     w = np.asarray(weight, dtype=np.float64)
@@ -112,10 +108,9 @@ def consistent_test_gradients(model: ShapeModel, shape: ShapeData, weight, bound
     key = index * regions + np.repeat(region, shape.counts)
     entry_weight = np.repeat(w, shape.counts)
     rel = relative(index, np.repeat(np.asarray(shape.points, dtype=np.float64), shape.counts, axis=0))
-    # Σ_g w_g r_x^i r_y^j per key for i + j <= 2·order (one entry-sized temporary at a time), summed over the ranks
+    # Σ_g w_g r_x^i r_y^j per key for i + j <= 2·order (one entry-sized temporary at a time)
     powers = [(i, e - i) for e in range(2 * order + 1) for i in range(e + 1)]
-    moments = dict(zip(powers, total(np.stack([per_key(key, entry_weight * rel[:, 0] ** i * rel[:, 1] ** j)
-                                               for i, j in powers]))))
+    moments = {(i, j): per_key(key, entry_weight * rel[:, 0] ** i * rel[:, 1] ** j) for i, j in powers}
     phi = shape.phi.numpy()[: shape.n_entries]
     d = shape.dphi.numpy()[: shape.n_entries]
     inv_h = 1.0 / h[index]
@@ -126,7 +121,6 @@ def consistent_test_gradients(model: ShapeModel, shape: ShapeData, weight, bound
               j * rel[:, 0] ** i * rel[:, 1] ** max(j - 1, 0) * inv_h)
         for k in range(2):
             rhs[:, k, p] = -per_key(key, entry_weight * (d[:, k] * q + phi * dq[k]))
-    rhs = total(rhs)
     for bshape, bw, normal, piece_region in boundary:
         b_index = bshape.rows.index.numpy()[: bshape.n_entries].astype(np.int64)
         b_key = b_index * regions + max(int(piece_region), 0)

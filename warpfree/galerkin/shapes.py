@@ -78,7 +78,8 @@ class ShapeModel(ABC):
     """Nodes and their shape functions, as the Galerkin solvers use them.
 
     Attributes every model sets: ``launcher`` (device and threads), ``node_count``, ``nodes_np`` ((n, 2) float64
-    positions), ``spacing`` ((n,) a node's local spacing), ``node_material`` ((n,) int32 Warp array, -1: serves every
+    positions), ``spacing`` ((n,) a node's local spacing), ``reach`` (m: no shape function is nonzero farther than
+    this from its node; a distributed solve's ghost depth), ``node_material`` ((n,) int32 Warp array, -1: serves every
     material), ``settings`` (``interpolating``: φ_I(x_J) = δ_IJ, so that essential conditions may be substituted;
     ``basis`` and ``weight``: what the outputs name the method by).
     """
@@ -87,6 +88,7 @@ class ShapeModel(ABC):
     node_count: int
     nodes_np: np.ndarray
     spacing: np.ndarray
+    reach: float
 
     @abstractmethod
     def shape_at(self, points, material=None, name: str = "point") -> ShapeData:

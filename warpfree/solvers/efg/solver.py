@@ -5,10 +5,23 @@ points (:class:`~warpfree.galerkin.quadrature.QuadraturePoints`: background cell
 (:mod:`~warpfree.solvers.efg.boundary`) and materials, and ``solve()`` in timed phases: "shape functions" (at the
 Gauss points), "assembly", "boundary", "factorisation", "solve". The system is factorised once
 (:class:`~warpfree.sparse.FactorisedSystem`, SciPy's SuperLU) and kept: :meth:`EFGSolver.resolve` solves again for
-new loads (the PIC field solve). In a distributed run each rank integrates its own Gauss points and the ranks'
-parts of the system are solved by PETSc as one distributed matrix (:class:`~warpfree.parallel.PETScSystem`,
-``linear_solver="petsc"``, the default there). The solution is nodal parameters ``nodal`` (not nodal values unless the shape
+new loads (the PIC field solve). The solution is nodal parameters ``nodal`` (not nodal values unless the shape
 functions interpolate); :meth:`EFGSolver.field_at` evaluates u^h and ∇u^h anywhere.
+
+How the ranks share the work: by rows. Space is cut between the ranks (``warpfree.parallel``, balancing the Gauss
+points); a rank owns the rows of the nodes its box holds and holds the Gauss points its box owns and, as ghosts,
+those within the shape functions' reach (``model.reach``) of its box: every point in the support of each of its
+nodes, in global order. It evaluates the shape functions at the points it holds and assembles each of its rows from
+every point in that node's support, in the one process's order (the node-row kernels of
+``warpfree.galerkin.assembly``, the load's per-point slots, the per-node sums of consistent integration): each entry
+of its rows is the one process's, bit for bit. The boundary and interface points (essential, natural, free,
+interfaces: lines, few) every rank holds in full, so their terms (multipliers, penalty, Nitsche, the boundary
+integrals of consistent integration) are the one process's on every rank. The solve then takes either the whole
+system, every rank's rows put together (``linear_solver="superlu"``: each rank factorises the same matrix as one
+process and finds the same solution, bitwise), or each rank's rows as its part of one PETSc matrix
+(:class:`~warpfree.parallel.PETScSystem`, ``linear_solver="petsc"``, the default over several ranks: no entry added
+across ranks, so the matrix is the one process's, but the Krylov solve's parallel sums make its solution agree to
+its tolerance, not bitwise). One process is a one-rank partition: every row, every point, nothing to put together.
 
 Problems:
 
@@ -67,7 +80,7 @@ class LinearSolver(Choice):
 
     AUTO = "auto", "SuperLU in one process, PETSc over several ranks"
     SUPERLU = "superlu", "every process factorises the whole system with SciPy's SuperLU"
-    PETSC = "petsc", "the ranks' parts as one PETSc matrix, a Krylov solve"
+    PETSC = "petsc", "the ranks' rows as one PETSc matrix, a Krylov solve"
 
 
 class Plane(Choice):
@@ -175,10 +188,12 @@ class EFGSolver(StaticSolver):
         self.nodal = np.zeros(self.components * model.node_count)
         self.shape: ShapeData | None = None
         self.system: FactorisedSystem | None = None
+        #: K and f as the solve took them: f whole; K whole, or with PETSc this rank's rows (the others empty)
         self.matrix: sp.csr_matrix | None = None
         self.load: np.ndarray | None = None
         self.multipliers = np.zeros(0)
-        self.correction: np.ndarray | None = None  # the constant part of consistent integration's correction
+        #: the constant part of consistent integration's correction, (N, regions, 2), every node's on every rank
+        self.correction: np.ndarray | None = None
         #: the degree of the fields whose Galerkin equations consistent integration makes exact
         self.consistency_order = model.consistency_order if consistency is None else require_integer(
             "consistency", consistency, minimum=ORDERS[0], maximum=ORDERS[-1])
@@ -187,12 +202,13 @@ class EFGSolver(StaticSolver):
         if self.world.distributed and integration is Integration.SCNI:
             raise ParameterError("integration", "a distributed run cannot integrate on smoothing cells ('scni') yet: "
                                                 "use 'consistent' or 'gauss', or run in one process")
-        #: the Gauss points over the ranks (one process: a one-rank partition, every point), those this process
-        #: integrates (a rank's: those its box owns) and their materials
-        self.point_part = self._point_partition()
-        self._mine = self.point_part.ids  # every held point is an owned one
-        self._points = cells if self.point_part.whole else cells.subset(self._mine)  # smoothing cells: one part
-        self._material = None if self.point_material is None else self.point_material[self._mine]
+        #: the work over the ranks (module docstring; one process: a one-rank partition, every row and point): the
+        #: Gauss points this rank holds (its own and, as ghosts, those in its nodes' supports) and the nodes whose rows
+        #: it assembles
+        self.point_part, self.node_part = self._partition()
+        held = self.point_part.ids
+        self._points = cells if self.point_part.whole else cells.subset(held)  # smoothing cells: one part
+        self._material = None if self.point_material is None else self.point_material[held]
         self._multiplier_scale = 1.0
         self._interface_cache: dict = {}
 
@@ -202,19 +218,17 @@ class EFGSolver(StaticSolver):
         :class:`~warpfree.parallel.petsc_system.Preconditioner`). PETSc missing: ParameterError naming the extra."""
         linear_solver = LinearSolver.of("linear_solver", linear_solver)
         preconditioner = Preconditioner.of("preconditioner", preconditioner)
-        #: the ranks' parts of the system solved as one PETSc matrix (each rank keeps its part of K)
+        #: the ranks' rows of the system solved as one PETSc matrix (each rank keeps its rows of K)
         self.petsc = linear_solver is LinearSolver.PETSC or (linear_solver is LinearSolver.AUTO
                                                              and self.world.distributed)
         if self.petsc:
             require_petsc("linear_solver")
         self.preconditioner = preconditioner
-        #: the share of a term every rank computes in full (boundary and interface terms) that this rank adds to
-        #: its part of the system: 1 unless the parts stay apart (PETSc), where rank 0 adds them alone
-        self._share = 1.0 if (not self.petsc or self.world.is_root) else 0.0
 
     # -- what a problem defines --------------------------------------------------------------------------------
     def stiffness(self, shape: ShapeData, test_dphi) -> sp.csr_matrix:
-        """K with test gradients ``test_dphi`` (None: ∇φ)."""
+        """K over the Gauss points this process holds, with test gradients ``test_dphi`` (None: ∇φ): the rows of the
+        nodes whose supports it holds whole (a rank's own nodes') are K's."""
         raise NotImplementedError
 
     def body_load(self, shape: ShapeData) -> np.ndarray:
@@ -239,16 +253,16 @@ class EFGSolver(StaticSolver):
 
     def solve(self) -> None:
         """Shape functions, assembly, boundary conditions, factorisation and solve. In a distributed run each rank
-        evaluates and integrates its own Gauss points; their per-node sums (the stiffness, the loads, the consistent
-        correction's) are added over the ranks, in rank order, and every rank then imposes the conditions (their
-        points are every rank's alike), factorises and solves the same system: the one process's, to round-off."""
+        assembles its nodes' rows from the Gauss points it holds (module docstring): the rows of K, f and the
+        consistent correction are the one process's, bit for bit; the solve takes them put together (SuperLU: the one
+        process's system and solution on every rank) or as its part of a PETSc matrix."""
         model, c = self.model, self.components
-        total = self._total
         with self.phases("shape functions"):
             if self.integration is Integration.SCNI:
                 self.shape = smoothed_shape(model, self.cells)
             else:
                 self.shape = model.shape_at(self._points.position, self._material, name="Gauss point")
+                self._check_supports_held(self.shape)
             direct = self.method is EssentialMethod.DIRECT
             essential = [] if direct else [self._essential_set(b) for b in self.essential]
             natural = [(nat, self._shape(nat.points.position, nat.material, f"{nat.name} point"))
@@ -259,14 +273,15 @@ class EFGSolver(StaticSolver):
                 self._check_closed(pieces)
                 self._check_nodes_inside([p for _, p, _ in pieces])
                 regions = 1 if self.point_material is None else int(self.point_material.max()) + 1
-                test, self.correction = consistent_test_gradients(
+                test, correction = consistent_test_gradients(
                     model, self.shape, self._points.weight, [(sh, p.weight, p.normal, r) for sh, p, r in pieces],
-                    self.consistency_order, self._material, regions=regions, total=total)
+                    self.consistency_order, self._material, regions=regions)
+                self.correction = self.node_part.gather(correction[self.node_part.ids])
         with self.phases("assembly"):
-            K = self._total_matrix(self.stiffness(self.shape, test))
+            K = self._assembled(self.stiffness(self.shape, test))
             if self.interfaces and self.interface_condition is InterfaceCondition.NITSCHE:
-                K = K + self._share * self.interface_stiffness()
-            f = total(self.body_load(self.shape))
+                K = K + self._part_of(self.interface_stiffness())
+            f = self._assembled_load(self.body_load(self.shape))
             for nat, sh in natural:
                 f = f + self._natural_load(nat, sh)
         with self.phases("boundary"):
@@ -285,34 +300,81 @@ class EFGSolver(StaticSolver):
         self.matrix, self.load = K, f
 
     # -- over the ranks ----------------------------------------------------------------------------------------
-    def _point_partition(self) -> Partition:
-        """The Gauss points over the ranks: each rank integrates those its box holds (``warpfree.parallel``: cut over
-        the nodes' reach, balancing the points); a point's sums need no other point, so a rank holds its own only."""
-        p = np.zeros((self.cells.position.shape[0], 3))
-        p[:, :2] = self.cells.position
-        reach = float(getattr(self.model, "reach", 0.0) or 2.0 * float(np.max(self.model.spacing)))
+    def _partition(self) -> tuple[Partition, Partition]:
+        """(the Gauss points, the nodes) over the ranks (module docstring): space cut over the shape functions'
+        reach, balancing the Gauss points (``warpfree.parallel``); a rank holds the points its box owns and, as
+        ghosts, those within the reach of its box, and owns (holds) the nodes its box holds, whose rows it
+        assembles."""
+        p = _points3(self.cells.position)
+        reach = float(self.model.reach)
         dec = Decomposition.build(self.world.size, p, None, reach, 2, CutMethod.RCB)
-        own = np.flatnonzero(dec.owner(p) == self.world.rank)
-        return Partition.of_items(self.world, dec, 0.0, own, p[own], p.shape[0])
+        points = Partition.of_all(self.world, dec, reach, p)
+        nodes = _points3(self.model.nodes_np)
+        own = np.flatnonzero(dec.owner(nodes) == self.world.rank)
+        return points, Partition.of_items(self.world, dec, 0.0, own, nodes[own], self.model.node_count)
+
+    def _check_supports_held(self, shape: ShapeData) -> None:
+        """Every point in the support of each of this rank's nodes is held (a node's row needs them all): the count
+        of its support's points here equals the count over every rank's own points (RuntimeError otherwise)."""
+        index = shape.rows.index.numpy()[: shape.n_entries]
+        own = np.repeat(self.point_part.owned, shape.counts)
+        n = self.model.node_count
+        everywhere = self.world.allreduce(np.bincount(index[own], minlength=n), "sum")
+        here = np.bincount(index, minlength=n)
+        mine = self.node_part.ids
+        if not np.array_equal(here[mine], everywhere[mine]):
+            node = int(mine[np.flatnonzero(here[mine] != everywhere[mine])[0]])
+            raise RuntimeError(f"node {node}'s support reaches a Gauss point this rank does not hold: the ghost "
+                               f"layer (the shape model's reach, {self.model.reach:.6g}) is too thin")
+
+    def _unknowns(self, rows: np.ndarray) -> np.ndarray:
+        """The unknowns (components·I + k) of the nodes ``rows``."""
+        c = self.components
+        return (c * np.asarray(rows, dtype=np.int64)[:, None] + np.arange(c)).reshape(-1)
+
+    def _own_rows(self, M: sp.spmatrix) -> sp.csr_matrix:
+        """The rows of ``M`` this rank owns, the others emptied: its nodes' unknowns and (rank 0) the rows past the
+        nodes' unknowns (the multipliers'); ``M`` itself in one process."""
+        M = M.tocsr()
+        if self.node_part.whole:
+            return M
+        keep = np.zeros(M.shape[0], dtype=bool)
+        keep[self._unknowns(self.node_part.ids)] = True
+        keep[self.components * self.model.node_count:] = self.world.is_root
+        counts = np.diff(M.indptr)
+        entries = np.repeat(keep, counts)
+        return sp.csr_matrix((M.data[entries], M.indices[entries], np.r_[0, np.cumsum(counts * keep)]),
+                             shape=M.shape)
+
+    def _part_of(self, M: sp.spmatrix) -> sp.csr_matrix:
+        """What the solve takes of a matrix every rank has in full (boundary and interface terms): with PETSc this
+        rank's rows (:meth:`_own_rows`), else ``M``."""
+        return self._own_rows(M) if self.petsc else M.tocsr()
+
+    def _assembled(self, M: sp.spmatrix) -> sp.csr_matrix:
+        """What the solve takes of a matrix whose rows of this rank's nodes this rank assembled: with PETSc those rows
+        (the others emptied), else the whole matrix, every rank's rows put together (nothing added: each row comes
+        from its one owner); ``M`` itself in one process."""
+        own = self._own_rows(M)
+        return own if self.petsc else self.world.allreduce_matrix(own)
+
+    def _assembled_load(self, f: np.ndarray) -> np.ndarray:
+        """The whole load vector, every rank's rows of its nodes put together (a copy of ``f`` in one process)."""
+        c = self.components
+        mine = self.node_part.ids
+        return self.node_part.gather(np.asarray(f).reshape(-1, c)[mine]).reshape(-1)
 
     def _pieces(self, sets: list[OutputSet]) -> list[OutputSet]:
         """This process's parts of the output sets: its own Gauss points, and (rank 0) the nodes, which every rank
         holds (``OutputSet.ids``: their indices); the whole sets in one process."""
+        own_points = self.point_part.ids[self.point_part.owned_index]
         out = []
         for s in sets:
-            rows = self._mine if s.name == "gauss_points" else (np.arange(len(s.points)) if self.world.is_root
-                                                                 else np.zeros(0, np.int64))
+            rows = own_points if s.name == "gauss_points" else (np.arange(len(s.points)) if self.world.is_root
+                                                                else np.zeros(0, np.int64))
             out.append(dataclasses.replace(s, points=s.points[rows], fields={k: v[rows] for k, v in s.fields.items()},
                                            ids=rows))
         return out
-
-    def _total(self, values: np.ndarray) -> np.ndarray:
-        """A per-node sum over this process's Gauss points -> over every rank's (added in rank order)."""
-        return self.world.allreduce(values, "sum")
-
-    def _total_matrix(self, K: sp.csr_matrix) -> sp.csr_matrix:
-        """Every rank's part of the stiffness, added (in rank order), on every rank; with PETSc this rank's part."""
-        return K if self.petsc else self.world.allreduce_matrix(K)
 
     def _shape(self, points: np.ndarray, material: int, name: str) -> ShapeData:
         """Shape functions at boundary points that belong to ``material`` (-1: every node serves them)."""
@@ -440,21 +502,21 @@ class EFGSolver(StaticSolver):
                 rhs_parts.append(fb)
         if self.method is EssentialMethod.PENALTY:
             alpha = self.penalty * self._largest_diagonal(K) / float(np.abs(mass.diagonal()).max())
-            return (K + self._share * alpha * mass).tocsr(), f + alpha * np.sum(rhs_parts, axis=0), PrescribedValues([], [], n)
+            return ((K + self._part_of(alpha * mass)).tocsr(), f + alpha * np.sum(rhs_parts, axis=0),
+                    PrescribedValues([], [], n))
         # scale the constraint rows so that both blocks' pivots are of K's size (K ~ E, G ~ length: unscaled, the
         # multipliers' Schur complement -GᵀK⁻¹G is 1e-14 of K's pivots and reads as singular); λ = β λ'
         G = sp.hstack(blocks).tocsr()
         m = G.shape[1]
         beta = self._largest_diagonal(K) / max(float(np.abs(G).max()), 1e-300)
         self._multiplier_scale = beta
-        G = self._share * beta * G
+        G = beta * G
         kkt = sp.bmat([[K, G], [G.T, None]]).tocsr()
-        return kkt, np.concatenate([f] + [beta * q for q in rhs_parts]), PrescribedValues([], [], n + m)
+        return self._part_of(kkt), np.concatenate([f] + [beta * q for q in rhs_parts]), PrescribedValues([], [], n + m)
 
     def _largest_diagonal(self, K) -> float:
-        """max |K_II| of the whole stiffness (with PETSc, K is this rank's part: its diagonal is added first)."""
-        diagonal = K.diagonal()
-        return float(np.abs(self._total(diagonal) if self.petsc else diagonal).max())
+        """max |K_II| of the whole stiffness (with PETSc K holds this rank's rows: the largest over the ranks)."""
+        return float(self.world.allreduce(np.abs(K.diagonal()).max(initial=0.0), "max"))
 
     def resolve(self, load) -> np.ndarray:
         """Solve again with the kept factorisation for a new load vector on the nodes, under the same boundary
@@ -478,8 +540,8 @@ class EFGSolver(StaticSolver):
         return self.model.evaluate(self.nodal, shape, self.components)
 
     def gauss_field(self) -> tuple[np.ndarray, np.ndarray]:
-        """u^h and ∇u^h at the Gauss points (reusing their shape functions; in a distributed run every rank's own,
-        gathered in the points' order)."""
+        """u^h and ∇u^h at the Gauss points (reusing their shape functions; in a distributed run every rank's own
+        points, gathered in the points' order)."""
         u, g = self.model.evaluate(self.nodal, self.shape, self.components)
         return self.point_part.gather(u), self.point_part.gather(g)
 
@@ -549,7 +611,7 @@ class PoissonSolver(EFGSolver):
         return self.conductivity[0] * np.ones(count) if material is None else self.conductivity[material]
 
     def stiffness(self, shape: ShapeData, test_dphi) -> sp.csr_matrix:
-        """K over this process's Gauss points."""
+        """K over the Gauss points this process holds (:meth:`EFGSolver.stiffness`)."""
         k = self.point_conductivity(self._material, self._points.weight.shape[0])
         return assembly.conduction_matrix(self.model, shape, self._points.weight * k, test_dphi)
 
@@ -596,7 +658,7 @@ class ElasticitySolver(EFGSolver):
         self.body = body
 
     def stiffness(self, shape: ShapeData, test_dphi) -> sp.csr_matrix:
-        """K over this process's Gauss points."""
+        """K over the Gauss points this process holds (:meth:`EFGSolver.stiffness`)."""
         d = np.broadcast_to(self.D, (shape.n, 3, 3))
         return assembly.elastic_matrix(self.model, shape, self._points.weight, d, test_dphi)
 

@@ -1,7 +1,7 @@
 """The NEM model: nodes, their Delaunay triangulation and Laplace shape functions at any set of points (Rocha 2012, §3.4).
 
 A :class:`NEMModel` is a :class:`~warpfree.galerkin.shapes.ShapeModel`, as the MLS model is, for the EFG solvers
-(``warpfree.solvers.efg.solver``): it has ``launcher``, ``node_count``, ``nodes_np``, ``spacing`` (per node),
+(``warpfree.solvers.efg.solver``): it has ``launcher``, ``node_count``, ``nodes_np``, ``spacing`` (per node), ``reach``,
 ``settings.interpolating`` (True), ``node_material`` (all -1), :meth:`shape_at` returning a
 :class:`~warpfree.galerkin.shapes.ShapeData`, :meth:`evaluate` (its nodal parameters are nodal values: the
 Laplace functions interpolate) and :meth:`describe`; and, NEM's own,
@@ -205,6 +205,13 @@ class NEMModel(ShapeModel):
         length = np.linalg.norm(x[e[:, 0]] - x[e[:, 1]], axis=1)
         total = np.bincount(e.ravel(), weights=np.repeat(length, 2), minlength=self.node_count)
         self.spacing = total / np.bincount(e.ravel(), minlength=self.node_count)
+        # reach: a node is a natural neighbour of x only as a vertex of a kept triangle whose circumcircle holds x,
+        # so no shape function reaches farther than the largest circumcircle's diameter 2R = abc / (2 · area)
+        c = x[self.triangles]
+        sides = np.linalg.norm(c - np.roll(c, 1, axis=1), axis=2)
+        e1, e2 = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
+        area2 = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+        self.reach = float(np.max(np.prod(sides, axis=1) / area2)) * (1.0 + 1e-9)
 
     # -- shape functions ---------------------------------------------------------------------------------------
     def locate(self, points, name: str = "point") -> np.ndarray:
