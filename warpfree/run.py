@@ -40,7 +40,7 @@ from .validation import validation_block
 __all__ = ["OutputOptions", "RunDirectory", "Run", "StaticRun", "build_scene"]
 
 #: analysis: function(run, out_dir) -> dict merged into summary["analysis"]; out_dir is None for a run in memory
-#: and on every rank but the first of a distributed run (compute, write and draw nothing); a result's "checks" (validation.tolerance_check records) make summary["validation"]
+#: (compute, draw nothing); a result's "checks" (validation.tolerance_check records) make summary["validation"]
 Analysis = Callable[["Run", "str | None"], dict]
 
 
@@ -352,11 +352,8 @@ class Run(ABC):
             summary = self.summary(time.perf_counter() - wall0)
             analysis = {}
             with self.phases("analysis"):
-                # an interrupted run is analysed when resumed; every rank analyses (an analysis may gather), the
-                # first writes its files
-                out_dir = directory.root if directory is not None and self.world.is_root else None
-                for fn in (self.analyses if self.complete else ()):
-                    analysis.update(fn(self, out_dir) or {})
+                for fn in (self.analyses if self.complete else ()):  # an interrupted run is analysed when resumed
+                    analysis.update(fn(self, directory.root if directory is not None else None) or {})
                 try:
                     self._writer.finish()  # the plots the analyses handed over (:meth:`plot`)
                 except OutputError as exc:

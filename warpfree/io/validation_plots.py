@@ -89,8 +89,13 @@ def annotate_checks(ax, checks: dict, loc: str = "below") -> None:
 
 
 def save_figure(fig, path) -> str:
-    """Lay the figure out so that no label is cut off and write it as a PNG at ``path`` (its folder made)."""
+    """Lay the figure out so that no label is cut off and write it as a PNG at ``path`` (its folder made); in a
+    distributed run the first rank writes it (every rank analyses alike)."""
+    from warpfree.parallel.world import world, world_started
+
     path = str(path)
+    if world_started() and not world().is_root:  # (the writer process, which draws the plots handed to it, has none)
+        return path
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     fig.tight_layout()
     fig.savefig(path, format="png", bbox_inches="tight", pad_inches=0.08)

@@ -334,10 +334,8 @@ class EFGSolver(StaticSolver):
 
     def _own_rows(self, M: sp.spmatrix) -> sp.csr_matrix:
         """The rows of ``M`` this rank owns, the others emptied: its nodes' unknowns and (rank 0) the rows past the
-        nodes' unknowns (the multipliers'); ``M`` itself in one process."""
+        nodes' unknowns (the multipliers'): every row in one process."""
         M = M.tocsr()
-        if self.node_part.whole:
-            return M
         keep = np.zeros(M.shape[0], dtype=bool)
         keep[self._unknowns(self.node_part.ids)] = True
         keep[self.components * self.model.node_count:] = self.world.is_root

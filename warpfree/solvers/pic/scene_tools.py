@@ -61,7 +61,12 @@ def lattice_nodes(space: Space, spacing: float) -> np.ndarray:
 
 
 def write_history(path: str, history: dict[str, list[float]]) -> str:
-    """The solver's per-step diagnostics as CSV (one row per step, columns as in ``history``)."""
+    """The solver's per-step diagnostics as CSV (one row per step, columns as in ``history``); in a distributed run
+    the first rank writes it (every rank's history is the whole run's)."""
+    from warpfree.parallel.world import world, world_started
+
+    if world_started() and not world().is_root:
+        return path
     keys = list(history)
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
