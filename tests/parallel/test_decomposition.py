@@ -98,3 +98,22 @@ def test_a_decomposition_survives_a_manifest():
     back = Decomposition.from_dict(dec.to_dict())
     x = points(100, seed=9)
     assert np.array_equal(back.owner(x), dec.owner(x))
+
+
+@pytest.mark.parametrize("method,size,periodic", [("rcb", 3, (True, False, False)), ("rcb", 5, (False, False, False)),
+                                                  ("slabs", 4, (False, True, False)), ("rcb", 4, (True, True, False))])
+def test_the_owner_lookup_is_the_box_test(method, size, periodic):
+    """The owner found from the faces' grid is the box that holds the point (points across periodic faces and on
+    faces included: lower faces closed, upper open)."""
+    rng = np.random.default_rng(3)
+    points = np.zeros((4000, 3))
+    points[:, :2] = rng.uniform(0.0, 1.0, (4000, 2)) ** 2
+    dec = Decomposition.build(size, points, None, 0.05, 2, method, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), periodic)
+    probes = rng.uniform(-0.5, 1.5, (3000, 3))
+    for a in range(2):  # some exactly on a face
+        faces = np.unique(np.concatenate([dec.lower[:, a], dec.upper[:, a]]))
+        faces = faces[np.isfinite(faces)]
+        if faces.size:
+            probes[50 * a: 50 * a + 50, a] = rng.choice(faces, 50)
+    probes[:, 2] = 0.0
+    assert np.array_equal(dec.owner(probes), dec._box_of(probes))

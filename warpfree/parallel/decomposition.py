@@ -18,7 +18,7 @@ Refused: more ranks than cells to cut along the decomposition's axes (a box woul
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -53,6 +53,8 @@ class Decomposition:
     dim: int
     method: CutMethod
     cell: float
+    #: the owner of each bin of the grid the boxes' faces make (:meth:`owner`), made at its first use
+    _bins: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def size(self) -> int:
@@ -99,8 +101,33 @@ class Decomposition:
 
     # -- using one --------------------------------------------------------------------------------------
     def owner(self, points: np.ndarray) -> np.ndarray:
-        """The rank whose box holds each point ((n, 3) -> (n,) int32); points outside every box (beyond an open
-        face cannot happen: outer faces are at infinity) go to the nearest box."""
+        """The rank whose box holds each point ((n, 3) -> (n,) int32), lower faces closed and upper open; a point
+        outside every box (beyond an open face cannot happen: outer faces are at infinity) goes to the nearest box.
+
+        The boxes' faces cut each axis into a few intervals; every bin of that grid lies in one box, found once
+        (:meth:`_box_of`), so a point's owner is a lookup of its intervals (a binary search per axis)."""
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        if self._bins is None:
+            faces = [np.unique(np.concatenate([self.lower[:, a], self.upper[:, a]])) for a in range(3)]
+            faces = [f[np.isfinite(f)] for f in faces]
+            centres = []
+            for f in faces:
+                edges = np.concatenate([[f[0] - 1.0], f, [f[-1] + 1.0]]) if f.size else np.zeros(2)
+                centres.append(0.5 * (edges[:-1] + edges[1:]))
+            grid = np.stack(np.meshgrid(*centres, indexing="ij"), axis=-1).reshape(-1, 3)
+            self._bins = (faces, self._box_of(grid).reshape([c.size for c in centres]))
+        faces, table = self._bins
+        index = []
+        for a in range(3):
+            x = p[:, a]
+            if self.period[a] > 0:
+                base = self.lower[:, a].min()
+                x = base + np.mod(x - base, self.period[a])
+            index.append(np.searchsorted(faces[a], x, side="right"))
+        return table[tuple(index)]
+
+    def _box_of(self, points: np.ndarray) -> np.ndarray:
+        """:meth:`owner` by testing each point against each box (the bins' owners)."""
         p = self._wrapped(np.asarray(points, dtype=np.float64).reshape(-1, 3))
         out = np.full(len(p), -1, dtype=np.int32)
         for r in range(self.size):
