@@ -68,6 +68,7 @@ class MovingSpread:
         self.decomposition = self.cut(np.vstack([moving, fixed]), np.concatenate([np.ones(len(moving)), fixed_cost]))
         #: this rank's part of the moving items
         self.moving = Partition.of_all(world, self.decomposition, self.depth, moving)
+        self.follow_cut()
 
     @property
     def whole(self) -> bool:
@@ -80,7 +81,8 @@ class MovingSpread:
         return np.zeros((0, 3)), np.zeros(0)
 
     def follow_cut(self) -> None:
-        """Lay the fixed items out on a new :attr:`decomposition` (after a rebalance or a respread)."""
+        """Lay the fixed items out on the current :attr:`decomposition` (at set-up, after a rebalance or a
+        respread)."""
 
     # -- the cut ----------------------------------------------------------------------------------------------
     def cut(self, points: np.ndarray, cost: np.ndarray) -> Decomposition:

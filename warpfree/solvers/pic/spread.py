@@ -53,7 +53,6 @@ class PlasmaSpread(MovingSpread):
         self.nodes = points3(model.nodes_np)
         super().__init__(world, positions, cell=float(model.reach), depth=float(model.reach) * (1.0 + 1e-9), dim=2,
                          lower=space.lower, upper=space.upper, periodic=space.periodic, method=method)
-        self.follow_cut()
 
     @property
     def particles(self) -> Partition:

@@ -61,7 +61,6 @@ class FluidSpread(MovingSpread):
         super().__init__(world, self.fluid_start, cell=P.support, depth=P.support + model.skin, dim=P.dim,
                          lower=P.container_lo, upper=P.container_hi, periodic=P.periodic, method=method,
                          rebalance=rebalance)
-        self.follow_cut()
 
     @property
     def fluid(self) -> Partition:
