@@ -139,6 +139,10 @@ class Decomposition:
             out[miss] = np.argmin(d, axis=1)
         return out
 
+    def held_by(self, points: np.ndarray, rank: int, depth: float) -> np.ndarray:
+        """Which points ``rank`` holds (bool (n,)): those its box owns and, as ghosts, those within ``depth`` of it."""
+        return (self.owner(points) == rank) | self.near(points, rank, depth)
+
     def near(self, points: np.ndarray, rank: int, depth: float) -> np.ndarray:
         """Which points lie within ``depth`` of ``rank``'s box (bool (n,)), across periodic faces too."""
         p = self._wrapped(np.asarray(points, dtype=np.float64).reshape(-1, 3))

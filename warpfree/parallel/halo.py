@@ -125,9 +125,7 @@ class Partition:
     def of_all(cls, world: World, decomposition: Decomposition, depth: float, points: np.ndarray) -> "Partition":
         """The part of this rank when every rank knows every item's position (``points``: all N, global order)."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        owner = decomposition.owner(points)
-        held = (owner == world.rank) | decomposition.near(points, world.rank, depth)
-        ids = np.flatnonzero(held)
+        ids = np.flatnonzero(decomposition.held_by(points, world.rank, depth))
         return cls.of_items(world, decomposition, depth, ids, points[ids], points.shape[0])
 
     def redistribute(self, decomposition: Decomposition, points: np.ndarray, fields: dict[str, np.ndarray]):

@@ -146,10 +146,7 @@ class MovingSpread:
         ids = np.arange(len(moving), dtype=np.int64) if ids is None else np.asarray(ids, np.int64)
         fixed, fixed_cost = self.fixed_items()
         self.decomposition = self.cut(np.vstack([moving, fixed]), np.concatenate([np.ones(len(moving)), fixed_cost]))
-        held = self.decomposition.owner(moving) == self.world.rank
-        if not self.whole:
-            held |= self.decomposition.near(moving, self.world.rank, self.depth)
-        rows = np.flatnonzero(held)
+        rows = np.flatnonzero(self.decomposition.held_by(moving, self.world.rank, self.depth))
         self.moving.release()
         self.moving = Partition.of_items(self.world, self.decomposition, self.depth, ids[rows], moving[rows],
                                          len(moving) if count is None else int(count))

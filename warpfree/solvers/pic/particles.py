@@ -216,7 +216,7 @@ class Particles:
         :attr:`absorbed_here`, per wall and species (those of :data:`ELSEWHERE` are another rank's)."""
         walls = self.sort_keys[first:last].numpy() // 2 ** 31 - self.dead_key
         species = self.state.species[first:last].numpy()
-        counted = (walls < WALLS) & self.spread.owned_slots(self.state.position, first, last)
+        counted = (walls < WALLS) & self.spread.owned(self.state.position, first, last)
         np.add.at(self.absorbed_here, (walls[counted], species[counted]), 1)
 
     def count_over_ranks(self, owned: np.ndarray) -> None:

@@ -321,7 +321,7 @@ class PICSolver(TimeDependentSolver):
     def _find_owned(self) -> None:
         """Which held slots this rank owns (its box holds them): after every sort; with open boundaries the live and
         absorbed particles counted over the ranks (:meth:`_count_open`)."""
-        self._owned = self.spread.owned(self.state.position, self.count)
+        self._owned = self.spread.owned(self.state.position, 0, self.count)
         if self.particles.open_boundaries:
             self._count_open()
 

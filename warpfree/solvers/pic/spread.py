@@ -15,7 +15,7 @@ The step's particle sums (kinetic energy, momentum) are each rank's own particle
 the state, agree with the one process to round-off only (its reduction adds the particles in another order).
 
 Open boundaries (sources and absorbing walls: :meth:`PlasmaSpread.injected_elsewhere`,
-:meth:`PlasmaSpread.owned_slots`, :meth:`PlasmaSpread.sum_over_ranks`, :meth:`PlasmaSpread.issued`):
+:meth:`PlasmaSpread.owned`, :meth:`PlasmaSpread.sum_over_ranks`, :meth:`PlasmaSpread.issued`):
 
 - a wall source's particles are counter-based random numbers of their ids (``kernels/pic.py: inject_particles``), and
   every rank issues the same ids (the sources' counts are every rank's alike): every rank makes every injected
@@ -76,11 +76,6 @@ class PlasmaSpread(MovingSpread):
         process; on several ranks room for the particles that arrive, before the arrays must grow."""
         return injected if self.whole else max(16, held // 4)
 
-    def owned(self, positions, count: int) -> np.ndarray:
-        """Which of the first ``count`` held particles (``positions``: their Warp array, (n, 2)) this rank owns (its
-        box holds them): all of them in one process, without a read."""
-        return self.owned_slots(positions, 0, count)
-
     def gather_particles(self, values: dict[str, np.ndarray], owned: np.ndarray) -> dict[str, np.ndarray]:
         """Every rank's own particles' ``values`` (held rows, one of them ``particle_id``), in id order, on every
         rank; in one process ``values`` themselves (slot order)."""
@@ -123,8 +118,7 @@ class PlasmaSpread(MovingSpread):
         out[self._node_order] = np.concatenate(parts)
         return out
 
-    # -- open boundaries: sources and absorbing walls --------------------------------------------------------
-    def owned_slots(self, positions, first: int, last: int) -> np.ndarray:
+    def owned(self, positions, first: int, last: int) -> np.ndarray:
         """Which held slots [``first``, ``last``) this rank owns (``positions``: the slots' Warp array, (n, 2)): the
         box that holds a slot's position, inside the box or beyond a wall (an absorbed particle, where it landed);
         all of them in one process, without a read."""
@@ -132,15 +126,14 @@ class PlasmaSpread(MovingSpread):
             return np.ones(last - first, dtype=bool)
         return self.decomposition.owner(points3(positions[first:last].numpy())) == self.world.rank
 
+    # -- open boundaries: sources and absorbing walls --------------------------------------------------------
     def injected_elsewhere(self, positions, first: int, last: int) -> np.ndarray:
         """Of the injected particles in slots [``first``, ``last``) (every rank makes every one), those this rank
         neither owns nor holds as ghosts (their slots, ascending: the caller drops them); none in one process, without
         a read."""
         if self.whole or last <= first:
             return np.zeros(0, dtype=np.int64)
-        points = points3(positions[first:last].numpy())
-        held = ((self.decomposition.owner(points) == self.world.rank)
-                | self.decomposition.near(points, self.world.rank, self.depth))
+        held = self.decomposition.held_by(points3(positions[first:last].numpy()), self.world.rank, self.depth)
         return first + np.flatnonzero(~held)
 
     def issued(self, count: int) -> None:
