@@ -34,6 +34,7 @@ import warp as wp
 from .clock import DeviceClock
 from .device import Launcher
 from .errors import ParameterError
+from .parallel.world import world
 from .parameters import Choice
 
 __all__ = ["State", "HostTable", "OutputSet", "PhaseTimes", "Solver", "StepRule", "StepKind", "TimeDependentSolver", "StaticSolver"]
@@ -315,8 +316,13 @@ class TimeDependentSolver(Solver):
 
     def record_step(self):
         """A :class:`warpfree.graph.StepGraph` that replays :meth:`advance` as recorded Warp graphs. None: the
-        solver's step cannot be recorded."""
+        solver's step cannot be recorded. Called through :meth:`step_graph`, which records no step of several ranks."""
         return None
+
+    def step_graph(self):
+        """:meth:`record_step`'s graphs, or None in a run of several ranks: there a step's ghosts and migrations go
+        through MPI on the host between its launches, which a recorded graph cannot replay."""
+        return None if world().distributed else self.record_step()
 
     @abstractmethod
     def stable_dt(self) -> float:

@@ -80,7 +80,7 @@ def test_replayed_steps_are_bitwise_the_stepped_ones(make, steps, device_name):
     for s in (stepped, replayed):
         _start(s)
     _run(stepped, steps)
-    graph = replayed.record_step()
+    graph = replayed.step_graph()
     assert graph.graphs >= 1
     for _ in range(steps):
         graph.replay()
@@ -136,7 +136,7 @@ def test_replayed_pic_steps_are_bitwise_the_stepped_ones(scene, device_name):
     for _ in range(steps):
         stepped.advance()
         assert stepped.problem() is None
-    graph = replayed.record_step()
+    graph = replayed.step_graph()
     assert graph.graphs == 2
     for _ in range(steps):
         graph.replay()

@@ -372,11 +372,10 @@ class PICSolver(TimeDependentSolver):
     def record_step(self) -> StepGraph | None:
         """:meth:`step` as two Warp graphs (the push; the fields) around the host's sort and grid build, and the
         report's read after them. None when a step cannot be recorded: with open boundaries (the live count changes
-        the launches), a field solve with host work (SuperLU, or Warp's CG on a CPU, which checks its residual
-        there) or in a distributed run (its particles move between ranks through the host)."""
+        the launches) or a field solve with host work (SuperLU, or Warp's CG on a CPU, which checks its residual
+        there)."""
         solve = self.coupling.device_solve
-        if (self.particles.open_boundaries or solve is None or (solve.method is FieldSolve.CG and self.launcher.is_cpu)
-                or not self.spread.whole):
+        if (self.particles.open_boundaries or solve is None or (solve.method is FieldSolve.CG and self.launcher.is_cpu)):
             return None
         with self.launcher.capturing() as push:
             self._launch_push()

@@ -256,10 +256,8 @@ class SPEMSolver(TimeDependentSolver):
         self._launch_step()
         self.clock.launch_advance_and_choose()
 
-    def record_step(self) -> StepGraph | None:
-        """:meth:`advance` recorded as one Warp graph (None in a distributed run: its ghosts go through the host)."""
-        if not self.spread.electric.whole:
-            return None
+    def record_step(self) -> StepGraph:
+        """:meth:`advance` recorded as one Warp graph."""
         with self.launcher.capturing() as capture:
             self.advance()
         return StepGraph([capture.graph], after=self.clock.invalidate)

@@ -365,10 +365,7 @@ class WCSPHSolver(TimeDependentSolver):
 
     def record_step(self) -> StepGraph:
         """:meth:`advance` as two Warp graphs around the host's rebuild decision: (drift), then a neighbour
-        rebuild if the last report says a particle may have moved past the skin, then (rates, kick, report). None in a
-        distributed run (a step exchanges ghosts through the host, and a rebuild lays the arrays out anew)."""
-        if not self.spread.fluid.whole:
-            return None
+        rebuild if the last report says a particle may have moved past the skin, then (rates, kick, report)."""
         L, a, c = self.launcher, self.arrays, self.model.constants
         with L.capturing() as first:
             with self.phases("integrate"):
