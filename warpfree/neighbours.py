@@ -263,29 +263,38 @@ class NeighbourList:
 class NeighbourTable:
     """Rows with a fixed capacity, refilled in one pass; grows and refills when a row overflows.
 
-    Row i is ``index[i·capacity : i·capacity + count[i]]``. Arrays are reused between fills of the same
-    size. The overflow check is one device max and one read per fill.
+    Row i is ``index[i·capacity : i·capacity + count[i]]`` (entries past ``count[i]`` are never written nor read).
+    The arrays are kept between fills while the rows fit: a set whose count changes (a rank's part of a moving set,
+    laid out anew at each rebuild) reallocates only when it outgrows them, then with :attr:`HEADROOM`. The overflow
+    check is one device max and one read per fill.
     """
+
+    #: rows allocated beyond the count when a table outgrows its arrays (a count that changed once changes again)
+    HEADROOM = 1.1
 
     def __init__(self, launcher: Launcher, capacity: int = 32):
         self.launcher = launcher
         self.capacity = max(1, int(capacity))
         self.rows = nk.NeighbourRows()
         self.n = -1
+        self._rows_allocated = -1             # rows the arrays have room for (>= n)
         self._starts_for: int | None = None   # the capacity the row starts were laid out for
         self.grows = 0
         self._longest = Reduction(launcher, wp.int32, "max")
 
     def _allocate(self, n: int) -> None:
         dev = self.launcher.device
-        if self.n != n:
-            self.rows.count = wp.zeros(max(n, 1), dtype=wp.int32, device=dev)
-            self.rows.start = wp.zeros(max(n, 1), dtype=wp.int32, device=dev)
-            self.n = n
+        if n > self._rows_allocated:
+            rows = max(n, 1) if self._rows_allocated < 0 else int(math.ceil(self.HEADROOM * n))
+            self.rows.count = wp.zeros(rows, dtype=wp.int32, device=dev)
+            self.rows.start = wp.zeros(rows, dtype=wp.int32, device=dev)
+            self._rows_allocated = rows
             self._starts_for = None
+        self.n = n
         if self._starts_for != self.capacity:
-            self.launcher.launch(nk.table_starts, n, [self.capacity, self.rows.start])
-            self.rows.index = wp.zeros(max(n * self.capacity, 1), dtype=wp.int32, device=dev)
+            rows = self._rows_allocated
+            self.launcher.launch(nk.table_starts, rows, [self.capacity, self.rows.start])
+            self.rows.index = wp.empty(rows * self.capacity, dtype=wp.int32, device=dev)
             self._starts_for = self.capacity
 
     def fill(self, grid: NeighbourGrid, query_points: wp.array, exclude_self: bool = False) -> None:
@@ -372,6 +381,21 @@ class MovingNeighbours:
         table = NeighbourTable(self.launcher, capacity)
         self.tables[name] = (table, query, source, exclude_self)
         return table
+
+    def follow(self, positions: wp.array, position_at_build: wp.array,
+               static_sets: dict[str, wp.array] | None = None) -> None:
+        """The same sets laid out anew (a rank's part after a migration): the moving set's ``positions`` and
+        ``position_at_build`` arrays, the static sets' new positions (their grids built over them at once). The grids'
+        hash tables and the tables' arrays are kept (reused while they fit); the tables are filled at the next
+        :meth:`rebuild`."""
+        if position_at_build.shape != positions.shape or position_at_build.dtype != positions.dtype:
+            raise ParameterError("position_at_build", f"must be like positions ({positions.shape[0]} vec3)")
+        new_static = dict(static_sets or {})
+        if set(new_static) != set(self.static_sets):
+            raise ParameterError("static_sets", f"must name the same sets as before: {sorted(self.static_sets)}")
+        self.positions, self.position_at_build, self.static_sets = positions, position_at_build, new_static
+        for name, pos in new_static.items():
+            self.grids[name].build(pos)
 
     def table(self, name: str) -> NeighbourTable:
         """The neighbour table called ``name``."""

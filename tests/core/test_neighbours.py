@@ -268,13 +268,15 @@ def test_table_rows_equal_brute_force_and_grow_when_full(make_launcher):
         table = NeighbourTable(launcher, capacity=4)
         table.fill(NeighbourGrid(launcher, r, free(), x), x, exclude_self=True)
         assert table.grows >= 1 and table.capacity >= table.counts().max()
-        tables.append((table.counts().copy(), table.rows.index.numpy().copy(), table.capacity))
+        index, c = table.rows.index.numpy(), table.counts()
+        rows = [index[i * table.capacity: i * table.capacity + c[i]] for i in range(len(c))]  # past a count: unset
+        tables.append((c.copy(), np.concatenate(rows), table.capacity))
     counts, indices, cap = tables[0]
     assert np.array_equal(counts, tables[1][0]) and np.array_equal(indices, tables[1][1])
     d = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=-1)
     for i in range(0, len(pts), 97):
         expect = set(np.flatnonzero((d[i] < r) & (np.arange(len(pts)) != i)).tolist())
-        got = indices[i * cap: i * cap + counts[i]].tolist()
+        got = indices[counts[:i].sum(): counts[:i + 1].sum()].tolist()
         assert len(got) == len(set(got)) and set(got) == expect
 
 

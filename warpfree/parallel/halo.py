@@ -75,6 +75,7 @@ class Partition:
         self._plans: dict[tuple, _RefreshPlan] = {}
         self._pending: _RefreshPlan | None = None   # the plan whose messages start_refresh started
         self._ghost_rows: dict[str, wp.array] = {}     # device -> the ghosts' held rows (int32), for set_ghosts
+        self._ghost_fills: dict[tuple, object] = {}    # (array, value) -> set_ghosts' recorded launch (holds both)
 
     @property
     def whole(self) -> bool:
@@ -218,11 +219,17 @@ class Partition:
             return
         from warpfree.kernels.halo import fill_rows
 
-        rows = self._ghost_rows.get(str(array.device))
-        if rows is None:
-            rows = _int32([np.flatnonzero(~self.owned)], array.device)
-            self._ghost_rows[str(array.device)] = rows
-        wp.launch(fill_rows, dim=rows.shape[0], inputs=[0, rows, value, array], device=array.device)
+        key = (_address(array), str(value))
+        launch = self._ghost_fills.get(key)
+        if launch is None:  # recorded once per array and value, replayed every step
+            rows = self._ghost_rows.get(str(array.device))
+            if rows is None:
+                rows = _int32([np.flatnonzero(~self.owned)], array.device)
+                self._ghost_rows[str(array.device)] = rows
+            launch = wp.launch(fill_rows, dim=rows.shape[0], inputs=[0, rows, value, array], device=array.device,
+                               record_cmd=True)
+            self._ghost_fills[key] = launch
+        launch.launch()
 
     def release(self) -> None:
         """Free the refresh plans' MPI requests (a part that a redistribution has replaced)."""
@@ -230,6 +237,7 @@ class Partition:
         for plan in self._plans.values():
             plan.free()
         self._plans.clear()
+        self._ghost_fills.clear()
 
     def gather(self, values) -> np.ndarray:
         """The owned rows of ``values`` (held rows) of every rank, in global-id order, on every rank (a copy): as many

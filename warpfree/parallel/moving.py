@@ -5,7 +5,7 @@ Particles that move (a fluid's, a plasma's) are one item set on a :class:`~warpf
 holds those its box owns and, as ghosts, those within ``depth`` of it (:class:`~warpfree.parallel.Partition`). When
 they have moved, :meth:`MovingSpread.migrate` sends each rank's own items to the ranks that now hold them; when the
 ranks' work (a cost per item: neighbour pairs, or 1) has drifted apart by more than ``rebalance`` (max/mean over the
-ranks), space is cut anew from the current positions first. A family's spread subclasses it and keeps beside it what
+ranks; or their measured time), space is cut anew from the current positions first. A family's spread subclasses it and keeps beside it what
 does not move (a fluid's walls, a field's nodes): :meth:`MovingSpread.fixed_items` gives their positions and cost for
 a cut, :meth:`MovingSpread.follow_cut` lays them out on a new one.
 
@@ -105,13 +105,16 @@ class MovingSpread:
     # -- moving -----------------------------------------------------------------------------------------------
     def migrate(self, values: dict[str, np.ndarray], owned: np.ndarray | None = None,
                 work: Callable[[], tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
-                ids: str = "") -> dict[str, np.ndarray] | None:
+                ids: str = "", busy: float | None = None) -> dict[str, np.ndarray] | None:
         """Send each own item, with its ``values`` (held rows, NumPy; one of them ``position``), to the ranks that
         now hold it; returns the new held rows, in global-id order. The held rows are the part's (``owned`` None), or
         rows in another order whose global ids are ``values[ids]`` and own ones ``owned`` (a set re-sorted since).
-        ``work()`` gives each held item's cost, and the own fixed items' points and cost: when its max/mean over the
-        ranks exceeds ``rebalance``, space is cut anew first. In one process nothing moves: returns None, calls
-        nothing."""
+        ``work()`` gives each held item's cost, and the own fixed items' points and cost: when the ranks' work has
+        max/mean above ``rebalance``, space is cut anew first. ``busy`` (given on every rank or on none): the seconds
+        this rank worked on its items since the last migration; the ranks' work is then their measured time, and each
+        item's cost is weighted by its rank's seconds per unit of cost (as LAMMPS' ``balance weight time``: a cost
+        model misses per-item overheads and slower cores; the results do not depend on the cut). In one process
+        nothing moves: returns None, calls nothing."""
         if self.whole:
             return None
         part = self.moving
@@ -120,19 +123,23 @@ class MovingSpread:
                              {}, {}, self.moving.count)
         positions = points3(values["position"])
         if work is not None:
-            self._rebalance(positions[part.owned_index], *work(), part.owned_index)
+            self._rebalance(positions[part.owned_index], *work(), part.owned_index, busy)
         self.moving, held = part.redistribute(self.decomposition, positions, values)
         return held
 
-    def _rebalance(self, own_positions, moving_cost, fixed_points, fixed_cost, own) -> None:
+    def _rebalance(self, own_positions, moving_cost, fixed_points, fixed_cost, own, busy=None) -> None:
         world = self.world
         own_cost = np.asarray(moving_cost, np.float64)[own]
-        per_rank = np.concatenate(world.allgather(np.array([own_cost.sum() + np.sum(fixed_cost)])))
+        fixed_cost = np.asarray(fixed_cost, np.float64)
+        modelled = own_cost.sum() + fixed_cost.sum()
+        if busy is not None and busy > 0.0 and modelled > 0.0:  # cost in this rank's measured seconds
+            own_cost, fixed_cost = own_cost * (busy / modelled), fixed_cost * (busy / modelled)
+        per_rank = np.concatenate(world.allgather(np.array([own_cost.sum() + fixed_cost.sum()])))
         self.last_imbalance = imbalance(per_rank)
         if self.last_imbalance <= self.rebalance_above:
             return
         points = np.vstack(world.allgather(own_positions) + world.allgather(points3(fixed_points)))
-        cost = np.concatenate(world.allgather(own_cost) + world.allgather(np.asarray(fixed_cost, np.float64)))
+        cost = np.concatenate(world.allgather(own_cost) + world.allgather(fixed_cost))
         self.decomposition = self.cut(points, cost)
         self.rebalances += 1
         self.follow_cut()

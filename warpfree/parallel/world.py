@@ -158,6 +158,12 @@ class World:
         if self.comm is None:
             return
         values = array.numpy() if hasattr(array, "device") else array
+        in_memory = not hasattr(array, "device") or array.device.is_cpu  # NumPy sees the array's own memory
+        if op in ("max", "min") and in_memory and values.flags.c_contiguous and values.dtype.kind == "f":
+            from mpi4py import MPI  # exact in any order: reduced where the values are, no copy
+
+            self.comm.Allreduce(MPI.IN_PLACE, values, op=MPI.MAX if op == "max" else MPI.MIN)
+            return
         reduced = self.allreduce(values, op).astype(values.dtype, copy=False)
         if hasattr(array, "device"):
             array.assign(reduced)

@@ -33,7 +33,7 @@ from warpfree.kernels.wcsph_solids import add_surface_penalty
 from warpfree.solver import OutputSet, State, TimeDependentSolver
 
 from .model import WCSPHModel
-from .spread import STEP_FIELDS, FluidSpread
+from .spread import STEP_FIELDS, WORK_PHASES, FluidSpread
 
 __all__ = ["WCSPHSolver", "WCSPHState", "FluidField"]
 
@@ -116,6 +116,7 @@ class WCSPHSolver(TimeDependentSolver):
         self.kernels = K.make_kernels(model.terms)
         self._report = Reduction(launcher, wp.vec4, "max")
         self._walls_in_order = None  # the wall-pressure pass's launch order (:meth:`_wall_order`)
+        self._busy_at_rebuild = 0.0  # the work phases' seconds at the last rebuild (:meth:`_busy_since_rebuild`)
         self._limits = self._step_limits()
         mass = model.mass.numpy()
         fluid = {"position": model.position_np[:nf], "velocity": v_f.astype(np.float32),
@@ -139,9 +140,11 @@ class WCSPHSolver(TimeDependentSolver):
             self._penalty = self.solids.penalty(0.5 * params.dx, params.c0)
         self.initialise()
 
-    def _lay_out(self, fluid: dict[str, np.ndarray], walls: dict[str, np.ndarray], capacities: dict[str, int]) -> None:
+    def _lay_out(self, fluid: dict[str, np.ndarray], walls: dict[str, np.ndarray], capacities: dict[str, int],
+                 relayout: bool = False) -> None:
         """The held particles' arrays, [fluid | walls] (the whole sets in one process; this rank's and its ghosts in a
-        distributed run), their views, and the neighbour tables of the given capacities. ``fluid``: position,
+        distributed run), their views, and the neighbour tables of the given capacities (``relayout``: the tables
+        kept, as after a migration). ``fluid``: position,
         velocity, density and mass, and optionally pressure, acceleration, density_rate, velocity_eval and
         density_eval (the predicted state a rebuild carries); ``walls``: position and mass."""
         dev = self.launcher.device
@@ -214,12 +217,24 @@ class WCSPHSolver(TimeDependentSolver):
         self._walls_view = {"pressure": part(S.pressure, nf, n), "density": part(S.density, nf, n),
                             "ghost_velocity": part(a.ghost_velocity, 0, nb)}
 
-        # Neighbour candidates within support + skin, rebuilt once a fluid particle may have moved skin/2.
+        # Neighbour candidates within support + skin, rebuilt once a fluid particle may have moved skin/2. A layout
+        # after a migration keeps the grids and tables (their capacities and arrays) and fills them at the rebuild.
+        a.position_at_build = S.position_at_build
+        if relayout:
+            self.moving_neighbours.follow(self.fluid.position, S.position_at_build,
+                                          {"walls": self.walls} if model.nb else None)
+        else:
+            self._make_tables(capacities)
+        if not model.nb:  # valid empty rows for the kernels
+            self.fluid_wall = self.wall_fluid = SimpleNamespace(rows=empty_rows(nf, dev), capacity=1)
+
+    def _make_tables(self, capacities: dict[str, int]) -> None:
+        """The neighbour grids and tables of the held particles, of the given capacities."""
+        model, params, S = self.model, self.model.params, self.state
         self.moving_neighbours = MovingNeighbours(
             self.launcher, model.space, self.fluid.position, params.support, model.skin,
             static_sets={"walls": self.walls} if model.nb else None, position_at_build=S.position_at_build,
             sized_for=self._grid_sizes)
-        a.position_at_build = S.position_at_build
         self.fluid_fluid = self.moving_neighbours.add_table("fluid_fluid", "moving", "moving",
                                                             capacities["fluid_fluid"], exclude_self=True)
         if model.nb:
@@ -227,8 +242,6 @@ class WCSPHSolver(TimeDependentSolver):
                                                                capacities["fluid_wall"])
             self.wall_fluid = self.moving_neighbours.add_table("wall_fluid", "walls", "moving",
                                                                capacities["wall_fluid"])
-        else:  # valid empty rows for the kernels
-            self.fluid_wall = self.wall_fluid = SimpleNamespace(rows=empty_rows(nf, dev), capacity=1)
 
     # -- set-up --------------------------------------------------------------------------------
     def _check_neighbours(self, fluid_position: np.ndarray) -> int:
@@ -400,8 +413,14 @@ class WCSPHSolver(TimeDependentSolver):
         """The neighbour tables at the current positions; in a distributed run the fluid first moves to the ranks
         whose boxes now hold it (and the decomposition is cut anew when the work is out of balance)."""
         with self.phases("neighbours"):
-            self.spread.redistribute(self._held_fluid, self._work, self._lay_out_again)
+            self.spread.redistribute(self._held_fluid, self._work, self._lay_out_again, self._busy_since_rebuild())
             self.moving_neighbours.rebuild()
+
+    def _busy_since_rebuild(self) -> float:
+        """Seconds of this rank's work on its particles (``spread.WORK_PHASES``) since the last rebuild."""
+        busy = sum(self.phases.seconds.get(name, 0.0) for name in WORK_PHASES)
+        since, self._busy_at_rebuild = busy - self._busy_at_rebuild, busy
+        return since
 
     def _held_fluid(self) -> dict[str, np.ndarray]:
         """The held fluid rows a rebuild carries to the ranks that now hold them (``spread.MOVING_FIELDS``, after the
@@ -423,9 +442,8 @@ class WCSPHSolver(TimeDependentSolver):
         return fluid_cost, wall_cost
 
     def _lay_out_again(self, fluid: dict[str, np.ndarray], walls: dict[str, np.ndarray]) -> None:
-        """The arrays laid out for new held rows, the tables keeping their capacities."""
-        self._lay_out(fluid, walls, {"fluid_fluid": self.fluid_fluid.capacity, "fluid_wall": self.fluid_wall.capacity,
-                                     "wall_fluid": self.wall_fluid.capacity})
+        """The arrays laid out for new held rows, the grids and tables kept."""
+        self._lay_out(fluid, walls, {}, relayout=True)
 
     def _after_drift(self) -> None:
         """Rates at the predicted state, the second kick, the step report and the clock's time."""

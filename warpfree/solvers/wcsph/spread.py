@@ -39,6 +39,15 @@ MOVING_FIELDS = ("position", "velocity", "density", "pressure", "acceleration", 
 #: the cost of a wall particle against a fluid one, before any neighbour count is known
 WALL_COST = 0.5
 
+#: cut anew at a rebuild when the ranks' measured work since the last one has max/mean above this. A cut costs about a
+#: fifth of a rebuild (an allgather of the positions and the recursive bisection: 4 ms beside 20 ms for the 2D dam
+#: break at dx 0.01 on 2 ranks); the measured time between rebuilds (about 9 steps there) varies by a few % on a
+#: shared machine, and at 1.05 that alone cut anew at 89 of 342 rebuilds (19 at 1.1), for no gain
+REBALANCE = 1.1
+#: the solver's phases whose time is its items' work (the kernels over held particles, no message): what a rank's
+#: measured work since the last rebuild adds up
+WORK_PHASES = ("rates", "boundary", "surfaces")
+
 
 class FluidSpread(MovingSpread):
     """The decomposition of a :class:`~warpfree.solvers.wcsph.model.WCSPHModel` over ``world``'s ranks: the fluid is
@@ -51,7 +60,7 @@ class FluidSpread(MovingSpread):
     rebalance: cut anew at a rebuild when the ranks' work has max/mean above this (>= 1; ``inf``: never).
     """
 
-    def __init__(self, world: World, model, method: CutMethod = CutMethod.RCB, rebalance: float = 1.2):
+    def __init__(self, world: World, model, method: CutMethod = CutMethod.RCB, rebalance: float = REBALANCE):
         P = model.params
         self.model = model
         x = model.position_np.astype(np.float64)
@@ -112,11 +121,13 @@ class FluidSpread(MovingSpread):
     # -- a rebuild --------------------------------------------------------------------------------------------
     def redistribute(self, held_fluid: Callable[[], dict[str, np.ndarray]],
                      work: Callable[[], tuple[np.ndarray, np.ndarray]],
-                     lay_out: Callable[[dict[str, np.ndarray], dict[str, np.ndarray]], None]) -> None:
+                     lay_out: Callable[[dict[str, np.ndarray], dict[str, np.ndarray]], None],
+                     busy: float | None = None) -> None:
         """Move the fluid to the boxes that hold it now and lay the arrays out anew: ``held_fluid()`` gives its held
         rows (:data:`MOVING_FIELDS` and mass, NumPy), ``work()`` the work per held fluid and wall row (e.g.
-        neighbour counts: the decomposition is cut anew first when it is out of balance), ``lay_out(fluid, walls)``
-        takes the new held rows. In one process nothing moves: none of them is called."""
+        neighbour counts: the decomposition is cut anew first when it is out of balance; ``busy``: the seconds this
+        rank spent on that work since the last rebuild, which weighs it, :meth:`MovingSpread.migrate`),
+        ``lay_out(fluid, walls)`` takes the new held rows. In one process nothing moves: none of them is called."""
         if self.whole:
             return
 
@@ -125,7 +136,7 @@ class FluidSpread(MovingSpread):
             own = self.walls.owned_index
             return fluid_cost, self.wall_points[self.walls.ids[own]], np.asarray(wall_cost, np.float64)[own]
 
-        held = self.migrate(held_fluid(), work=own_work)
+        held = self.migrate(held_fluid(), work=own_work, busy=busy)
         lay_out(held, self.held_walls({"position": self.wall_points.astype(np.float32),
                                        "mass": self.model.mass.numpy()[self.model.nf:]}))
 
