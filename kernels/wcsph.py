@@ -514,6 +514,36 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
             f.velocity[i] = wp.exp(-damping * dt) * f.velocity[i]
         f.report[i] = fluid_report(c, f, i)
 
-    kernels = SimpleNamespace(drift=drift, wall_pressure=wall_pressure, rates=rates, kick=kick)
+    @wp.kernel(module="unique")
+    def wall_force(first: int, c: FluidConstants, f: FluidArrays, wall_fluid: NeighbourRows,
+                   walls: wp.array(dtype=wp.int32), force: wp.array(dtype=wp.vec3)):
+        """The force (N; per metre of depth in 2D) of the fluid on wall particle k = ``walls[first + tid]``: the
+        reaction to what ``rates`` gives its fluid neighbours from it, F_k = -Σ_j m_j a_(j←k) (the wall pair's pressure
+        and viscous terms with the Adami wall values, and the Lennard-Jones net), at the values the last rates used."""
+        k = walls[first + wp.tid()]
+        b = f.nf + k
+        xk = f.position[b]
+        total = wp.vec3(0.0, 0.0, 0.0)
+        for n in range(wall_fluid.start[k], wall_fluid.start[k] + wall_fluid.count[k]):
+            j = wall_fluid.index[n]
+            rjk = disp(c.box, f.position[j], xk)
+            r2 = wp.dot(rjk, rjk)
+            if r2 >= c.support2:
+                continue
+            a = wp.vec3(0.0, 0.0, 0.0)
+            if wp.static(dynamic):
+                rhoj = f.density_eval[j]
+                inv_rhoj = 1.0 / rhoj
+                pj_plus_term = wp.max(f.pressure[j], 0.0) * inv_rhoj * inv_rhoj
+                aj, gw, inv_r2e = wall_pair(c, f.velocity_eval[j], rhoj, inv_rhoj, pj_plus_term, rjk, r2,
+                                            f.ghost_velocity[k], f.density[b], wp.max(f.pressure[b], 0.0), f.mass[b])
+                a += aj
+            if wp.static(lj_walls):
+                if r2 < c.lj_r0 * c.lj_r0:
+                    a += lennard_jones(rjk, r2, c.lj_d, c.lj_r0)
+            total -= f.mass[j] * a
+        force[first + wp.tid()] = total
+
+    kernels = SimpleNamespace(drift=drift, wall_pressure=wall_pressure, rates=rates, kick=kick, wall_force=wall_force)
     _made[terms] = kernels
     return kernels

@@ -78,6 +78,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--no-frames", dest="frames", action="store_false", help="do not write PNG frames")
     run.add_argument("--checkpoint-every", type=int, default=None, metavar="K",
                      help="write a checkpoint every K steps (keeps the two newest)")
+    run.add_argument("--sensor", action="append", default=[], metavar="NAME=KIND:X,Y[,Z][@DT]",
+                     help="sample a sensor every DT seconds (default 0.001) into sensors/NAME.csv, apart from the "
+                          "outputs (repeatable): pressure:X,Y[,Z][;...] (Pa at points; on a wall, its face), "
+                          "height:X,Y[,Z][;...] (the water's height above floor points)")
     run.add_argument("--resume", default=None, metavar="DIR", help="continue the run in DIR from its last checkpoint")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     run.add_argument("--list", action="store_true", help="list the scene's parameters, types and defaults, then exit")
@@ -118,6 +122,7 @@ def run_command(args) -> int:
     started = time.perf_counter()  # the run's set-up starts here: loading the scene and Warp, building it
     from . import device, progress
     from .run import build_scene
+    from .sensors import parse_sensor
     from .time_loop import TimeLoop
 
     meta = {}
@@ -151,6 +156,11 @@ def run_command(args) -> int:
             overrides["frames"] = args.frames
         out_dir = args.out or os.path.join("runs", os.path.splitext(os.path.basename(scene_file))[0])
         require_fresh(out_dir, args.overwrite)
+    sensor_specs = list(meta.get("sensors", [])) + list(args.sensor)
+    sensors = [parse_sensor(spec) for spec in sensor_specs]  # a malformed one refused before any set-up
+    names = [s.name for s in sensors]
+    if len(set(names)) != len(names):
+        raise ParameterError("--sensor", f"two sensors are named {sorted(n for n in names if names.count(n) > 1)[0]!r}")
     ranks = world()
     progress.enable(not args.no_progress and ranks.is_root)
     ranks.barrier()  # every rank has looked at the run directory before rank 0 writes in it
@@ -167,7 +177,12 @@ def run_command(args) -> int:
         if checkpoint_every < 0:
             raise ParameterError("--checkpoint-every", f"must be >= 0, got {checkpoint_every}")
         run.checkpoint_every = checkpoint_every
-    meta = {"scene": os.path.abspath(scene_file), "overrides": overrides, "checkpoint_every": checkpoint_every}
+    if sensors and not isinstance(run, TimeLoop):
+        raise ParameterError("--sensor", "a static solve has no time to sample; its fields are in its outputs")
+    for sensor in sensors:
+        run.add_sensor(sensor)
+    meta = {"scene": os.path.abspath(scene_file), "overrides": overrides, "checkpoint_every": checkpoint_every,
+            "sensors": sensor_specs}
     if ranks.is_root:
         if not args.resume and args.overwrite:
             clear_run_directory(out_dir)  # only now: a refused build above leaves the earlier run as it was

@@ -7,7 +7,8 @@ below the solver's limit that divides the output interval (or the run's ``dt``, 
 solver's own step, the output interval and end time whole multiples of it. A variable or constant step is shortened
 only to land exactly on output times and the end; :attr:`TimeLoop.step_size` is the constant or fixed step.
 
-At every output time the loop records the probes and the solver's diagnostics, hands the output sets
+After every step the loop samples the sensors that are due (``warpfree.sensors``: each on its own interval, never
+shortening a step). At every output time it records the probes and the solver's diagnostics, hands the output sets
 to the writer and keeps a copy of the state (the last good state, written as a checkpoint if the run
 goes wrong later). Every ``checkpoint_every`` steps it writes a checkpoint (``warpfree.io.checkpoint``);
 ``run(..., resume=True)`` continues from the newest one and reproduces the uninterrupted run bitwise.
@@ -28,6 +29,7 @@ import numpy as np
 from .errors import ParameterError, RunError, RunInterrupted, require_integer, require_positive
 from .io import checkpoint
 from .run import Analysis, OutputOptions, Run, RunDirectory
+from .sensors import Sensor, due_time, write_csv
 from .solver import StepKind, TimeDependentSolver
 
 __all__ = ["TimeLoop", "Probe"]
@@ -43,6 +45,7 @@ class TimeLoop(Run):
     ----------
     t_end, output_interval: seconds (> 0).
     probes: name -> ``f(solver, t)``, recorded at every output time into ``series`` and the summary.
+    sensors: :class:`~warpfree.sensors.Sensor` s, each sampled on its own interval (:meth:`add_sensor`).
     dt: a fixed step (s) instead of the stable one (variable and constant rules); refused if above the stable limit;
         a solver with a fixed step of its own takes none.
     checkpoint_every: write a checkpoint every K steps (0: none; the two newest are kept).
@@ -56,7 +59,7 @@ class TimeLoop(Run):
                  params: dict | None = None, probes: dict[str, Probe] | None = None,
                  analyses: list[Analysis] | None = None, dt: float | None = None, checkpoint_every: int = 0,
                  output: OutputOptions | None = None, max_steps: int | None = None,
-                 reported_as: dict[str, str] | None = None):
+                 reported_as: dict[str, str] | None = None, sensors: list[Sensor] | None = None):
         if not isinstance(solver, TimeDependentSolver):
             raise ParameterError("solver", f"a TimeLoop needs a TimeDependentSolver, got {type(solver).__name__}")
         super().__init__(solver, name, params, analyses, output, reported_as)
@@ -71,6 +74,10 @@ class TimeLoop(Run):
         self.n_outputs = 0
         self.series: dict[str, list[float]] = {"time": [], **{k: [] for k in self.probes}}
         self.diag_series: dict[str, list[float]] = {}
+        self.sensors: dict[str, Sensor] = {}
+        #: each sensor's rows: (time, value per column), float64
+        self.sensor_rows: dict[str, list[np.ndarray]] = {}
+        self._sensor_columns: dict[str, list[tuple[str, str]]] = {}
         self.step_s = 0.0
         self.last_checkpoint: str | None = None
         self._good = None                  # (loop scalars, state copies, series lengths) at the last output
@@ -80,6 +87,45 @@ class TimeLoop(Run):
         self.dt_fixed = self._chosen_step(None if dt is None else require_positive("dt", dt))
         if self.dt_fixed is not None:
             solver.use_step(self.dt_fixed)
+        for sensor in sensors or ():
+            self.add_sensor(sensor)
+
+    def add_sensor(self, sensor: Sensor) -> None:
+        """Sample ``sensor`` on its interval from the start (or from a resumed run's time: its rows so far come back
+        with the checkpoint); the solver is checked against it now. A name taken: ParameterError naming ``sensor``."""
+        if not isinstance(sensor, Sensor):
+            raise ParameterError("sensor", f"a warpfree.sensors.Sensor, got {type(sensor).__name__}")
+        if sensor.name in self.sensors:
+            raise ParameterError("sensor", f"two sensors are named {sensor.name!r}")
+        sensor.check(self.solver)
+        self.sensors[sensor.name] = sensor
+        self.sensor_rows[sensor.name] = []
+        self._sensor_columns[sensor.name] = [("time", self.solver.time_unit)] + sensor.columns(self.solver)
+
+    def _sample_sensors(self) -> None:
+        """A row for every sensor whose next sample time the loop has reached (every rank: sampling is collective)."""
+        for name, sensor in self.sensors.items():
+            rows = self.sensor_rows[name]
+            if self.time >= due_time(sensor.interval, rows[-1][0] if rows else None) * (1 - 1e-12):
+                with self.phases("sensors"):
+                    rows.append(np.concatenate([[self.time], sensor.sample(self.solver)]).astype(np.float64))
+
+    def write_sensors(self, directory: RunDirectory | None) -> None:
+        """Every sensor's rows so far as ``sensors/<name>.csv`` (the first rank)."""
+        if directory is None or not self.world.is_root or not self.sensors:
+            return
+        with self.phases("output"):
+            for name in self.sensors:
+                write_csv(self._sensor_file(directory, name), self._sensor_columns[name], self._sensor_table(name))
+
+    @staticmethod
+    def _sensor_file(directory: RunDirectory, name: str) -> str:
+        return os.path.join(directory.root, "sensors", f"{name}.csv")
+
+    def _sensor_table(self, name: str, length: int | None = None) -> np.ndarray:
+        rows = self.sensor_rows[name][:length]
+        width = len(self._sensor_columns[name])
+        return np.vstack(rows) if rows else np.zeros((0, width))
 
     @property
     def step_size(self) -> float | None:
@@ -140,6 +186,7 @@ class TimeLoop(Run):
             for k, v in self.solver.diagnostics().items():
                 self.diag_series.setdefault(k, []).append(float(v))
         if directory is not None:
+            self.write_sensors(directory)
             with self.phases("output"):
                 state, lengths = self.solver.state.numpy(), self._series_lengths()
             try:
@@ -165,7 +212,8 @@ class TimeLoop(Run):
 
     def _series_lengths(self) -> dict[str, int]:
         return {**{f"probe:{k}": len(v) for k, v in self.series.items()},
-                **{f"diagnostic:{k}": len(v) for k, v in self.diag_series.items()}}
+                **{f"diagnostic:{k}": len(v) for k, v in self.diag_series.items()},
+                **{f"sensor:{k}": len(v) for k, v in self.sensor_rows.items()}}
 
     def _series_arrays(self, lengths: dict[str, int] | None = None) -> dict[str, np.ndarray]:
         """The series as float64 arrays (cut to ``lengths``: the series are append-only, so a kept
@@ -175,6 +223,8 @@ class TimeLoop(Run):
             for k, v in series.items():
                 n = len(v) if lengths is None else lengths.get(prefix + k, 0)
                 out[prefix + k] = np.asarray(v[:n], dtype=np.float64)
+        for k in self.sensor_rows:
+            out["sensor:" + k] = self._sensor_table(k, None if lengths is None else lengths.get("sensor:" + k, 0))
         return out
 
     def save_checkpoint(self, directory: RunDirectory) -> str:
@@ -238,6 +288,11 @@ class TimeLoop(Run):
             self.series.setdefault(k, [])
         self.diag_series = {k[len("diagnostic:"):]: v.tolist() for k, v in series.items()
                             if k.startswith("diagnostic:")}
+        for k in self.sensors:  # a sensor the checkpointed run had not starts now
+            kept = series.get("sensor:" + k)
+            width = len(self._sensor_columns[k])
+            ok = kept is not None and kept.ndim == 2 and kept.shape[1] == width
+            self.sensor_rows[k] = [np.array(row, dtype=np.float64) for row in kept] if ok else []
         self.last_checkpoint = path
         self._checkpoint_step = self.step_count
 
@@ -303,6 +358,7 @@ class TimeLoop(Run):
             self._resume(directory)
             self._resumed_time = self.time
         else:
+            self._sample_sensors()
             self._record(directory)
             if directory is not None and self.checkpoint_every:
                 self.save_checkpoint(directory)
@@ -332,6 +388,7 @@ class TimeLoop(Run):
                 self.time = clock.time
                 if problem:
                     raise RunError(problem, self.step_count)
+                self._sample_sensors()
                 if self.time >= target * (1 - 1e-12) or self.time >= self.t_end * (1 - 1e-12):
                     self._record(directory)
                     clock.set(next_output=self._next_output_time())
@@ -381,7 +438,17 @@ class TimeLoop(Run):
             out["last_good_checkpoint" if error else "last_checkpoint"] = self.last_checkpoint
         if self.skipped_checkpoints:
             out["skipped_checkpoints"] = self.skipped_checkpoints
+        if self.sensors:
+            out["sensors"] = {name: {**sensor.describe(), "file": f"sensors/{name}.csv",
+                                     "columns": [f"{c} [{u}]" if u else c for c, u in self._sensor_columns[name]],
+                                     "samples": len(self.sensor_rows[name])}
+                              for name, sensor in self.sensors.items()}
         return out
+
+    def _write_summary(self, directory: RunDirectory | None, summary: dict) -> None:
+        """The sensors' files, then the summary (whatever ended the run)."""
+        self.write_sensors(directory)
+        super()._write_summary(directory, summary)
 
     def _phases(self) -> dict[str, float]:
         return {"step": self.step_s, **super()._phases()}

@@ -20,6 +20,7 @@ from warpfree.device import Launcher
 from warpfree.distribution import dealt_blocks
 from warpfree.parallel import world as ranks_of_run
 from warpfree.parallel.halo import whole_from_pieces
+from warpfree.parallel.moving import points3
 from warpfree.errors import ParameterError, RunError, require_memory, require_positive
 from warpfree.kernels import wcsph as K
 from warpfree.parameters import Choice
@@ -29,6 +30,7 @@ from warpfree.progress import announced, group_digits
 from warpfree.graph import StepGraph
 from warpfree.kernels import clock as ck
 from warpfree.reduce import Reduction
+from warpfree.kernels.wcsph_sensors import make_sample
 from warpfree.kernels.wcsph_solids import add_surface_penalty
 from warpfree.solver import OutputSet, State, TimeDependentSolver
 
@@ -596,6 +598,58 @@ class WCSPHSolver(TimeDependentSolver):
     def fluid_positions(self) -> np.ndarray:
         """(nf, 3) fluid positions (m), a copy."""
         return self.fluid.numpy("position")
+
+    def field_at(self, points) -> dict[str, np.ndarray]:
+        """The fluid at ``points`` ((m, dim) or (m, 3), m): ``filled`` (Σ V_j W_j: 1 inside the water, about 1/2 at
+        a free surface or a wall's face, 0 in air), ``pressure`` (Pa, from the equation of state of the current
+        density), ``density`` (kg/m³) and ``velocity`` ((m, 3), m/s), fitted first-order consistent from the fluid
+        within the support (``kernels/wcsph_sensors.py``; NaN where no fluid is). The same values on every rank: each
+        point is gathered by the rank whose box holds it, from its particles and ghosts in the one process's order."""
+        pts = np.asarray(points, dtype=np.float64)
+        if pts.ndim != 2 or pts.shape[1] not in (self.dim, 3) or not np.all(np.isfinite(pts)):
+            raise ParameterError("points", f"must be finite (m, {self.dim}) or (m, 3) coordinates, got shape "
+                                           f"{pts.shape}")
+        pts = points3(pts)
+        mine = np.flatnonzero(self.spread.decomposition.owner(pts) == self.world.rank)
+        out = np.zeros((len(pts), 6))
+        if mine.size:
+            dev = self.launcher.device
+            grid = self.moving_neighbours.grids[MovingNeighbours.MOVING]
+            at = wp.array(pts[mine].astype(np.float32), dtype=wp.vec3, device=dev)
+            filled, pressure, density = (wp.zeros(mine.size, dtype=float, device=dev) for _ in range(3))
+            velocity = wp.zeros(mine.size, dtype=wp.vec3, device=dev)
+            terms = self.model.terms
+            sample = make_sample(terms.kernel, terms.dim, terms.periodic)
+            self.launcher.launch(sample, mine.size, [self.model.constants, self.arrays, grid.id, grid.points,
+                                                     grid.source_id, grid.radius, at, filled, pressure, density,
+                                                     velocity], once=True)
+            out[mine] = np.column_stack([filled.numpy(), pressure.numpy(), density.numpy(), velocity.numpy()])
+        out = self.world.allreduce(out, "sum")  # each point's values from one rank, zeros from the others: exact
+        return {"filled": out[:, 0], "pressure": out[:, 1], "density": out[:, 2], "velocity": out[:, 3:6]}
+
+    def force_on(self, walls: str, about) -> tuple[np.ndarray, np.ndarray]:
+        """The fluid's force on the ``walls`` ("obstacles" or "containers": their wall particles) (N; per metre of
+        depth in 2D) and its moment about the point ``about`` (N m; per metre in 2D), float64: the reaction to the
+        wall terms of the last rates (``kernels/wcsph.py: wall_force``), summed in the walls' global order, the same
+        on every rank."""
+        (box_rows, box_ids), (obs_rows, obs_ids) = self._own_walls()
+        rows, ids = (obs_rows + self.n_container_walls, obs_ids) if walls == "obstacles" else (box_rows, box_ids)
+        force = np.zeros((0, 3))
+        if rows.size:
+            dev = self.launcher.device
+            out = wp.zeros(rows.size, dtype=wp.vec3, device=dev)
+            self.launcher.launch(self.kernels.wall_force, rows.size, [
+                self.model.constants, self.arrays, self.wall_fluid.rows,
+                wp.array(rows.astype(np.int32), dtype=wp.int32, device=dev), out], once=True)
+            force = out.numpy().astype(np.float64)
+        where = self.walls.numpy()[rows].astype(np.float64)
+        every = self.world.allgather_objects((ids, force, where))
+        ids = np.concatenate([e[0] for e in every])
+        order = np.argsort(ids, kind="stable")
+        force = np.concatenate([e[1] for e in every])[order]
+        where = np.concatenate([e[2] for e in every])[order]
+        arm = where - points3(np.asarray(about, dtype=np.float64).reshape(1, -1))[0]
+        return force.sum(axis=0), np.cross(arm, force).sum(axis=0)
 
     def diagnostics(self) -> dict[str, float]:
         """Kinetic energy (J, per metre of depth in 2D), fluid mass (kg), max speed (m/s), density range."""

@@ -1,0 +1,103 @@
+"""Fluid values at points: the gather behind ``WCSPHSolver.field_at`` and the fluid sensors (float32, SI).
+
+At a point x, over the fluid particles j within the support (V_j = m_j/ρ_j, W_j = W(|x - x_j|, h), r_j = x_j - x):
+
+- the filled fraction s = Σ_j V_j W_j (dimensionless: 1 inside the fluid, about 1/2 on a flat free surface or at a
+  wall's face under water, 0 in air);
+- each field φ (the pressure p_j = B[(ρ_j/ρ0)^γ - 1] of the current density, the density, the velocity) by a
+  first-order consistent fit, moving least squares with the linear basis p(r) = [1, r/h]: the a minimising
+  Σ_j V_j W_j (φ_j - a·p(r_j))², and φ(x) = a_0. It reproduces a linear field exactly, also where a wall or the free
+  surface cuts the support: a sensor on a wall reads a hydrostatic pressure at the wall's face, where a Shepard
+  average s⁻¹ Σ_j V_j W_j φ_j would read it at the centroid of the water near it (about 0.4 h above, ρ g 0.4 h low).
+  Where the fit's moment matrix, divided by s, has a determinant below :data:`SINGULAR` (a few particles along a
+  line) the Shepard average is taken.
+
+The fluid is found through the neighbour grid of the step (built at the positions of the last rebuild, with the
+reach support + skin: every particle now within the support of a fixed point was within the reach of it then); a
+grid point is taken only within the reach of x, so a periodic image and its particle are never both counted.
+"""
+
+import warp as wp
+
+from .smoothing import kernel_shape, kernel_sigma
+from .space import displacement_function, image_displacement
+from .wcsph import FluidArrays, FluidConstants, tait_pressure
+
+#: the determinant of the normalised moment matrix below which the linear fit gives way to the Shepard average (a full
+#: support's is about 10⁻² in 2D and 10⁻³ in 3D for the Wendland C2 kernel at h = 1.6 dx)
+SINGULAR = wp.constant(1.0e-6)
+
+_made: dict = {}
+
+
+def make_sample(kind: int, dim: int, periodic: tuple) -> "wp.Kernel":
+    """The ``sample`` kernel of one smoothing kernel, dimension (2 or 3) and periodic axes (cached)."""
+    key = (kind, dim, tuple(periodic))
+    if key in _made:
+        return _made[key]
+    disp = displacement_function(tuple(periodic))
+
+    @wp.kernel(module="unique")
+    def sample(first: int, c: FluidConstants, f: FluidArrays, grid: wp.uint64, grid_points: wp.array(dtype=wp.vec3),
+               source_id: wp.array(dtype=wp.int32), reach: float, points: wp.array(dtype=wp.vec3),
+               filled: wp.array(dtype=float), pressure: wp.array(dtype=float), density: wp.array(dtype=float),
+               velocity: wp.array(dtype=wp.vec3)):
+        """Filled fraction, pressure (Pa), density (kg/m³) and velocity (m/s) at ``points[first + tid]``."""
+        i = first + wp.tid()
+        x = points[i]
+        sigma = kernel_sigma(wp.static(kind), wp.static(dim), c.h)
+        s = float(0.0)
+        m = wp.mat44(0.0)                      # Σ V W p pᵀ, p = [1, r/h] (the 4th row and column unused in 2D)
+        bp = wp.vec4(0.0)                      # Σ V W p φ for the pressure, the density, each velocity component
+        br = wp.vec4(0.0)
+        bx = wp.vec4(0.0)
+        by = wp.vec4(0.0)
+        bz = wp.vec4(0.0)
+        for k in wp.hash_grid_query(grid, x, reach):
+            d0 = image_displacement(x, grid_points[k])
+            if wp.dot(d0, d0) >= reach * reach:
+                continue
+            j = source_id[k]
+            r = disp(c.box, f.position[j], x)
+            r2 = wp.dot(r, r)
+            if r2 >= c.support2:
+                continue
+            rho = f.density[j]
+            w = (f.mass[j] / rho) * sigma * kernel_shape(wp.static(kind), wp.static(dim), wp.sqrt(r2) * c.inv_h)
+            q = r * c.inv_h
+            p = wp.vec4(1.0, q[0], q[1], q[2])
+            if wp.static(dim == 2):
+                p = wp.vec4(1.0, q[0], q[1], 0.0)
+            s += w
+            m += w * wp.outer(p, p)
+            v = f.velocity[j]
+            bp += (w * tait_pressure(rho, c.rho0, c.b, c.gamma)) * p
+            br += (w * rho) * p
+            bx += (w * v[0]) * p
+            by += (w * v[1]) * p
+            bz += (w * v[2]) * p
+        filled[i] = s
+        if s <= 0.0:
+            nan = wp.nan
+            pressure[i] = nan
+            density[i] = nan
+            velocity[i] = wp.vec3(nan, nan, nan)
+            return
+        # the linear fit where it is well posed: φ(x) = first component of M⁻¹ b (row 0 of the inverse)
+        mn = m / s
+        row = wp.vec4(1.0 / s, 0.0, 0.0, 0.0)  # the Shepard average's weights
+        if wp.static(dim == 2):
+            m3 = wp.mat33(mn[0, 0], mn[0, 1], mn[0, 2], mn[1, 0], mn[1, 1], mn[1, 2], mn[2, 0], mn[2, 1], mn[2, 2])
+            if wp.determinant(m3) > SINGULAR:
+                inv = wp.inverse(m3)
+                row = wp.vec4(inv[0, 0], inv[0, 1], inv[0, 2], 0.0) / s
+        else:
+            if wp.determinant(mn) > SINGULAR:
+                inv = wp.inverse(mn)
+                row = wp.vec4(inv[0, 0], inv[0, 1], inv[0, 2], inv[0, 3]) / s
+        pressure[i] = wp.dot(row, bp)
+        density[i] = wp.dot(row, br)
+        velocity[i] = wp.vec3(wp.dot(row, bx), wp.dot(row, by), wp.dot(row, bz))
+
+    _made[key] = sample
+    return sample
