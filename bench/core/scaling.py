@@ -264,11 +264,15 @@ def markdown(result: dict) -> str:
              "## Measured", ""]
     rows = []
     for fam, r in result["families"].items():
+        when = r.get("measured", {})
         rows.append([fam, r["scene"], common.fmt(r["thread_speedup"]), common.fmt(r["strong_speedup"]),
-                     common.fmt(r["weak_efficiency"]), common.fmt(r["weak_efficiency_vs_one_alone"])])
+                     common.fmt(r["weak_efficiency"]), common.fmt(r["weak_efficiency_vs_one_alone"]),
+                     f"{str(when.get('date', ''))[:16]} ({when.get('git') or '?'})"])
     lines += [common.md_table(["family", "scene", "1 rank, 2 threads (control)", "2 ranks: speed-up",
-                               "weak efficiency vs 2 concurrent 1-rank runs (control)", "weak vs 1 rank alone"],
-                              rows), ""]
+                               "weak efficiency vs 2 concurrent 1-rank runs (control)", "weak vs 1 rank alone",
+                               "measured (commit)"], rows), "",
+              "Each family's row is measured side by side in one sweep; a run with `--families` re-measures those "
+              "and keeps the other rows from the last results.", ""]
     m = result["model"]
     if "two_ranks" in m:
         t = m["two_ranks"]
@@ -290,6 +294,19 @@ def markdown(result: dict) -> str:
     return "\n".join(lines)
 
 
+def earlier_families(size: str, exclude) -> dict:
+    """The families a run with ``--families`` leaves out, as the last results measured them (same sizes), each with
+    when and at which commit: one table keeps every family, a re-measured one replacing its row."""
+    path = common.RESULTS / "scaling.json"
+    if not path.is_file():
+        return {}
+    earlier = json.loads(path.read_text())
+    if earlier.get("size") != size:
+        return {}
+    when = {"date": earlier["machine"]["date"], "git": earlier["machine"].get("git")}
+    return {fam: {"measured": when, **r} for fam, r in earlier.get("families", {}).items() if fam not in exclude}
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--repeats", type=int, default=3)
@@ -304,7 +321,11 @@ def main(argv=None) -> int:
         for fam in args.families.split(","):
             print(f"{fam}:", flush=True)
             families[fam] = measure_family(fam, args.repeats, args.size)
-    result = {"machine": common.machine_info(), "repeats": args.repeats, "size": args.size,
+    machine = common.machine_info()
+    for r in families.values():
+        r["measured"] = {"date": machine["date"], "git": machine.get("git")}
+    families = {**earlier_families(args.size, exclude=families), **families}
+    result = {"machine": machine, "repeats": args.repeats, "size": args.size,
               "families": families, "model": model(families.get("wcsph"), net, pack)}
     fig, ax = common.new_figure(figsize=(7, 4.5))
     d = result["model"]["dam_break_3d"]
