@@ -9,8 +9,9 @@ At a point x, over the fluid particles j within the support (V_j = m_j/ρ_j, W_j
   Σ_j V_j W_j (φ_j - a·p(r_j))², and φ(x) = a_0. It reproduces a linear field exactly, also where a wall or the free
   surface cuts the support: a sensor on a wall reads a hydrostatic pressure at the wall's face, where a Shepard
   average s⁻¹ Σ_j V_j W_j φ_j would read it at the centroid of the water near it (about 0.4 h above, ρ g 0.4 h low).
-  Where the fit's moment matrix, divided by s, has a determinant below :data:`SINGULAR` (a few particles along a
-  line) the Shepard average is taken.
+  Where the fit's moment matrix, divided by s, has a determinant below :data:`SINGULAR`, or the fit would multiply
+  the particles' noise by more than :data:`NOISE_GAIN` against the average (a few particles along a line, a thin sheet
+  arriving on a wall), the Shepard average is taken.
 
 The fluid is found through the neighbour grid of the step (built at the positions of the last rebuild, with the
 reach support + skin: every particle now within the support of a fixed point was within the reach of it then); a
@@ -26,6 +27,12 @@ from .wcsph import FluidArrays, FluidConstants, tait_pressure
 #: the determinant of the normalised moment matrix below which the linear fit gives way to the Shepard average (a full
 #: support's is about 10⁻² in 2D and 10⁻³ in 3D for the Wendland C2 kernel at h = 1.6 dx)
 SINGULAR = wp.constant(1.0e-6)
+
+#: the most the linear fit may multiply the variance of the particles' noise, against the Shepard average's (its
+#: weights' sum of squares over the average's); beyond it the average is taken. Measured (2D, Wendland C2, h = 1.6 dx):
+#: 1 inside the water, 3.4-3.6 on a wall's face under water, 8.7 in a corner; 13-350 where a thin sheet arrives on a
+#: wall (a few particles along a line, which the fit extrapolates from)
+NOISE_GAIN = wp.constant(10.0)
 
 _made: dict = {}
 
@@ -48,6 +55,8 @@ def make_sample(kind: int, dim: int, periodic: tuple) -> "wp.Kernel":
         sigma = kernel_sigma(wp.static(kind), wp.static(dim), c.h)
         s = float(0.0)
         m = wp.mat44(0.0)                      # Σ V W p pᵀ, p = [1, r/h] (the 4th row and column unused in 2D)
+        m2 = wp.mat44(0.0)                     # Σ (V W)² p pᵀ: the fit's noise gain
+        s2 = float(0.0)                        # Σ (V W)²
         bp = wp.vec4(0.0)                      # Σ V W p φ for the pressure, the density, each velocity component
         br = wp.vec4(0.0)
         bx = wp.vec4(0.0)
@@ -70,6 +79,8 @@ def make_sample(kind: int, dim: int, periodic: tuple) -> "wp.Kernel":
                 p = wp.vec4(1.0, q[0], q[1], 0.0)
             s += w
             m += w * wp.outer(p, p)
+            s2 += w * w
+            m2 += (w * w) * wp.outer(p, p)
             v = f.velocity[j]
             bp += (w * tait_pressure(rho, c.rho0, c.b, c.gamma)) * p
             br += (w * rho) * p
@@ -85,7 +96,8 @@ def make_sample(kind: int, dim: int, periodic: tuple) -> "wp.Kernel":
             return
         # the linear fit where it is well posed: φ(x) = first component of M⁻¹ b (row 0 of the inverse)
         mn = m / s
-        row = wp.vec4(1.0 / s, 0.0, 0.0, 0.0)  # the Shepard average's weights
+        shepard = wp.vec4(1.0 / s, 0.0, 0.0, 0.0)  # the Shepard average's weights
+        row = shepard
         if wp.static(dim == 2):
             m3 = wp.mat33(mn[0, 0], mn[0, 1], mn[0, 2], mn[1, 0], mn[1, 1], mn[1, 2], mn[2, 0], mn[2, 1], mn[2, 2])
             if wp.determinant(m3) > SINGULAR:
@@ -95,6 +107,9 @@ def make_sample(kind: int, dim: int, periodic: tuple) -> "wp.Kernel":
             if wp.determinant(mn) > SINGULAR:
                 inv = wp.inverse(mn)
                 row = wp.vec4(inv[0, 0], inv[0, 1], inv[0, 2], inv[0, 3]) / s
+        # the fit's weights a_j = V_j W_j row·p_j against the average's V_j W_j / s: Σ a_j² / Σ (V_j W_j / s)²
+        if wp.dot(row, m2 * row) > NOISE_GAIN * s2 / (s * s):
+            row = shepard
         pressure[i] = wp.dot(row, bp)
         density[i] = wp.dot(row, br)
         velocity[i] = wp.vec3(wp.dot(row, bx), wp.dot(row, by), wp.dot(row, bz))

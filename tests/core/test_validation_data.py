@@ -147,3 +147,15 @@ def test_loads_from_a_zipped_package(tmp_path):
     assert res.returncode == 0, res.stderr
     assert "Martin & Moyce 1952" in res.stdout and "(10, 2)" in res.stdout
     assert KOSHIZUKA_OKA_DSPH_SI.sum().hex() in res.stdout
+
+
+def test_buchner_wall_pressure_transcription():
+    """Buchner's P1 as TrixiParticles.jl digitised it (README.md): 98 points in increasing time, its first and last
+    rows and its two peaks as in the upstream file."""
+    header, data = read_csv("dam_break_2d", "wall_pressure_buchner_2002_p1.csv")
+    assert header == ["T", "p"] and data.shape == (98, 2) and same_bits(data, db.BUCHNER_P1)
+    assert np.all(np.diff(data[:, 0]) > 0)
+    assert tuple(data[0]) == (2.02512, -0.01792) and tuple(data[-1]) == (7.29946, 0.41565)
+    first = data[data[:, 0] < 4.0]
+    assert tuple(first[np.argmax(first[:, 1])]) == (2.77411, 0.68698)
+    assert tuple(data[np.argmax(data[:, 1])]) == (5.83288, 0.87672)

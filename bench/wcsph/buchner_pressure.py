@@ -1,0 +1,146 @@
+"""Impact pressure on a wall: the 2D dam break of Buchner (2002) through a pressure sensor, against the experiment.
+
+What it measures
+    The shipped ``dam_break_2d`` scene in Buchner's geometry (a column H = 0.6 m high and 2H wide, a tank 5.366 H =
+    3.22 m long, 1.5 m high) run to t = 2 s (T = t sqrt(g/H) = 8.1) at each ``--dx``, with the command line's sensor
+    ``P1=pressure:3.22,0.16@0.001`` (the wall's face at the transducer's middle, 1 kHz), against Buchner's P1
+    (``warpfree/validation/dam_break_2d``, TrixiParticles.jl's digitisation), everything in T and p/(ρ g H):
+
+    * arrival: the first sample with water at the sensor (the experiment's rise: T = 2.45-2.49);
+    * the mean over T = 2.6-3.0 (the experiment's is about 0.63) and the lowest 5 ms mean there;
+    * the first and second peaks of the 5 ms running mean (a transducer averages over its face), T <= 4 and 5-6.5;
+    * the rms difference of the 5 ms mean from the experiment's points (T <= 7.3);
+    * the noise: the rms of p minus its 50 ms running mean over T = 3.5-5 (the quasi-steady stretch).
+
+    python bench/wcsph/buchner_pressure.py [--dx 0.03,0.02,0.01] [--threads 2]
+Writes bench/results/buchner_pressure.{json,md,png}.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import common  # noqa: E402
+
+from warpfree.validation.dam_break_2d import BUCHNER_P1  # noqa: E402
+
+#: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
+RUN_ALL = [["--dx", "0.03,0.02,0.01"]]
+
+H, WIDTH, LENGTH, G, RHO0 = 0.6, 1.2, 3.22, 9.81, 1000.0
+SENSOR = "P1=pressure:3.22,0.16@0.001"
+T_END = 2.0
+
+
+def run_case(dx: float, threads: int) -> dict:
+    """One run of the scene with the sensor; its rows (t, p) and the run's step time."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "run"
+        args = [sys.executable, "-m", "warpfree", "run", "dam_break_2d", "--set", f"a={WIDTH}",
+                "--set", f"column_height={H / WIDTH}", "--set", f"tank_length={LENGTH / WIDTH!r}",
+                "--set", "tank_height=1.25", "--set", f"dx={dx}", "--set", f"t_end={T_END}",
+                "--set", "output_interval=0.1", "--set", "vtk=false", "--no-frames", "--no-progress",
+                "--threads", str(threads), "--sensor", SENSOR, "--out", str(out)]
+        done = subprocess.run(args, capture_output=True, text=True)
+        if done.returncode != 0:
+            raise RuntimeError(f"dx = {dx}: {done.stderr.strip().splitlines()[-1:]}")
+        rows = np.loadtxt(out / "sensors" / "P1.csv", delimiter=",", skiprows=1)
+        import json
+
+        summary = json.loads((out / "summary.json").read_text())
+    return {"dx": dx, "t": rows[:, 0].tolist(), "p": rows[:, 1].tolist(), "steps": summary["steps"],
+            "step_s": summary["phases_s"]["step"], "particles": summary["model"]["n_particles"]}
+
+
+def running_mean(values: np.ndarray, width: int) -> np.ndarray:
+    """The mean over ``width`` samples centred on each (shorter at the ends)."""
+    kernel = np.ones(width)
+    return np.convolve(values, kernel, mode="same") / np.convolve(np.ones_like(values), kernel, mode="same")
+
+
+def figures(case: dict) -> dict:
+    """The comparison's numbers (T and p/(ρ g H)) of one run."""
+    T = np.asarray(case["t"]) * np.sqrt(G / H)
+    p = np.asarray(case["p"]) / (RHO0 * G * H)
+    per_ms = 1.0e-3 * np.sqrt(G / H)  # one sample in T
+    mean5 = running_mean(p, 5)
+    mean50 = running_mean(p, 50)
+    wet = np.flatnonzero(p != 0.0)
+    early, late = (T >= 2.6) & (T <= 3.0), (T >= 5.0) & (T <= 6.5)
+    first = T <= 4.0
+    exp_T, exp_p = BUCHNER_P1[:, 0], BUCHNER_P1[:, 1]
+    inside = exp_T <= T[-1]
+    rms = float(np.sqrt(np.mean((np.interp(exp_T[inside], T, mean5) - exp_p[inside]) ** 2)))
+    quiet = (T >= 3.5) & (T <= 5.0)
+    return {"arrival_T": float(T[wet[0]]) if wet.size else None, "mean_2.6_3.0": float(p[early].mean()),
+            "lowest_5ms_2.6_3.0": float(mean5[early].min()),
+            "peak1": float(mean5[first].max()), "peak1_T": float(T[first][np.argmax(mean5[first])]),
+            "peak2": float(mean5[late].max()), "peak2_T": float(T[late][np.argmax(mean5[late])]),
+            "rms_vs_experiment": rms, "noise_rms": float(np.sqrt(np.mean((p - mean50)[quiet] ** 2))),
+            "sample_T": per_ms}
+
+
+def markdown(result: dict) -> str:
+    exp = result["experiment"]
+    lines = ["# Impact pressure at Buchner's P1 (2D dam break, H = 0.6 m)", "",
+             f"{result['machine']['cpu']}, {result['machine']['cores']} cores, {result['threads']} threads. The shipped "
+             f"`dam_break_2d` scene in Buchner's geometry with `--sensor {SENSOR}`, to t = {T_END} s; T = t sqrt(g/H), "
+             "pressures in ρ g H; 5 ms running means for the peaks (a transducer averages over its face).", ""]
+    rows = [["experiment (Buchner 2002)", "", f"{exp['arrival_T']:.2f}", f"{exp['mean_2.6_3.0']:.2f}", "",
+             f"{exp['peak1']:.3f} at {exp['peak1_T']:.2f}", f"{exp['peak2']:.3f} at {exp['peak2_T']:.2f}", "", ""]]
+    for c in result["cases"]:
+        f = c["figures"]
+        rows.append([f"dx = {c['dx']} m ({c['particles']} particles, {c['steps']} steps, {c['step_s']:.0f} s)", "",
+                     common.fmt(f["arrival_T"]), common.fmt(f["mean_2.6_3.0"]), common.fmt(f["lowest_5ms_2.6_3.0"]),
+                     f"{f['peak1']:.3f} at {f['peak1_T']:.2f}", f"{f['peak2']:.3f} at {f['peak2_T']:.2f}",
+                     common.fmt(f["rms_vs_experiment"]), common.fmt(f["noise_rms"])])
+    lines += [common.md_table(["", "", "arrival T", "mean T 2.6-3.0", "lowest 5 ms mean there", "peak 1 (5 ms)",
+                               "peak 2 (5 ms)", "rms vs experiment", "noise rms (T 3.5-5)"], rows), "",
+              "The experiment's arrival is its first point above 0.05 (its rise starts between T = 2.45 and 2.49); a run's "
+              "is its first sample with water at the sensor. The noise is p minus its 50 ms running mean, rms, over the "
+              "quasi-steady T = 3.5-5.", ""]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--dx", default="0.03,0.02,0.01", help="particle spacings (m), comma-separated")
+    p.add_argument("--threads", type=int, default=2)
+    args = p.parse_args(argv)
+    cases = []
+    for dx in (float(v) for v in args.dx.split(",")):
+        print(f"dx = {dx}", flush=True)
+        case = run_case(dx, args.threads)
+        case["figures"] = figures(case)
+        cases.append(case)
+    exp_T, exp_p = BUCHNER_P1[:, 0], BUCHNER_P1[:, 1]
+    first, late = exp_T <= 4.0, (exp_T >= 5.0) & (exp_T <= 6.5)
+    experiment = {"arrival_T": float(exp_T[np.argmax(exp_p > 0.05)]),
+                  "mean_2.6_3.0": float(exp_p[(exp_T >= 2.6) & (exp_T <= 3.0)].mean()),
+                  "peak1": float(exp_p[first].max()), "peak1_T": float(exp_T[first][np.argmax(exp_p[first])]),
+                  "peak2": float(exp_p[late].max()), "peak2_T": float(exp_T[late][np.argmax(exp_p[late])])}
+    result = {"machine": common.machine_info(), "threads": args.threads, "sensor": SENSOR, "experiment": experiment,
+              "cases": cases}
+    fig, ax = common.new_figure(figsize=(8, 4.5))
+    for c in cases:
+        T = np.asarray(c["t"]) * np.sqrt(G / H)
+        ax.plot(T, running_mean(np.asarray(c["p"]) / (RHO0 * G * H), 5), lw=0.8, label=f"dx = {c['dx']} m (5 ms mean)")
+    ax.plot(exp_T, exp_p, "k.", ms=4, label="Buchner 2002 (P1)")
+    ax.set_xlim(2.0, 8.1)
+    ax.set_xlabel("T = t sqrt(g/H)")
+    ax.set_ylabel("p / (ρ g H)")
+    ax.set_title("Wall pressure at P1, 2D dam break (H = 0.6 m)")
+    ax.legend(fontsize=7)
+    common.write_results("buchner_pressure", result, markdown(result), fig)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
