@@ -29,7 +29,8 @@ from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_par
 from warpfree.smoothing import SmoothingKernel
 from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, DynamicViscosity,
                                                 EndTime, FixedStep, FrameField, Gravity, HFactor, Kernel,
-                                                OutputInterval, RestDensity, Spacing, WallLayers, Walls, WallSafety)
+                                                OutputInterval, RestDensity, Shifting, SoundSpeed, Spacing, WallLayers,
+                                                Walls, WallSafety)
 from warpfree.solvers.wcsph.scene_tools import (box_2d, box_walls_2d, front_position, hydrostatic_density,
                                                  require_wall_cover)
 from warpfree.run import OutputOptions
@@ -64,7 +65,8 @@ def build(a: Annotated[float, Param("m", "width a of the water column", "(0, inf
           delta: DensityDiffusion = 0.1, mu: DynamicViscosity = 1.0e-3, boundary_model: Walls = BoundaryModel.DYNAMIC,
           wall_safety: WallSafety = 0.75, cfl: Courant = 0.4, g: Gravity = 9.81, rho0: RestDensity = 1000.0,
           wall_layers: WallLayers = 3, checkpoint_every: CheckpointEvery = 0, dt: FixedStep = None,
-          frames: Frames = True, frame_field: FrameField = FluidField.SPEED, vtk: Vtk = True) -> TimeLoop:
+          frames: Frames = True, frame_field: FrameField = FluidField.SPEED, vtk: Vtk = True,
+          sound_speed: SoundSpeed = 10.0, shifting: Shifting = 0.0) -> TimeLoop:
     """Build the dam break; lengths in units of a (tank_length, tank_height), SI otherwise."""
     params = dict(locals())
     if tank_height <= column_height:
@@ -72,13 +74,13 @@ def build(a: Annotated[float, Param("m", "width a of the water column", "(0, inf
                                             f"{tank_length} x {tank_height}")
     height = column_height * a
     length, top = tank_length * a, tank_height * a
-    c0 = 10.0 * np.sqrt(2.0 * g * height)
+    c0 = sound_speed * np.sqrt(2.0 * g * height)
     fluid = lattice_box((0.0, 0.0), (a, height), dx)
     with reported_as(layers="wall_layers", lj_r0="wall_safety"):
         walls = box_walls_2d(length, top, dx, wall_layers)
         fp = FluidParams(dim=2, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
                          delta=delta, gravity=(0.0, -g, 0.0), boundary_model=boundary_model, cfl=cfl,
-                         wall_artificial_viscosity=wall_artificial, lj_d=2.0 * g * height,
+                         wall_artificial_viscosity=wall_artificial, lj_d=2.0 * g * height, shifting=shifting,
                          lj_r0=dx if boundary_model is BoundaryModel.LENNARD_JONES else wall_safety * dx,
                          container_lo=(0.0, 0.0, -1.0), container_hi=(length, top, 1.0))
         require_wall_cover(wall_layers, dx, fp.support, fp.boundary_model)

@@ -39,8 +39,9 @@ SENSOR = "P1=pressure:3.22,0.16@0.001"
 T_END = 2.0
 
 
-def run_case(dx: float, threads: int) -> dict:
-    """One run of the scene with the sensor; its rows (t, p) and the run's step time."""
+def run_case(dx: float, threads: int, settings: tuple = ()) -> dict:
+    """One run of the scene with the sensor (and ``settings``, more ``name=value`` of the scene); its rows (t, p) and
+    the run's step time."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "run"
         args = [sys.executable, "-m", "warpfree", "run", "dam_break_2d", "--set", f"a={WIDTH}",
@@ -48,6 +49,7 @@ def run_case(dx: float, threads: int) -> dict:
                 "--set", "tank_height=1.25", "--set", f"dx={dx}", "--set", f"t_end={T_END}",
                 "--set", "output_interval=0.1", "--set", "vtk=false", "--no-frames", "--no-progress",
                 "--threads", str(threads), "--sensor", SENSOR, "--out", str(out)]
+        args += [a for setting in settings for a in ("--set", setting)]
         done = subprocess.run(args, capture_output=True, text=True)
         if done.returncode != 0:
             raise RuntimeError(f"dx = {dx}: {done.stderr.strip().splitlines()[-1:]}")
@@ -55,7 +57,7 @@ def run_case(dx: float, threads: int) -> dict:
         import json
 
         summary = json.loads((out / "summary.json").read_text())
-    return {"dx": dx, "t": rows[:, 0].tolist(), "p": rows[:, 1].tolist(), "steps": summary["steps"],
+    return {"dx": dx, "settings": list(settings), "t": rows[:, 0].tolist(), "p": rows[:, 1].tolist(), "steps": summary["steps"],
             "step_s": summary["phases_s"]["step"], "particles": summary["model"]["n_particles"]}
 
 

@@ -14,7 +14,7 @@ from .solver import FluidField
 
 __all__ = ["Spacing", "EndTime", "OutputInterval", "FixedStep", "HFactor", "Kernel", "ArtificialViscosity",
            "DensityDiffusion", "DynamicViscosity", "Walls", "WallSafety", "Courant", "Gravity", "RestDensity",
-           "WallLayers", "FrameField", "Shifting", "SettlePeriods"]
+           "WallLayers", "FrameField", "Shifting", "SettlePeriods", "SoundSpeed"]
 
 Spacing = Annotated[float, Param("m", "initial particle spacing dx", "(0, inf)")]
 EndTime = Annotated[float, Param("s", "simulated time at which the run ends", "(0, inf)")]
@@ -35,5 +35,8 @@ RestDensity = Annotated[float, Param("kg/m³", "rest density ρ0 of the water", 
 WallLayers = Annotated[int, Param("", "layers of wall particles (they must cover the kernel support)", "[1, inf)")]
 FrameField = Annotated[FluidField, Param("", "the fluid field frames colour by")]
 Shifting = Annotated[float, Param("", "particle shifting coefficient A (Lind et al. 2012; 0: off)", "[0, inf)")]
+SoundSpeed = Annotated[float, Param("sqrt(2gH)", "numerical speed of sound c0, in units of the water's largest free-fall "
+                                                 "speed sqrt(2 g H) (the flow's Mach number is about its inverse)",
+                                    "(0, inf)")]
 SettlePeriods = Annotated[float, Param("", "settling of the water at rest before t = 0, in periods of its slowest "
                                            "sloshing mode", "[0, inf)")]
