@@ -4,7 +4,8 @@ A water column 1.228 m long, 1 m wide and 0.55 m high at the far end of a 3.22 x
 0.161 x 0.403 x 0.161 m box. Tank and obstacle are read from the STL files in ``scenes/meshes/``
 (any watertight STL/OBJ/PLY can be passed instead). Wall particles are placed from the meshes' true
 surfaces (``warpfree.solvers.wcsph.surface_layers``): three layers outside the tank and three inside the obstacle, the
-first dx/2 from the surface; the fluid keeps dx/2 from both surfaces. At every output the solver checks
+first dx/2 from the surface. The column is filled with cells that divide it exactly (about dx a side), so it
+holds its 1.228 x 1 x 0.55 m of water at any dx, half a cell from the tank; the fluid keeps dx/2 from the obstacle. At every output the solver checks
 the fluid against the true tank and obstacle surfaces (``warpfree.solvers.wcsph.solids``): a fluid particle inside a
 solid stops the run with the count and the depth. The probe ``inside_obstacle`` records how many fluid
 particles are inside the obstacle (0 throughout).
@@ -21,7 +22,7 @@ from typing import Annotated
 
 import numpy as np
 
-from warpfree.geometry import fill_mesh, load_mesh
+from warpfree.geometry import fill_mesh_box, load_mesh
 from warpfree.solvers.wcsph.surface_layers import surface_layers
 from warpfree.errors import ParameterError, reported_as
 from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_parameters
@@ -68,13 +69,11 @@ def build(dx: Spacing = 0.05, t_end: EndTime = 1.0, output_interval: OutputInter
                                                                                hi[2] - lo[2])):
         if value >= room:
             raise ParameterError(name, f"must be below the tank's {room:.4g} m, got {value}")
-    origin = lo
     with reported_as(mesh="obstacle_mesh"):
         obstacle = load_mesh(obstacle_mesh) if obstacle_mesh else None
-    # fluid: the tank's lattice inside the column box, dx/2 clear of the tank and of the obstacle
-    fluid = fill_mesh(tank, dx, origin=origin, clearance=0.5 * dx)  # dx need not divide the tank
-    keep = (fluid[:, 0] >= hi[0] - column_length) & (fluid[:, 2] <= lo[2] + column_height)
-    fluid = fluid[keep]
+    # fluid: cells dividing the column's box exactly (its length, the tank's width and its height at any dx), half a
+    # cell clear of the tank and dx/2 of the obstacle; each particle the volume of its cell
+    fluid, cell = fill_mesh_box(tank, (hi[0] - column_length, lo[1], lo[2]), (hi[0], hi[1], lo[2] + column_height), dx)
     with reported_as(layers="wall_layers", lj_r0="wall_safety"):
         walls = surface_layers(tank, dx, wall_layers, "outside")
         obstacle_walls = None
@@ -88,7 +87,7 @@ def build(dx: Spacing = 0.05, t_end: EndTime = 1.0, output_interval: OutputInter
         require_wall_cover(wall_layers, dx, fp.support, fp.boundary_model)
         density = hydrostatic_density(fluid[:, 2], lo[2] + column_height, rho0, c0, g)
         model = WCSPHModel(fluid, walls, fp, obstacle_boundary=obstacle_walls, containers=[tank],
-                           obstacles=[obstacle] if obstacle is not None else [])
+                           obstacles=[obstacle] if obstacle is not None else [], fluid_volume=float(np.prod(cell)))
         solver = WCSPHSolver(model, density=density)
 
     probes = {"front": lambda s, t: float(s.fluid_positions()[:, 0].min())}

@@ -45,6 +45,7 @@ __all__ = [
     "lattice_box",
     "jittered_lattice",
     "fill_mesh",
+    "fill_mesh_box",
     "shell_lattice",
     "sample_surface",
     "polygon_boundary_layers",
@@ -383,6 +384,25 @@ def fill_mesh(mesh: trimesh.Trimesh, dx, origin=None, clearance=0.0) -> np.ndarr
     if clearance > 0.0:
         inside &= ~_near_grid(tri, shape, clearance / dx * (1.0 - 1e-6), inside)
     return _lattice(origin, dx, kmin, shape)[inside.ravel()]
+
+
+def fill_mesh_box(mesh: trimesh.Trimesh, lo, hi, dx) -> tuple[np.ndarray, np.ndarray]:
+    """The part of a watertight mesh's inside within the box [lo, hi] (m), filled with the centres of cells that
+    divide the box exactly: n = round((hi - lo)/dx) cells per axis of size (hi - lo)/n (within dx/(2n) of dx),
+    half a cell clear of the mesh's surface (as :func:`fill_mesh` keeps dx/2). Returns (points (N, 3), cell sizes
+    (3,)): the water in a box-shaped region holds its volume exactly at any dx (each particle's volume the cell's),
+    where a lattice of spacing dx would round its sides to whole spacings."""
+    mesh = _check_mesh(mesh)
+    dx = require_positive("dx", dx)
+    lo, hi = _box(lo, hi)
+    counts = np.maximum(1.0, np.round((hi - lo) / dx))
+    cell = (hi - lo) / counts
+    stretch = dx / cell  # in the stretched space the cells are dx wide: fill_mesh's lattice and clearance
+    stretched = mesh.copy()
+    stretched.apply_transform(np.diag([*stretch, 1.0]))
+    points = fill_mesh(stretched, dx, origin=lo * stretch, clearance=0.5 * dx) / stretch
+    inside = np.all((points > lo) & (points < hi), axis=1)
+    return points[inside], cell
 
 
 @announced("wall layers laid around the mesh")

@@ -387,3 +387,18 @@ def test_fill_mesh_clearance_keeps_half_a_spacing_from_the_walls():
     assert face_dist(raw).min() < 0.011
     assert face_dist(kept).min() >= 0.03 - 1e-9 and len(kept) == 16 ** 3
     assert len(fill_mesh(box, 0.05, clearance=0.025)) == len(fill_mesh(box, 0.05)) == 20 ** 3
+
+
+def test_fill_mesh_box_divides_the_box_exactly_inside_the_mesh():
+    """Cells of round((hi - lo)/dx) per axis fill the box: their centres half a cell from its faces, all inside the
+    mesh, as many as the cells, and their volumes add up to the box's (the part of a larger mesh it cuts)."""
+    from warpfree.geometry import box_mesh, fill_mesh_box
+
+    tank = box_mesh((0.0, 0.0, 0.0), (2.0, 1.0, 1.0))
+    lo, hi = np.array([0.77, 0.0, 0.0]), np.array([2.0, 1.0, 0.55])
+    points, cell = fill_mesh_box(tank, lo, hi, 0.1)
+    counts = np.round((hi - lo) / 0.1)
+    assert np.allclose(cell, (hi - lo) / counts) and len(points) == int(np.prod(counts))
+    assert np.isclose(len(points) * np.prod(cell), np.prod(hi - lo))
+    assert np.allclose(points.min(axis=0), lo + 0.5 * cell) and np.allclose(points.max(axis=0), hi - 0.5 * cell)
+

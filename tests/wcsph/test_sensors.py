@@ -187,3 +187,4 @@ def test_sensors_from_the_command_line(tmp_path, capsys):
     assert main(["run", "efg_cook", "--set", "cells=4", "--out", str(tmp_path / "static"),
                  "--no-progress", "--sensor", "p=pressure:0,0"]) == 2
     assert "static" in capsys.readouterr().err
+

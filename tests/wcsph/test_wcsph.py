@@ -280,3 +280,18 @@ def test_uniform_flow_in_a_periodic_box_stays_uniform():
     d = np.abs(pos - shifted)
     assert np.minimum(d, 1.0 - d).max() < 1e-3
     assert solver.moving_neighbours.builds >= 2  # tables rebuilt across the faces on the way
+
+
+@pytest.mark.parametrize("dx", [0.1, 0.06, 0.03])
+def test_the_3d_water_column_holds_its_volume_at_any_spacing(dx):
+    """SPHERIC test 2's column (1.228 x 1 x 0.55 m) holds ρ0 × its volume at any dx, its particles half a cell from
+    its faces: the cells divide the column exactly (a lattice of spacing dx made it 0.54 m high at dx = 0.03 and
+    0.60 m at 0.1)."""
+    device.use("cpu", 2)
+    run = load_scene("dam_break_3d").build(dx=dx, t_end=0.01, frames=False, vtk=False)
+    x = run.solver.fluid_positions().astype(np.float64)
+    mass = run.solver.diagnostics()["mass"]
+    assert mass == pytest.approx(1000.0 * 1.228 * 1.0 * 0.55, rel=1e-6)
+    layers = np.round(0.55 / dx)
+    assert x[:, 2].max() == pytest.approx(0.55 * (1.0 - 0.5 / layers), abs=1e-5)
+    assert x[:, 0].min() == pytest.approx(3.22 - 1.228 * (1.0 - 0.5 / np.round(1.228 / dx)), abs=1e-5)
