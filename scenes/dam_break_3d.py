@@ -29,7 +29,8 @@ from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_par
 from warpfree.smoothing import SmoothingKernel
 from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, DynamicViscosity,
                                                 EndTime, FixedStep, FrameField, Gravity, HFactor, Kernel,
-                                                OutputInterval, RestDensity, Spacing, WallLayers, WallSafety)
+                                                OutputInterval, RestDensity, SoundSpeed, Spacing, WallLayers,
+                                                WallSafety)
 from warpfree.solvers.wcsph.scene_tools import clear_of, hydrostatic_density, require_wall_cover
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidField, FluidParams, WCSPHModel, WCSPHSolver
@@ -59,8 +60,8 @@ def build(dx: Spacing = 0.05, t_end: EndTime = 1.0, output_interval: OutputInter
           cfl: Courant = 0.3, g: Gravity = 9.81, rho0: RestDensity = 1000.0, wall_layers: WallLayers = 3,
           checkpoint_every: CheckpointEvery = 0, dt: FixedStep = None, frames: Frames = True,
           frame_field: FrameField = FluidField.SPEED, vtk: Vtk = True,
-          surface: Annotated[bool, Param("", "write the free surface as PLY meshes at every output")] = False
-          ) -> TimeLoop:
+          surface: Annotated[bool, Param("", "write the free surface as PLY meshes at every output")] = False,
+          sound_speed: SoundSpeed = 10.0) -> TimeLoop:
     params = dict(locals())
     with reported_as(mesh="tank_mesh"):
         tank = load_mesh(tank_mesh)
@@ -80,7 +81,7 @@ def build(dx: Spacing = 0.05, t_end: EndTime = 1.0, output_interval: OutputInter
         if obstacle is not None:
             fluid = clear_of(fluid, obstacle, 0.5 * dx)
             obstacle_walls = surface_layers(obstacle, dx, wall_layers, "inside")
-        c0 = 10.0 * np.sqrt(2.0 * g * column_height)
+        c0 = sound_speed * np.sqrt(2.0 * g * column_height)
         fp = FluidParams(dim=3, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
                          delta=delta, gravity=(0.0, 0.0, -g), cfl=cfl, lj_d=2.0 * g * column_height,
                          lj_r0=wall_safety * dx, container_lo=tuple(lo), container_hi=tuple(hi))
