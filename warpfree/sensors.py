@@ -3,8 +3,8 @@
 A sensor's sample times are 0, Δ, 2Δ, …; it is sampled after the first step that ends at or past each, and the row
 holds that step's time: a sensor never shortens a step, so adding one changes nothing else in the run (a step that
 passes several sample times gives one row). Its rows are kept in the run's checkpoints (a resumed run continues them
-bitwise), in ``sensors/<name>.csv`` (a header line of columns with their units, then one row per sample; written at
-every output and at the end) and in ``summary.json`` (``sensors``: kind, file, columns, samples). Every rank samples
+bitwise), in ``sensors/<name>.csv`` (a header line of columns with their units, then one row per sample; the rows
+since the last write appended at every output and at the end, the whole file written at a run's or resume's first) and in ``summary.json`` (``sensors``: kind, file, columns, samples). Every rank samples
 (the values come from the rank that holds them) and the first writes.
 
 - :class:`FieldSensor`: a solver's fields at points (``solver.field_at(points)``: the fluid's, the Galerkin solvers');
@@ -20,6 +20,7 @@ every output and at the end) and in ``summary.json`` (``sensors``: kind, file, c
 from __future__ import annotations
 
 import importlib.util
+import io
 import math
 import os
 import re
@@ -30,7 +31,7 @@ import numpy as np
 
 from .errors import ParameterError, require_positive
 
-__all__ = ["Sensor", "FieldSensor", "PressureSensor", "SENSOR_KINDS", "parse_sensor", "due_time", "write_csv"]
+__all__ = ["Sensor", "FieldSensor", "PressureSensor", "SENSOR_KINDS", "parse_sensor", "due_time", "write_csv", "append_csv"]
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 #: the output interval of a sensor made without one (s): 1 kHz, the rate of the SPHERIC test 2 pressure records
@@ -164,6 +165,18 @@ def write_csv(path: str, header: list[tuple[str, str]], rows: np.ndarray) -> Non
         if len(rows):
             np.savetxt(f, np.asarray(rows, dtype=np.float64), delimiter=",", fmt="%.9g")
     os.replace(tmp, path)
+
+
+def append_csv(path: str, rows: np.ndarray) -> None:
+    """Append ``rows`` to a CSV :func:`write_csv` made, in one write (a kill leaves whole rows: a resumed run writes
+    the file whole again from its checkpoint)."""
+    buffer = io.StringIO()
+    np.savetxt(buffer, np.asarray(rows, dtype=np.float64), delimiter=",", fmt="%.9g")
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND)
+    try:
+        os.write(fd, buffer.getvalue().encode())
+    finally:
+        os.close(fd)
 
 
 #: kind -> (how ``--sensor`` writes its arguments, the function that makes one from a name, points and interval)

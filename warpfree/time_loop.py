@@ -29,7 +29,7 @@ import numpy as np
 from .errors import ParameterError, RunError, RunInterrupted, require_integer, require_positive
 from .io import checkpoint
 from .run import Analysis, OutputOptions, Run, RunDirectory
-from .sensors import Sensor, due_time, write_csv
+from .sensors import Sensor, append_csv, due_time, write_csv
 from .solver import StepKind, TimeDependentSolver
 
 __all__ = ["TimeLoop", "Probe"]
@@ -78,6 +78,7 @@ class TimeLoop(Run):
         #: each sensor's rows: (time, value per column), float64
         self.sensor_rows: dict[str, list[np.ndarray]] = {}
         self._sensor_columns: dict[str, list[tuple[str, str]]] = {}
+        self._sensor_written: dict[str, int] = {}  # rows of each sensor's file this process has written
         self.step_s = 0.0
         self.last_checkpoint: str | None = None
         self._good = None                  # (loop scalars, state copies, series lengths) at the last output
@@ -116,7 +117,13 @@ class TimeLoop(Run):
             return
         with self.phases("output"):
             for name in self.sensors:
-                write_csv(self._sensor_file(directory, name), self._sensor_columns[name], self._sensor_table(name))
+                path, rows = self._sensor_file(directory, name), self.sensor_rows[name]
+                written = self._sensor_written.get(name)
+                if written is None or written > len(rows):  # this process's first write: the whole file
+                    write_csv(path, self._sensor_columns[name], self._sensor_table(name))
+                elif len(rows) > written:
+                    append_csv(path, np.vstack(rows[written:]))
+                self._sensor_written[name] = len(rows)
 
     @staticmethod
     def _sensor_file(directory: RunDirectory, name: str) -> str:
@@ -288,6 +295,7 @@ class TimeLoop(Run):
             self.series.setdefault(k, [])
         self.diag_series = {k[len("diagnostic:"):]: v.tolist() for k, v in series.items()
                             if k.startswith("diagnostic:")}
+        self._sensor_written = {}  # the files are written whole again
         for k in self.sensors:  # a sensor the checkpointed run had not starts now
             kept = series.get("sensor:" + k)
             width = len(self._sensor_columns[k])
@@ -351,6 +359,7 @@ class TimeLoop(Run):
     # -- the loop ----------------------------------------------------------------------------------
     def _execute(self, directory: RunDirectory | None, resume: bool, progress: bool) -> None:
         self._good = None
+        self._sensor_written = {}
         self._checkpoint_step = -1
         self.last_checkpoint = None
         self._resumed_time = None
