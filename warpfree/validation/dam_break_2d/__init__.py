@@ -201,7 +201,8 @@ def plot_front(path: str, t, x_front, a: float, g: float, max_err: float, height
              else "no surge-front experiment for this column")
     top.set_title(f"Dam break, column {height_ratio:g}a high: surge front against the experiments\n{error}",
                   fontsize=9)
-    bottom.set_title("error at the experimental points, and the checks' tolerance", fontsize=9)
+    bottom.set_title("error at the experimental points, and the checks' tolerance" if datasets_for(height_ratio)
+                     else "(no experimental points to compare with)", fontsize=9)
     top.legend(loc="upper left", fontsize=7)
     if datasets_for(height_ratio):
         bottom.legend(loc="best", fontsize=6)
