@@ -19,12 +19,20 @@ axes), so a term a scene switches off is not in its compiled code.
 
 Equations (r_ij = x_i - x_j, v_ij = v_i - v_j, ∇W_ij = ∇_i W(r_ij, h)):
 
-- Tait EOS (Monaghan 1994):     p = B[(ρ/ρ0)^γ - 1],  B = ρ0 c0²/γ, γ = 7
+- Tait EOS (Monaghan 1994):     p = B[(ρ/ρ0)^γ - 1],  B = ρ0 c0²/γ, γ = 7; for a fluid without tension
+  p = max(B[(ρ/ρ0)^γ - 1], 0) (``FluidConstants.p_floor`` = 0), in the sensors too
 - continuity (Monaghan 1992):   dρ_i/dt = Σ_j m_j v_ij·∇W_ij + δ-SPH diffusion D_i
 - δ-SPH (Molteni & Colagrossi 2009, hydrostatic correction in the style of Fourtakas 2019):
       D_i = δ h c0 Σ_{j fluid} V_j ψ_ij·∇W_ij,
       ψ_ij = 2[(ρ_j - ρ_i) - ρ0 g·(x_j - x_i)/c0²] (x_j - x_i)/(r² + 0.01h²)
 - momentum (Monaghan 1992):     dv_i/dt = -Σ_j m_j (p_i/ρ_i² + p_j/ρ_j² + Π_ij) ∇W_ij + F^visc_i + g
+- or, with ``riemann`` (Zhang, Hu & Adams 2017), fluid pairs by the linearised Riemann problem along r_ij:
+      dv_i/dt = -Σ_j m_j 2P*_ij/(ρ_i ρ_j) ∇W_ij + ...,
+      P*_ij = (ρ_j p_i + ρ_i p_j)/(ρ_i + ρ_j) + β ρ_i ρ_j c0 ΔU/(ρ_i + ρ_j),
+      ΔU = -v_ij·r_ij/r (> 0 where the pair approaches),
+      β = min(η max(ΔU, 0)/c0, 1): dissipation only where particles approach, quadratic in ΔU below c0/η (their
+      low-dissipation limiter, η = 3), in place of Monaghan's Π_ij, which is linear in ΔU and slows free-surface
+      sheets (fluid-wall pairs keep Monaghan's pressure terms)
 - laminar viscosity (Morris 1997): F^visc_i = Σ_j m_j 2μ'/(ρ_i ρ_j) (r_ij·∇W_ij)/(r² + 0.01h²) v_ij, with
   μ' = μ/S, S the term's lattice second moment (``warpfree/solvers/wcsph/model.py``), so that it is exact for
   a linear shear on the lattice
@@ -86,9 +94,11 @@ class FluidConstants:
     rho0: float              # reference density (kg/m³)
     c0: float                # numerical speed of sound (m/s)
     b: float                 # Tait stiffness B = ρ0 c0²/γ (Pa)
+    p_floor: float           # the least pressure the fluid holds (Pa): 0 for a fluid without tension, else -3e38
     gamma: float             # Tait exponent
     mu: float                # dynamic viscosity divided by the lattice second moment, μ/S (Pa·s)
     avisc: float             # α c0 h (m²/s), artificial viscosity
+    riemann_eta: float       # η/c0 (s/m) of the Riemann dissipation limiter β = min(η max(U_L - U_R, 0)/c0, 1)
     delta_coef: float        # δ h c0 (m²/s), δ-SPH
     inv_c2: float            # 1/c0²
     gravity: wp.vec3         # m/s²
@@ -137,6 +147,7 @@ class FluidTerms:
     wall_safety: bool = False        # Lennard-Jones safety net of dynamic walls (r0 > 0)
     no_slip: bool = True             # walls enter the laminar viscous term with the ghost velocity
     wall_artificial: bool = False    # artificial viscosity on fluid-wall pairs too (with the ghost velocity)
+    riemann: bool = False            # fluid pairs' pressure from a low-dissipation Riemann solver (Zhang et al. 2017)
     shifting: bool = False           # particle shifting (A > 0)
     periodic: tuple = (False, False, False)
 
@@ -149,6 +160,12 @@ def tait_pressure(rho: float, rho0: float, b: float, gamma: float) -> float:
         r2 = r * r
         return b * (r2 * r2 * r2 * r - 1.0)
     return b * (wp.pow(r, gamma) - 1.0)
+
+
+@wp.func
+def fluid_pressure(c: FluidConstants, rho: float) -> float:
+    """The fluid's pressure (Pa) at density ρ: the Tait EOS, no lower than ``c.p_floor`` (0 without tension)."""
+    return wp.max(tait_pressure(rho, c.rho0, c.b, c.gamma), c.p_floor)
 
 
 @wp.func
@@ -193,9 +210,9 @@ def fluid_report(c: FluidConstants, f: FluidArrays, i: int) -> wp.vec4:
 
 @wp.kernel
 def equation_of_state(first: int, c: FluidConstants, density: wp.array(dtype=float), pressure: wp.array(dtype=float)):
-    """p_i = B[(ρ_i/ρ0)^γ - 1] (fluid particles)."""
+    """p_i = B[(ρ_i/ρ0)^γ - 1], no lower than the floor (fluid particles)."""
     i = first + wp.tid()
-    pressure[i] = tait_pressure(density[i], c.rho0, c.b, c.gamma)
+    pressure[i] = fluid_pressure(c, density[i])
 
 
 @wp.struct
@@ -322,7 +339,7 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
     dynamic = terms.walls == "dynamic"
     lj_walls = terms.walls == "lennard_jones" or (dynamic and terms.wall_safety)
 
-    def make_pair(artificial: bool, laminar: bool):
+    def make_pair(artificial: bool, laminar: bool, riemann: bool):
         @wp.func
         def pair_terms(c: FluidConstants, vi: wp.vec3, rhoi: float, inv_rhoi: float, pi_term: float, rij: wp.vec3,
                        r2: float, vj: wp.vec3, rhoj: float, pj: float, mj: float):
@@ -333,7 +350,17 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
             gw = (c.grad_factor * kernel_grad_coef(wp.static(kind), wp.static(dim), wp.sqrt(r2) * c.inv_h)) * rij
             inv_r2e = 1.0 / (r2 + c.eps)
             inv_rhoj = 1.0 / rhoj
-            coef = pi_term + pj * inv_rhoj * inv_rhoj
+            coef = float(0.0)
+            if wp.static(riemann):
+                # P* = (ρ_j p_i + ρ_i p_j)/(ρ_i + ρ_j) + β ρ_i ρ_j c0 (U_L - U_R)/(ρ_i + ρ_j), U_L - U_R = -v_ij·r_ij/r
+                pi = pi_term * rhoi * rhoi
+                du = -wp.dot(vi - vj, rij) / wp.sqrt(r2 + c.eps)
+                beta = wp.min(c.riemann_eta * wp.max(du, 0.0), 1.0)
+                inv_sum = 1.0 / (rhoi + rhoj)
+                pstar = (rhoj * pi + rhoi * pj) * inv_sum + beta * rhoi * rhoj * c.c0 * du * inv_sum
+                coef = 2.0 * pstar * inv_rhoi * inv_rhoj
+            else:
+                coef = pi_term + pj * inv_rhoj * inv_rhoj
             a = wp.vec3(0.0, 0.0, 0.0)
             if wp.static(artificial or laminar):
                 vij = vi - vj
@@ -348,8 +375,9 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
 
         return pair_terms
 
-    fluid_pair = make_pair(terms.artificial, terms.laminar)
-    wall_pair = make_pair(terms.artificial and terms.no_slip and terms.wall_artificial, terms.laminar and terms.no_slip)
+    fluid_pair = make_pair(terms.artificial, terms.laminar, terms.riemann)
+    wall_pair = make_pair(terms.artificial and terms.no_slip and terms.wall_artificial, terms.laminar and terms.no_slip,
+                          False)
 
     @wp.func
     def shifting_sums(c: FluidConstants, s: ShiftingSums, vol: float, rij: wp.vec3, r2: float, gw: wp.vec3,
@@ -386,7 +414,7 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
         re = rh + (0.5 * dt) * d
         f.velocity_eval[i] = vh + (0.5 * dt) * a
         f.density_eval[i] = re
-        f.pressure[i] = tait_pressure(re, c.rho0, c.b, c.gamma)
+        f.pressure[i] = fluid_pressure(c, re)
 
     @wp.kernel(module="unique")
     def wall_pressure(first: int, c: FluidConstants, f: FluidArrays, wall_fluid: NeighbourRows,
@@ -536,7 +564,8 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
                 inv_rhoj = 1.0 / rhoj
                 pj_plus_term = wp.max(f.pressure[j], 0.0) * inv_rhoj * inv_rhoj
                 aj, gw, inv_r2e = wall_pair(c, f.velocity_eval[j], rhoj, inv_rhoj, pj_plus_term, rjk, r2,
-                                            f.ghost_velocity[k], f.density[b], wp.max(f.pressure[b], 0.0), f.mass[b])
+                                            f.ghost_velocity[k], f.density[b], wp.max(f.pressure[b], 0.0),
+                                            f.mass[b])
                 a += aj
             if wp.static(lj_walls):
                 if r2 < c.lj_r0 * c.lj_r0:

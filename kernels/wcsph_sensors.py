@@ -22,7 +22,7 @@ import warp as wp
 
 from .smoothing import kernel_shape, kernel_sigma
 from .space import displacement_function, image_displacement
-from .wcsph import FluidArrays, FluidConstants, tait_pressure
+from .wcsph import FluidArrays, FluidConstants, fluid_pressure
 
 #: the determinant of the normalised moment matrix below which the linear fit gives way to the Shepard average (a full
 #: support's is about 10⁻² in 2D and 10⁻³ in 3D for the Wendland C2 kernel at h = 1.6 dx)
@@ -82,7 +82,7 @@ def make_sample(kind: int, dim: int, periodic: tuple) -> "wp.Kernel":
             s2 += w * w
             m2 += (w * w) * wp.outer(p, p)
             v = f.velocity[j]
-            bp += (w * tait_pressure(rho, c.rho0, c.b, c.gamma)) * p
+            bp += (w * fluid_pressure(c, rho)) * p
             br += (w * rho) * p
             bx += (w * v[0]) * p
             by += (w * v[1]) * p
@@ -116,3 +116,4 @@ def make_sample(kind: int, dim: int, periodic: tuple) -> "wp.Kernel":
 
     _made[key] = sample
     return sample
+

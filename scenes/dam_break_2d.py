@@ -11,7 +11,9 @@ against Martin & Moyce over T <= 2.5 and <= 0.15 over T <= 1 (n² = 2), |ΔZ|/Z 
 Model: WCSPH (Monaghan 1994) with Wendland C2, h = 1.6 dx (the 2D default; the comparison with 1.3 dx: ``bench/results/scene_studies.md``), c0 = 10 sqrt(2 g 2a), Tait γ = 7, laminar
 μ = 1e-3 Pa·s, Monaghan artificial viscosity α = 0.1 (as PySPH's dam_break_2d), δ-SPH δ = 0.1 and
 dynamic (Adami 2012) wall particles, three layers, no-slip, with Monaghan's (1994) Lennard-Jones force
-(D = 2gH) as a safety net below r0 = 0.75 dx (``wall_safety``; 0 switches it off).
+(D = 2gH) as a safety net below r0 = 0.75 dx (``wall_safety``; 0 switches it off). Options measured on Buchner's wall
+pressure (``bench/results/buchner_pressure.md``): the Riemann pair pressure in place of the artificial viscosity
+(``--set riemann=3 --set alpha=0``) and a fluid without tension (``--set tension=false``).
 
 Time step: the CFL condition dt = C h/(c0 + max|v|), with C = 0.4, the largest step that keeps the error with a
 margin (the study: ``bench/results/scene_studies.md``). (Chapter 5 of a Portuguese thesis on SPH fluids prints
@@ -29,8 +31,8 @@ from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_par
 from warpfree.smoothing import SmoothingKernel
 from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, DynamicViscosity,
                                                 EndTime, FixedStep, FrameField, Gravity, HFactor, Kernel,
-                                                OutputInterval, RestDensity, Shifting, SoundSpeed, Spacing, WallLayers,
-                                                Walls, WallSafety)
+                                                OutputInterval, RestDensity, Riemann, Shifting, SoundSpeed, Spacing, Tension,
+                                                WallLayers, Walls, WallSafety)
 from warpfree.solvers.wcsph.scene_tools import (box_2d, box_walls_2d, front_position, hydrostatic_density,
                                                  require_wall_cover)
 from warpfree.run import OutputOptions
@@ -66,7 +68,8 @@ def build(a: Annotated[float, Param("m", "width a of the water column", "(0, inf
           wall_safety: WallSafety = 0.75, cfl: Courant = 0.4, g: Gravity = 9.81, rho0: RestDensity = 1000.0,
           wall_layers: WallLayers = 3, checkpoint_every: CheckpointEvery = 0, dt: FixedStep = None,
           frames: Frames = True, frame_field: FrameField = FluidField.SPEED, vtk: Vtk = True,
-          sound_speed: SoundSpeed = 10.0, shifting: Shifting = 0.0) -> TimeLoop:
+          sound_speed: SoundSpeed = 10.0, shifting: Shifting = 0.0, riemann: Riemann = 0.0,
+          tension: Tension = True) -> TimeLoop:
     """Build the dam break; lengths in units of a (tank_length, tank_height), SI otherwise."""
     params = dict(locals())
     if tank_height <= column_height:
@@ -81,6 +84,7 @@ def build(a: Annotated[float, Param("m", "width a of the water column", "(0, inf
         fp = FluidParams(dim=2, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
                          delta=delta, gravity=(0.0, -g, 0.0), boundary_model=boundary_model, cfl=cfl,
                          wall_artificial_viscosity=wall_artificial, lj_d=2.0 * g * height, shifting=shifting,
+                         riemann=riemann, tension=tension,
                          lj_r0=dx if boundary_model is BoundaryModel.LENNARD_JONES else wall_safety * dx,
                          container_lo=(0.0, 0.0, -1.0), container_hi=(length, top, 1.0))
         require_wall_cover(wall_layers, dx, fp.support, fp.boundary_model)

@@ -13,6 +13,10 @@ particles are inside the obstacle (0 throughout).
 Writes frames (an oblique view and a side view), VTU files, and free-surface meshes with
 ``--set surface=true``. z is up.
 
+The experiment's pressures and water heights are in ``warpfree.validation.dam_break_3d``; the loads at its sensors
+(``--sensor``) against them, over three spacings and with the Riemann pair pressure (``--set riemann=3 --set
+alpha=0``): ``bench/results/spheric2_pressure.md``.
+
 Time step: the CFL condition dt = C h/(c0 + max|v|), with C = 0.3, the largest
 number whose end state matches C = 0.2 at h = 1.3 dx (the study: ``bench/results/scene_studies.md``).
 """
@@ -29,8 +33,8 @@ from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_par
 from warpfree.smoothing import SmoothingKernel
 from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, DynamicViscosity,
                                                 EndTime, FixedStep, FrameField, Gravity, HFactor, Kernel,
-                                                OutputInterval, RestDensity, SoundSpeed, Spacing, WallLayers,
-                                                WallSafety)
+                                                OutputInterval, RestDensity, Riemann, SoundSpeed, Spacing, Tension,
+                                                WallLayers, WallSafety)
 from warpfree.solvers.wcsph.scene_tools import clear_of, hydrostatic_density, require_wall_cover
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidField, FluidParams, WCSPHModel, WCSPHSolver
@@ -61,7 +65,8 @@ def build(dx: Spacing = 0.05, t_end: EndTime = 1.0, output_interval: OutputInter
           checkpoint_every: CheckpointEvery = 0, dt: FixedStep = None, frames: Frames = True,
           frame_field: FrameField = FluidField.SPEED, vtk: Vtk = True,
           surface: Annotated[bool, Param("", "write the free surface as PLY meshes at every output")] = False,
-          sound_speed: SoundSpeed = 10.0) -> TimeLoop:
+          sound_speed: SoundSpeed = 10.0, riemann: Riemann = 0.0,
+          tension: Tension = True) -> TimeLoop:
     params = dict(locals())
     with reported_as(mesh="tank_mesh"):
         tank = load_mesh(tank_mesh)
@@ -83,6 +88,7 @@ def build(dx: Spacing = 0.05, t_end: EndTime = 1.0, output_interval: OutputInter
             obstacle_walls = surface_layers(obstacle, dx, wall_layers, "inside")
         c0 = sound_speed * np.sqrt(2.0 * g * column_height)
         fp = FluidParams(dim=3, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
+                         riemann=riemann, tension=tension,
                          delta=delta, gravity=(0.0, 0.0, -g), cfl=cfl, lj_d=2.0 * g * column_height,
                          lj_r0=wall_safety * dx, container_lo=tuple(lo), container_hi=tuple(hi))
         require_wall_cover(wall_layers, dx, fp.support, fp.boundary_model)

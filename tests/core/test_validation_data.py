@@ -159,3 +159,36 @@ def test_buchner_wall_pressure_transcription():
     first = data[data[:, 0] < 4.0]
     assert tuple(first[np.argmax(first[:, 1])]) == (2.77411, 0.68698)
     assert tuple(data[np.argmax(data[:, 1])]) == (5.83288, 0.87672)
+
+
+def test_kleefsman_spheric2_record_transcription():
+    """SPHERIC test 2's record (README.md): 2 500 rows to t = 2.5 s in strictly increasing time about 1 ms apart, its
+    first and last rows as in the upstream file, its values on the record's 1/15 grid (a mistyped digit leaves it),
+    and the figures the comparisons read from it (P1's first impact at 0.392 s, its 5 ms peak 10.62 kPa, the means
+    over 1.2-2.0 s), which the literature quotes as 0.394 s (the first sample above 1 kPa) and 10.6 kPa."""
+    import warpfree.validation.dam_break_3d as d3
+
+    header, data = read_csv("dam_break_3d", "spheric2_kleefsman_2005.csv")
+    assert header[0] == "t_s" and len(header) == 13 and data.shape == (2500, 13)
+    assert same_bits(data[:, 0], d3.KLEEFSMAN["t"]) and same_bits(data[:, 1], d3.KLEEFSMAN["P1"])
+    dt = np.diff(data[:, 0])
+    assert np.all(dt > 0) and abs(np.mean(dt) - 1e-3) < 1e-6 and dt.max() < 1.01e-3
+    assert data[0, 0] == 2.1929952850996415e-05 and data[0, 12] == 0.5466666666666666
+    assert data[-1, 0] == 2.499025704259725
+    scaled = np.concatenate([data[:, 1:9].ravel() * 15.0, data[:, 9:].ravel() * 15000.0])
+    assert np.abs(scaled - np.round(scaled)).max() < 1e-6
+    p1 = d3.EXPERIMENT["P1"]
+    assert abs(p1["arrival"] - 0.3920) < 5e-4 and abs(p1["peak"] - 10619.1) < 1.0
+    assert abs(p1["mean"] - 2850.4) < 1.0 and abs(d3.EXPERIMENT["P3"]["mean"] - 2151.6) < 1.0
+    assert abs(data[np.argmax(data[:, 1] > 1000.0), 0] - 0.39403) < 1e-5
+
+
+def test_buchner_reference_front_transcription():
+    """TrixiParticles.jl's front in Buchner's tank (README.md): 31 values every 0.02 s to 0.6 s, increasing, its
+    start W - dx/2 and its last value as in the upstream file."""
+    header, data = read_csv("dam_break_2d", "front_buchner_trixiparticles_wcsph_h40.csv")
+    assert header == ["t_s", "x_front_m"] and data.shape == (31, 2)
+    assert same_bits(data, db.BUCHNER_FRONT_TRIXIPARTICLES)
+    np.testing.assert_allclose(data[:, 0], np.arange(31) * 0.02, atol=1e-12)
+    assert np.all(np.diff(data[:, 1]) > 0)
+    assert data[0, 1] == 1.2 - 0.015 / 2 and data[-1, 1] == 3.2055490866952914

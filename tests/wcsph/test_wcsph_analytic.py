@@ -57,10 +57,12 @@ def order(coarse: float, fine: float) -> float:
 
 # -- Taylor–Green: the scheme itself against a NumPy re-implementation -------------------------------------------
 
-def numpy_wcsph_periodic(x, v, rho, dx, L, c0, mu, alpha, delta, dt, steps, rho0=1000.0, h_factor=1.3):
-    """The WCSPH scheme of ``kernels/wcsph.py`` (continuity, Tait γ = 7, symmetric pressure, Morris viscosity,
-    Monaghan α, δ-SPH without gravity, Wendland C2, kick–drift–kick with the rate predictor) in float64 NumPy
-    with brute-force minimum-image pairs in a periodic L × L box. Returns positions, velocities, densities."""
+def numpy_wcsph_periodic(x, v, rho, dx, L, c0, mu, alpha, delta, dt, steps, rho0=1000.0, h_factor=1.3, riemann=0.0,
+                         tension=True):
+    """The WCSPH scheme of ``kernels/wcsph.py`` (continuity, Tait γ = 7, symmetric pressure or, with ``riemann`` = η,
+    the low-dissipation Riemann pair pressure, Morris viscosity, Monaghan α, δ-SPH without gravity, Wendland C2,
+    kick–drift–kick with the rate predictor; without ``tension`` p >= 0) in float64 NumPy with brute-force
+    minimum-image pairs in a periodic L × L box. Returns positions, velocities, densities."""
     h = h_factor * dx
     m = rho0 * dx * dx
     b = rho0 * c0 ** 2 / 7.0
@@ -75,10 +77,19 @@ def numpy_wcsph_periodic(x, v, rho, dx, L, c0, mu, alpha, delta, dt, steps, rho0
         near = (q < 2.0) & (r2 > 0.0)
         gw = np.where(near, -5.0 * sigma / h ** 2 * np.clip(1.0 - 0.5 * q, 0.0, None) ** 3, 0.0)[..., None] * d
         p = b * ((r / rho0) ** 7 - 1.0)
+        if not tension:
+            p = np.maximum(p, 0.0)
         vij = v[:, None, :] - v[None, :, :]
         rgw = np.sum(d * gw, -1)
-        coef = (p / r ** 2)[:, None] + (p / r ** 2)[None, :]
         vr = np.sum(vij * d, -1)
+        if riemann > 0.0:
+            ri, rj, rsum = r[:, None], r[None, :], r[:, None] + r[None, :]
+            du = -vr / np.sqrt(r2 + eps)
+            beta = np.minimum(riemann * np.maximum(du, 0.0) / c0, 1.0)
+            pstar = (rj * p[:, None] + ri * p[None, :]) / rsum + beta * ri * rj * c0 * du / rsum
+            coef = 2.0 * pstar / (ri * rj)
+        else:
+            coef = (p / r ** 2)[:, None] + (p / r ** 2)[None, :]
         coef = coef - np.where(vr < 0.0, alpha * c0 * h * vr / (r2 + eps) / (0.5 * (r[:, None] + r[None, :])), 0.0)
         acc = np.sum((m * 2.0 * mu / (r[:, None] * r[None, :]) * rgw / (r2 + eps))[..., None] * vij, 1)
         acc -= np.sum((m * coef)[..., None] * gw, 1)
@@ -95,11 +106,13 @@ def numpy_wcsph_periodic(x, v, rho, dx, L, c0, mu, alpha, delta, dt, steps, rho0
     return x, v, rho
 
 
-@pytest.mark.parametrize("alpha,delta", [(0.0, 0.0), (0.1, 0.1)])
-def test_periodic_wcsph_matches_a_numpy_reimplementation(alpha, delta):
+@pytest.mark.parametrize("alpha,delta,riemann,tension", [(0.0, 0.0, 0.0, True), (0.1, 0.1, 0.0, True),
+                                                         (0.0, 0.1, 3.0, True), (0.0, 0.1, 3.0, False)])
+def test_periodic_wcsph_matches_a_numpy_reimplementation(alpha, delta, riemann, tension):
     """The Taylor–Green start (n = 16, c0 = 10, Re = 100) stepped 80 times by warpfree and by a float64 NumPy
-    re-implementation of the same equations with brute-force minimum-image pairs: the periodic pressure, viscous,
-    artificial-viscosity and δ-SPH terms and the leapfrog. Measured (n = 20, 300 steps, through the break-up of the
+    re-implementation of the same equations with brute-force minimum-image pairs: the periodic pressure (Monaghan's
+    or the Riemann pair pressure; with and without tension: the vortex's pressure is negative at its centres),
+    viscous, artificial-viscosity and δ-SPH terms and the leapfrog. Measured (n = 20, 300 steps, through the break-up of the
     vortex): |Δx| ≤ 1.6e-5 dx, |Δv| ≤ 2.1e-5 U, |Δρ| ≤ 1.8e-3 kg/m³ (float32 has 6e-5 kg/m³ per ulp at 1000);
     the bounds are 1e-4 dx, 1e-4 U and 1e-2 kg/m³, float32 rounding, far below any physical effect."""
     device.use("cpu", 2)
@@ -108,8 +121,9 @@ def test_periodic_wcsph_matches_a_numpy_reimplementation(alpha, delta):
     x = lattice_box((0.0, 0.0), (L, L), dx)
     rho = tg.inverse_tait_density(tg.pressure(x[:, 0], x[:, 1], 0.0, 1.0, NU_TG, L, 1000.0), 1000.0, c0)
     v = tg.velocity(x[:, 0], x[:, 1], 0.0, 1.0, NU_TG, L)
-    params = FluidParams(dim=2, dx=dx, c0=c0, mu=mu, alpha=alpha, delta=delta, gravity=(0.0, 0.0, 0.0),
-                         container_lo=(0.0, 0.0, -1.0), container_hi=(L, L, 1.0), periodic=(True, True, False))
+    params = FluidParams(dim=2, dx=dx, c0=c0, mu=mu, alpha=alpha, delta=delta, riemann=riemann, tension=tension,
+                         gravity=(0.0, 0.0, 0.0), container_lo=(0.0, 0.0, -1.0), container_hi=(L, L, 1.0),
+                         periodic=(True, True, False))
     solver = WCSPHSolver(WCSPHModel(x, np.zeros((0, 2)), params), density=rho, velocity=v)
     dt, steps = 0.5 * solver.stable_dt(), 80
     for _ in range(steps):
@@ -118,7 +132,7 @@ def test_periodic_wcsph_matches_a_numpy_reimplementation(alpha, delta):
     # the solver divides the laminar term by its lattice second moment S (warpfree.solvers.wcsph.model)
     mu_lattice = mu / lattice_second_moment("wendland_c2", 2, params.h_factor)
     xr, vr, rr = numpy_wcsph_periodic(x, v, rho, dx, L, c0, mu_lattice, alpha, delta, dt, steps,
-                                      h_factor=params.h_factor)
+                                      h_factor=params.h_factor, riemann=riemann, tension=tension)
     d = solver.fluid.numpy("position")[:, :2].astype(np.float64) - xr
     d -= L * np.round(d / L)
     assert np.abs(d).max() < 1e-4 * dx

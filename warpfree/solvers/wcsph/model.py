@@ -80,6 +80,7 @@ class FluidParams:
     rho0: float = 1000.0             # reference density (kg/m³)
     c0: float = 40.0                 # numerical speed of sound (m/s), ~10 × the largest flow speed
     gamma: float = 7.0               # Tait exponent
+    tension: bool = True             # the EOS gives negative pressures (False: p >= 0, a fluid without tension)
     mu: float = 1.0e-3               # dynamic viscosity (Pa·s), laminar term of Morris 1997 (0 = off)
     alpha: float = 0.0               # Monaghan artificial viscosity (0 = off)
     delta: float = 0.0               # δ-SPH density diffusion coefficient (0 = off; 0.1 typical)
@@ -87,6 +88,8 @@ class FluidParams:
     boundary_model: BoundaryModel = BoundaryModel.DYNAMIC
     no_slip: bool = True             # walls enter the viscous terms with a no-slip ghost velocity
     wall_artificial_viscosity: bool = False  # artificial viscosity on fluid-wall pairs too (default: fluid pairs only)
+    riemann: float = 0.0             # η of the Riemann pair pressure's dissipation limiter (0 = off, Monaghan's pair
+                                     # pressure; 3 is Zhang, Hu & Adams 2017's): kernels/wcsph.py
     shifting: float = 0.0            # particle shifting coefficient A (0 = off; 2 is Lind et al. 2012's and
                                      # DualSPHysics' choice): δu = -A h U ∇C̃ (kernels/wcsph.py)
     shifting_speed: float = 0.0      # U of the shifting (m/s); 0 = c0/10, the flow speed c0 was chosen for
@@ -133,7 +136,7 @@ class FluidParams:
         require_positive("h_factor", self.h_factor)
         for name in ("rho0", "c0", "gamma"):
             require_positive(name, getattr(self, name))
-        for name in ("mu", "alpha", "delta", "skin", "shifting", "shifting_speed"):
+        for name in ("mu", "alpha", "delta", "skin", "shifting", "shifting_speed", "riemann"):
             require_positive(name, getattr(self, name), allow_zero=True)
         g = np.asarray(self.gravity, dtype=float)
         if g.shape != (3,) or not np.all(np.isfinite(g)):
@@ -241,6 +244,7 @@ class WCSPHModel:
             walls="none" if self.nb == 0 else params.boundary_model.value,
             wall_safety=params.boundary_model is BoundaryModel.DYNAMIC and params.lj_r0 > 0.0,
             no_slip=bool(params.no_slip), wall_artificial=bool(params.wall_artificial_viscosity),
+            riemann=params.riemann > 0.0,
             shifting=params.shifting > 0.0, periodic=self.space.periodic)
         self.constants = self._constants()
         self.solids = Solids(self.launcher, params.dim, containers, obstacles) if (containers or obstacles) else None
@@ -255,8 +259,10 @@ class WCSPHModel:
         c.grad_factor = normalisation(P.kernel, P.dim, h) / (h * h)
         c.eps = 0.01 * h * h
         c.rho0, c.c0, c.b, c.gamma = P.rho0, P.c0, P.b, P.gamma
+        c.p_floor = -3.0e38 if P.tension else 0.0
         c.mu = P.mu / self.viscosity_factor
         c.avisc = P.alpha * P.c0 * h
+        c.riemann_eta = P.riemann / P.c0
         c.delta_coef = P.delta * h * P.c0
         c.inv_c2 = 1.0 / P.c0 ** 2
         c.gravity = wp.vec3(*[float(g) for g in P.gravity])

@@ -14,7 +14,7 @@ from .solver import FluidField
 
 __all__ = ["Spacing", "EndTime", "OutputInterval", "FixedStep", "HFactor", "Kernel", "ArtificialViscosity",
            "DensityDiffusion", "DynamicViscosity", "Walls", "WallSafety", "Courant", "Gravity", "RestDensity",
-           "WallLayers", "FrameField", "Shifting", "SettlePeriods", "SoundSpeed"]
+           "WallLayers", "FrameField", "Shifting", "SettlePeriods", "SoundSpeed", "Riemann", "Tension"]
 
 Spacing = Annotated[float, Param("m", "initial particle spacing dx", "(0, inf)")]
 EndTime = Annotated[float, Param("s", "simulated time at which the run ends", "(0, inf)")]
@@ -40,3 +40,7 @@ SoundSpeed = Annotated[float, Param("sqrt(2gH)", "numerical speed of sound c0, i
                                     "(0, inf)")]
 SettlePeriods = Annotated[float, Param("", "settling of the water at rest before t = 0, in periods of its slowest "
                                            "sloshing mode", "[0, inf)")]
+Riemann = Annotated[float, Param("", "limiter η of the pair pressure from a low-dissipation Riemann solver (Zhang, Hu & "
+                                      "Adams 2017; 0: off, Monaghan's pair pressure)", "[0, inf)")]
+Tension = Annotated[bool, Param("", "the equation of state gives negative pressures (false: p >= 0, a fluid without "
+                                    "tension)")]

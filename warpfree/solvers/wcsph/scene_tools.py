@@ -138,3 +138,44 @@ def clear_of(points: np.ndarray, solid, clearance: float) -> np.ndarray:
     p3 = points if points.shape[1] == 3 else np.column_stack([points, np.zeros(len(points))])
     signed = Solids(current_launcher(), dim, containers=[solid]).signed_distance(p3)
     return points[signed >= clearance * (1.0 - 1e-6)]
+
+
+def pressure_noise(solver) -> float:
+    """The pressure's noise (Pa): the rms over the fluid of :func:`pressure_residuals`."""
+    return float(np.sqrt(np.mean(pressure_residuals(solver) ** 2)))
+
+
+def pressure_residuals(solver) -> np.ndarray:
+    """Per fluid particle, p_i - p̂_i (Pa), where p̂_i is the value at x_i of the linear
+    fit a + b·(x - x_i) of the fluid's pressures weighted by V_j W(r_ij, 2h) (the fluid's own kernel at twice the
+    smoothing length, V_j = m_j/ρ_j; the average where the fit is singular). A linear field is fitted exactly, also
+    where a wall or the free surface cuts the support (a hydrostatic pressure has no noise), so what is left is what
+    varies on the scale of the particles. Host, float64, over the fluid particles this process holds."""
+    from scipy.spatial import cKDTree
+
+    from warpfree.kernels.smoothing import kernel_profile, support_factor
+
+    params = solver.model.params
+    dim = params.dim
+    x = solver.fluid_positions()[:, :dim].astype(np.float64)
+    p = solver.fluid.numpy("pressure").astype(np.float64)
+    v = solver.fluid.numpy("mass").astype(np.float64) / solver.fluid.numpy("density").astype(np.float64)
+    h2 = 2.0 * params.h
+    tree = cKDTree(x)
+    pairs = tree.query_pairs(support_factor(params.kernel) * h2, output_type="ndarray")
+    i = np.concatenate([pairs[:, 0], pairs[:, 1], np.arange(len(x))])   # both directions and each particle itself
+    j = np.concatenate([pairs[:, 1], pairs[:, 0], np.arange(len(x))])
+    d = (x[j] - x[i]) / h2
+    w = kernel_profile(params.kernel, dim, np.linalg.norm(d, axis=1)) * v[j]
+    basis = np.column_stack([np.ones(len(i)), d])                       # [1, (x_j - x_i)/2h]
+    n = len(x)
+    moments = np.zeros((n, dim + 1, dim + 1))
+    rhs = np.zeros((n, dim + 1))
+    for a in range(dim + 1):
+        rhs[:, a] = np.bincount(i, weights=w * basis[:, a] * p[j], minlength=n)
+        for b in range(a, dim + 1):
+            moments[:, a, b] = moments[:, b, a] = np.bincount(i, weights=w * basis[:, a] * basis[:, b], minlength=n)
+    fitted = rhs[:, 0] / moments[:, 0, 0]                                # the average, where the fit is singular
+    well_posed = np.linalg.det(moments / moments[:, :1, :1]) > 1e-6
+    fitted[well_posed] = np.linalg.solve(moments[well_posed], rhs[well_posed][..., None])[:, 0, 0]
+    return p - fitted

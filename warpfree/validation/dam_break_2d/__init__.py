@@ -15,7 +15,9 @@ experiment, where the digitisation comes from and how it was transcribed:
 - ``surge_front_martin_moyce_1952_square.csv`` (``T,Z`` with T = t sqrt(g/a)): Martin & Moyce's square
   column, a = 2¼ in, as plotted in Xie (2021), Fig. 7, digitised from that figure;
 - ``wall_pressure_buchner_2002_p1.csv`` (``T,p`` with T = t sqrt(g/H), p/(ρ g H)): Buchner's (2002) wall pressure
-  at P1, as digitised by TrixiParticles.jl (the impact-pressure case: column H x 2H, tank 5.366 H).
+  at P1, as digitised by TrixiParticles.jl (the impact-pressure case: column H x 2H, tank 5.366 H);
+- ``front_buchner_trixiparticles_wcsph_h40.csv`` (``t_s,x_front_m``): the front of a reference simulation in that
+  tank, TrixiParticles.jl's WCSPH validation run at H/40 (its committed reference file).
 
 The data sets disagree with each other by up to ~0.2 in Z at the same T <= 2.5. The scene's checks
 (:func:`front_checks`) compare with Martin & Moyce: |ΔZ| <= 0.45 over T <= 2.5 and <= 0.15 over the collapse
@@ -28,7 +30,7 @@ from warpfree.validation import read_csv
 
 __all__ = ["MARTIN_MOYCE", "KOSHIZUKA_OKA", "KOSHIZUKA_OKA_DSPH_SI", "KOSHIZUKA_OKA_DSPH", "DATASETS",
            "MARTIN_MOYCE_SQUARE", "DATASETS_SQUARE", "datasets_for", "front_errors", "front_checks", "plot_front",
-           "FRONT_TOLERANCE", "COLLAPSE_TOLERANCE", "SQUARE_TOLERANCE", "BUCHNER_P1"]
+           "FRONT_TOLERANCE", "COLLAPSE_TOLERANCE", "SQUARE_TOLERANCE", "BUCHNER_P1", "BUCHNER_FRONT_TRIXIPARTICLES"]
 
 CASE = "dam_break_2d"
 
@@ -71,6 +73,10 @@ DATASETS_SQUARE = {"Martin & Moyce 1952, square column": MARTIN_MOYCE_SQUARE}
 #: Buchner (2002), wall pressure at P1 (y = 0.16 m on the wall the water hits; column H = 0.6 m high, 2H wide, tank
 #: 5.366 H long), as digitised by TrixiParticles.jl: (T = t sqrt(g/H), p/(ρ g H))
 BUCHNER_P1 = _load("wall_pressure_buchner_2002_p1.csv", ["T", "p"])
+
+#: the front in Buchner's tank (the largest x of the water, m, against t in s) of a reference simulation, not an
+#: experiment: TrixiParticles.jl's WCSPH validation run at dx = H/40 (README.md), to t = 0.6 s, when it reaches the wall
+BUCHNER_FRONT_TRIXIPARTICLES = _load("front_buchner_trixiparticles_wcsph_h40.csv", ["t_s", "x_front_m"])
 
 
 def datasets_for(height_ratio: float) -> dict:
