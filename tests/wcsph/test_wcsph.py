@@ -235,7 +235,8 @@ def test_lennard_jones_walls_hold_a_tank_at_rest(tank):
 
 
 def test_tait_eos_fast_path_matches_pow():
-    """p = B[(ρ/ρ0)^γ - 1]: the γ = 7 multiplication path equals NumPy's power to float32 rounding."""
+    """p = B[(ρ/ρ0)^γ - 1]: the γ = 7 multiplication path equals NumPy's power to float32 rounding; a fluid without
+    tension (floor 0) takes max(p, 0) and nothing else changes."""
     import warp as wp
 
     from warpfree.kernels import wcsph as K
@@ -243,15 +244,16 @@ def test_tait_eos_fast_path_matches_pow():
     rho = np.linspace(950.0, 1050.0, 101).astype(np.float32)
     launcher = device.use("cpu", 1)
     out = {}
-    for gamma in (7.0, 6.999):
+    for gamma, floor in ((7.0, -3.0e38), (6.999, -3.0e38), (7.0, 0.0)):
         p = wp.zeros(len(rho), dtype=float)
         c = K.FluidConstants()
-        c.rho0, c.b, c.gamma = 1000.0, 1.0e5, gamma
+        c.rho0, c.b, c.gamma, c.p_floor = 1000.0, 1.0e5, gamma, floor
         launcher.launch(K.equation_of_state, len(rho), [c, wp.array(rho, dtype=float), p])
-        out[gamma] = p.numpy()
+        out[gamma, floor] = p.numpy()
     exact = 1.0e5 * ((rho.astype(np.float64) / 1000.0) ** 7 - 1.0)
-    np.testing.assert_allclose(out[7.0], exact, rtol=1e-5, atol=0.05)
-    np.testing.assert_allclose(out[6.999], 1.0e5 * ((rho / 1000.0) ** 6.999 - 1.0), rtol=1e-4, atol=0.5)
+    np.testing.assert_allclose(out[7.0, -3.0e38], exact, rtol=1e-5, atol=0.05)
+    np.testing.assert_allclose(out[6.999, -3.0e38], 1.0e5 * ((rho / 1000.0) ** 6.999 - 1.0), rtol=1e-4, atol=0.5)
+    assert np.array_equal(out[7.0, 0.0], np.maximum(out[7.0, -3.0e38], 0.0)) and (exact < -1000.0).sum() > 40
 
 
 def test_uniform_flow_in_a_periodic_box_stays_uniform():
