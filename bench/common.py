@@ -377,6 +377,27 @@ def run_worker(script: str | Path, args: list[str], timeout: float | None = None
 
 
 # -- output -------------------------------------------------------------------------------------
+def add_variant_sweep(parser, dx_default: str) -> None:
+    """The arguments of a sweep over spacings and scene settings: ``--dx`` (comma-separated, m), ``--threads`` and
+    ``--variant`` (space-separated name=value settings run at every dx; repeatable; ``default`` for none)."""
+    parser.add_argument("--dx", default=dx_default, help="particle spacings (m), comma-separated")
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--variant", action="append", default=None,
+                        help="scene settings run at every dx, space-separated name=value (default: none); repeatable")
+
+
+def variant_sweep(args, run_one: Callable[[float, tuple], dict]) -> tuple[list[tuple], list[dict]]:
+    """Each ``--variant`` at each ``--dx``, in that order: ``run_one(dx, settings)`` gives a case. Returns the
+    variants (tuples of name=value settings, () for the scene's defaults) and the cases."""
+    variants = [() if v.strip() in ("", "default") else tuple(v.split()) for v in (args.variant or ["default"])]
+    cases = []
+    for settings in variants:
+        for dx in (float(v) for v in args.dx.split(",")):
+            print(f"dx = {dx} {' '.join(settings)}", flush=True)
+            cases.append(run_one(dx, settings))
+    return variants, cases
+
+
 def md_table(headers: list[str], rows: list[list], align: str | None = None) -> str:
     """A GitHub Markdown table; ``align`` is one of l/r/c per column (default: first l, rest r)."""
     align = align or ("l" + "r" * (len(headers) - 1))

@@ -139,19 +139,15 @@ def markdown(result: dict) -> str:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--dx", default="0.03,0.02,0.01", help="particle spacings (m), comma-separated")
-    p.add_argument("--threads", type=int, default=2)
-    p.add_argument("--variant", action="append", default=None,
-                   help="scene settings run at every dx, space-separated name=value (default: none); repeatable")
+    common.add_variant_sweep(p, "0.03,0.02,0.01")
     args = p.parse_args(argv)
-    variants = [() if v.strip() in ("", "default") else tuple(v.split()) for v in (args.variant or ["default"])]
-    cases = []
-    for settings in variants:
-        for dx in (float(v) for v in args.dx.split(",")):
-            print(f"dx = {dx} {' '.join(settings)}", flush=True)
-            case = run_case(dx, args.threads, settings)
-            case["figures"] = figures(case)
-            cases.append(compact(case))
+
+    def run_one(dx: float, settings: tuple) -> dict:
+        case = run_case(dx, args.threads, settings)
+        case["figures"] = figures(case)
+        return compact(case)
+
+    variants, cases = common.variant_sweep(args, run_one)
     exp_T, exp_p = BUCHNER_P1[:, 0], BUCHNER_P1[:, 1]
     first, late = exp_T <= 4.0, (exp_T >= 5.0) & (exp_T <= 6.5)
     experiment = {"arrival_T": float(exp_T[np.argmax(exp_p > ARRIVAL)]),

@@ -132,19 +132,15 @@ def markdown(result: dict) -> str:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--dx", default="0.05,0.04,0.03", help="particle spacings (m), comma-separated")
-    p.add_argument("--threads", type=int, default=2)
-    p.add_argument("--variant", action="append", default=None,
-                   help="scene settings run at every dx, space-separated name=value (default: none); repeatable")
+    common.add_variant_sweep(p, "0.05,0.04,0.03")
     args = p.parse_args(argv)
-    variants = [() if v.strip() in ("", "default") else tuple(v.split()) for v in (args.variant or ["default"])]
-    cases = []
-    for settings in variants:
-        for dx in (float(v) for v in args.dx.split(",")):
-            print(f"dx = {dx} {' '.join(settings)}", flush=True)
-            case = run_case(dx, args.threads, settings)
-            case["figures"] = figures(case)
-            cases.append(compact(case))
+
+    def run_one(dx: float, settings: tuple) -> dict:
+        case = run_case(dx, args.threads, settings)
+        case["figures"] = figures(case)
+        return compact(case)
+
+    variants, cases = common.variant_sweep(args, run_one)
     result = {"machine": common.machine_info(), "threads": args.threads, "experiment": EXPERIMENT, "cases": cases}
     fig, axes = common.new_figure(nrows=len(variants), ncols=3, figsize=(15, 3.4 * len(variants)), squeeze=False)
     t_exp = KLEEFSMAN["t"]
