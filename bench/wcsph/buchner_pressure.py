@@ -137,6 +137,26 @@ def markdown(result: dict) -> str:
     return "\n".join(lines)
 
 
+def plot(result: dict, variants: list[tuple]):
+    """One panel per variant: each spacing's 5 ms mean against the experiment's points."""
+    exp_T, exp_p = BUCHNER_P1[:, 0], BUCHNER_P1[:, 1]
+    cases = result["cases"]
+    fig, axes = common.new_figure(nrows=len(variants), figsize=(8, 3.2 * len(variants)), squeeze=False,
+                                  layout="constrained")
+    for ax, settings in zip(axes[:, 0], variants):
+        for c in (c for c in cases if tuple(c["settings"]) == settings):
+            T = np.asarray(c["t"]) * np.sqrt(G / H)
+            ax.plot(T, np.asarray(c["p"]) / (RHO0 * G * H), lw=0.8, label=f"dx = {c['dx']} m (5 ms mean)")
+        ax.plot(exp_T, exp_p, "k.", ms=4, label="Buchner 2002 (P1)")
+        ax.set_xlim(2.0, 8.1)
+        ax.set_xlabel("T = t sqrt(g/H)")
+        ax.set_ylabel("p / (ρ g H)")
+        ax.set_title("Wall pressure at P1, 2D dam break (H = 0.6 m): " + (" ".join(settings) or "scene defaults"),
+                     fontsize=9)
+        ax.legend(fontsize=7)
+    return fig
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     common.add_variant_sweep(p, "0.03,0.02,0.01")
@@ -156,19 +176,7 @@ def main(argv=None) -> int:
                   "peak2": float(exp_p[late].max()), "peak2_T": float(exp_T[late][np.argmax(exp_p[late])])}
     result = {"machine": common.machine_info(), "threads": args.threads, "sensor": SENSOR, "experiment": experiment,
               "cases": cases}
-    fig, axes = common.new_figure(nrows=len(variants), figsize=(8, 3.2 * len(variants)), squeeze=False)
-    for ax, settings in zip(axes[:, 0], variants):
-        for c in (c for c in cases if tuple(c["settings"]) == settings):
-            T = np.asarray(c["t"]) * np.sqrt(G / H)
-            ax.plot(T, np.asarray(c["p"]) / (RHO0 * G * H), lw=0.8, label=f"dx = {c['dx']} m (5 ms mean)")
-        ax.plot(exp_T, exp_p, "k.", ms=4, label="Buchner 2002 (P1)")
-        ax.set_xlim(2.0, 8.1)
-        ax.set_xlabel("T = t sqrt(g/H)")
-        ax.set_ylabel("p / (ρ g H)")
-        ax.set_title("Wall pressure at P1, 2D dam break (H = 0.6 m): " + (" ".join(settings) or "scene defaults"),
-                     fontsize=9)
-        ax.legend(fontsize=7)
-    common.write_results("buchner_pressure", result, markdown(result), fig)
+    common.write_results("buchner_pressure", result, markdown(result), plot(result, variants))
     return 0
 
 

@@ -130,19 +130,11 @@ def markdown(result: dict) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    common.add_variant_sweep(p, "0.05,0.04,0.03")
-    args = p.parse_args(argv)
-
-    def run_one(dx: float, settings: tuple) -> dict:
-        case = run_case(dx, args.threads, settings)
-        case["figures"] = figures(case)
-        return compact(case)
-
-    variants, cases = common.variant_sweep(args, run_one)
-    result = {"machine": common.machine_info(), "threads": args.threads, "experiment": EXPERIMENT, "cases": cases}
-    fig, axes = common.new_figure(nrows=len(variants), ncols=3, figsize=(15, 3.4 * len(variants)), squeeze=False)
+def plot(result: dict, variants: list[tuple]):
+    """One row per variant: P1 and P3 (5 ms means) and the gauges against the record, each spacing a line."""
+    cases = result["cases"]
+    fig, axes = common.new_figure(nrows=len(variants), ncols=3, figsize=(15, 3.4 * len(variants)),
+                                  squeeze=False, layout="constrained")
     t_exp = KLEEFSMAN["t"]
     for row, settings in zip(axes, variants):
         label = " ".join(settings) or "scene defaults"
@@ -167,7 +159,22 @@ def main(argv=None) -> int:
         ax.set_ylabel("water height (m)")
         ax.set_title(f"H2, H4: {label}", fontsize=9)
         ax.legend(fontsize=6)
-    common.write_results("spheric2_pressure", result, markdown(result), fig)
+    return fig
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    common.add_variant_sweep(p, "0.05,0.04,0.03")
+    args = p.parse_args(argv)
+
+    def run_one(dx: float, settings: tuple) -> dict:
+        case = run_case(dx, args.threads, settings)
+        case["figures"] = figures(case)
+        return compact(case)
+
+    variants, cases = common.variant_sweep(args, run_one)
+    result = {"machine": common.machine_info(), "threads": args.threads, "experiment": EXPERIMENT, "cases": cases}
+    common.write_results("spheric2_pressure", result, markdown(result), plot(result, variants))
     return 0
 
 
