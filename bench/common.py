@@ -386,15 +386,16 @@ def add_variant_sweep(parser, dx_default: str) -> None:
                         help="scene settings run at every dx, space-separated name=value (default: none); repeatable")
 
 
-def variant_sweep(args, run_one: Callable[[float, tuple], dict]) -> tuple[list[tuple], list[dict]]:
-    """Each ``--variant`` at each ``--dx``, in that order: ``run_one(dx, settings)`` gives a case. Returns the
-    variants (tuples of name=value settings, () for the scene's defaults) and the cases."""
+def variant_sweep(args, run_case: Callable[[float, int, tuple], dict],
+                  finish: Callable[[dict], dict]) -> tuple[list[tuple], list[dict]]:
+    """Each ``--variant`` at each ``--dx``, in that order: ``finish(run_case(dx, threads, settings))`` gives a case.
+    Returns the variants (tuples of name=value settings, () for the scene's defaults) and the cases."""
     variants = [() if v.strip() in ("", "default") else tuple(v.split()) for v in (args.variant or ["default"])]
     cases = []
     for settings in variants:
         for dx in (float(v) for v in args.dx.split(",")):
             print(f"dx = {dx} {' '.join(settings)}", flush=True)
-            cases.append(run_one(dx, settings))
+            cases.append(finish(run_case(dx, args.threads, settings)))
     return variants, cases
 
 

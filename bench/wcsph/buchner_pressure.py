@@ -161,13 +161,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     common.add_variant_sweep(p, "0.03,0.02,0.01")
     args = p.parse_args(argv)
-
-    def run_one(dx: float, settings: tuple) -> dict:
-        case = run_case(dx, args.threads, settings)
-        case["figures"] = figures(case)
-        return compact(case)
-
-    variants, cases = common.variant_sweep(args, run_one)
+    variants, cases = common.variant_sweep(args, run_case, lambda case: compact({**case, "figures": figures(case)}))
     exp_T, exp_p = BUCHNER_P1[:, 0], BUCHNER_P1[:, 1]
     first, late = exp_T <= 4.0, (exp_T >= 5.0) & (exp_T <= 6.5)
     experiment = {"arrival_T": float(exp_T[np.argmax(exp_p > ARRIVAL)]),

@@ -166,13 +166,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     common.add_variant_sweep(p, "0.05,0.04,0.03")
     args = p.parse_args(argv)
-
-    def run_one(dx: float, settings: tuple) -> dict:
-        case = run_case(dx, args.threads, settings)
-        case["figures"] = figures(case)
-        return compact(case)
-
-    variants, cases = common.variant_sweep(args, run_one)
+    variants, cases = common.variant_sweep(args, run_case, lambda case: compact({**case, "figures": figures(case)}))
     result = {"machine": common.machine_info(), "threads": args.threads, "experiment": EXPERIMENT, "cases": cases}
     common.write_results("spheric2_pressure", result, markdown(result), plot(result, variants))
     return 0
