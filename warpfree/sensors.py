@@ -9,7 +9,7 @@ since the last write appended at every output and at the end, the whole file wri
 
 - :class:`FieldSensor`: a solver's fields at points (``solver.field_at(points)``: the fluid's, the Galerkin solvers');
 - :class:`PressureSensor`: the pressure at points, 0 Pa (gauge) where no fluid is, as a wetted pressure transducer
-  reads in air;
+  reads in air; or its mean over them (a transducer's face, ``panel`` on the command line);
 - family sensors beside their solvers: the fluid's water gauges and forces on solids
   (``warpfree.solvers.wcsph.sensors``).
 
@@ -94,7 +94,7 @@ class FieldSensor(Sensor):
         if self.points.shape[1] not in (solver.dim, 3):
             raise ParameterError("sensor", f"{self.name}: points need {solver.dim} coordinates, got "
                                            f"{self.points.shape[1]}")
-        values = solver.field_at(self.points)
+        values = self._values(solver)
         for field in self.fields:
             if field not in values:
                 raise ParameterError("sensor", f"{self.name}: no field {field!r}; the solver gives "
@@ -112,8 +112,12 @@ class FieldSensor(Sensor):
                         [(f"{field}_{'xyz'[c]}{suffix}", unit) for c in range(width)])
         return out
 
+    def _values(self, solver) -> dict:
+        """The solver's fields at the points (name -> per-point values)."""
+        return solver.field_at(self.points)
+
     def sample(self, solver) -> np.ndarray:
-        values = solver.field_at(self.points)
+        values = self._values(solver)
         dry = self._dry(values)
         row = []
         for k in range(len(self.points)):
@@ -133,17 +137,33 @@ class FieldSensor(Sensor):
 
 class PressureSensor(FieldSensor):
     """The pressure (Pa) at fixed points, 0 (gauge) where no fluid is: a pressure transducer's reading. On a wall,
-    put the point on the wall's face (the fluid's fit is one-sided there, ``WCSPHSolver.field_at``)."""
+    put the point on the wall's face: where the solver gives a ``wall_pressure`` (the fluid's: the average over the
+    water and the wall on both sides of the face, ``WCSPHSolver.field_at``) it is read, else its ``pressure``.
+
+    ``mean=True``: one column, the mean over the points: a transducer whose face is sampled at them (a dry point
+    counts 0, so a face half wet reads half its wet part's pressure, as the force on it over its area)."""
 
     kind: ClassVar[str] = "pressure"
 
-    def __init__(self, name: str, points, interval: float = DEFAULT_INTERVAL):
+    def __init__(self, name: str, points, interval: float = DEFAULT_INTERVAL, mean: bool = False):
         super().__init__(name, points, {"pressure": "Pa"}, interval, dry=0.0)
+        self.mean = bool(mean)
+
+    def _values(self, solver) -> dict:
+        values = solver.field_at(self.points)
+        return {"pressure": values.get("wall_pressure", values["pressure"])}
+
+    def columns(self, solver) -> list[tuple[str, str]]:
+        return [("pressure", "Pa")] if self.mean else super().columns(solver)
+
+    def sample(self, solver) -> np.ndarray:
+        values = super().sample(solver)
+        return np.array([values.mean()]) if self.mean else values
 
     def describe(self) -> dict:
         d = super().describe()
         d.pop("fields")
-        return d
+        return {**d, "mean": self.mean}
 
 
 def due_time(interval: float, last_time: float | None) -> float:
@@ -183,6 +203,8 @@ def append_csv(path: str, rows: np.ndarray) -> None:
 SENSOR_KINDS: dict[str, tuple[str, object]] = {
     "pressure": ("X,Y[,Z][;X,Y[,Z]...]: points (m)", lambda name, points, interval: PressureSensor(name, points,
                                                                                                    interval)),
+    "panel": ("X,Y[,Z];X,Y[,Z][;...]: points of a transducer's face (m), their mean pressure",
+              lambda name, points, interval: PressureSensor(name, points, interval, mean=True)),
 }
 
 

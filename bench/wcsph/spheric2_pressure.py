@@ -30,8 +30,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import common  # noqa: E402
 
-from warpfree.validation.dam_break_3d import (EXPERIMENT, KLEEFSMAN, RHO_G_H, SENSORS, height_rms,  # noqa: E402
-                                              pressure_figures, running_mean)
+from warpfree.validation.dam_break_3d import (EXPERIMENT, KLEEFSMAN, RHO_G_H, compare,  # noqa: E402
+                                              running_mean)
 
 #: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
 RUN_ALL = [["--dx", "0.05,0.04,0.03", "--variant", "default", "--variant", "riemann=3 alpha=0"]]
@@ -40,24 +40,14 @@ T_END = 2.0
 PRESSURES, HEIGHTS = ("P1", "P3"), ("H2", "H4")
 
 
-def sensor_arguments() -> list[str]:
-    """The ``--sensor`` arguments: the pressures on the obstacle's face, the gauges (from the floor), every 1 ms."""
-    args = []
-    for name in PRESSURES:
-        args += ["--sensor", f"{name}=pressure:{','.join(map(str, SENSORS[name]))}@0.001"]
-    for name in HEIGHTS:
-        args += ["--sensor", f"{name}=height:{','.join(map(str, SENSORS[name]))},0@0.001"]
-    return args
-
-
 def run_case(dx: float, threads: int, settings: tuple = ()) -> dict:
-    """One run of the scene with the sensors (and ``settings``, more ``name=value`` of the scene): each sensor's
-    rows (t, value) and the run's step time."""
+    """One run of the scene (and ``settings``, more ``name=value`` of the scene), which records the experiment's
+    sensors itself: each sensor's rows (t, value), the run's step time and its sensors' time."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "run"
         args = [sys.executable, "-m", "warpfree", "run", "dam_break_3d", "--set", f"dx={dx}", "--set", f"t_end={T_END}",
                 "--set", "output_interval=0.1", "--set", "vtk=false", "--no-frames", "--no-progress",
-                "--threads", str(threads), "--out", str(out)] + sensor_arguments()
+                "--threads", str(threads), "--out", str(out)]
         args += [a for setting in settings for a in ("--set", setting)]
         done = subprocess.run(args, capture_output=True, text=True)
         if done.returncode != 0:
@@ -66,33 +56,22 @@ def run_case(dx: float, threads: int, settings: tuple = ()) -> dict:
                   for name in PRESSURES + HEIGHTS}
         summary = json.loads((out / "summary.json").read_text())
     return {"dx": dx, "settings": list(settings), "series": series, "steps": summary["steps"],
-            "step_s": summary["phases_s"]["step"], "particles": summary["model"]["n_particles"]}
+            "step_s": summary["phases_s"]["step"], "sensors_s": summary["phases_s"].get("sensors", 0.0),
+            "particles": summary["model"]["n_particles"]}
 
 
 def figures(case: dict) -> dict:
-    """The comparison's numbers of one run: per pressure sensor its figures and their errors against the
-    experiment's, per gauge its rms difference."""
-    out = {}
-    for name in PRESSURES:
-        rows = np.asarray(case["series"][name])
-        f = pressure_figures(rows[:, 0], rows[:, 1])
-        e = EXPERIMENT[name]
-        f["arrival_error"] = None if f["arrival"] is None else f["arrival"] / e["arrival"] - 1.0
-        f["peak_ratio"] = f["peak"] / e["peak"]
-        f["mean_error"] = None if f["mean"] is None else f["mean"] / e["mean"] - 1.0
-        out[name] = f
-    for name in HEIGHTS:
-        rows = np.asarray(case["series"][name])
-        out[name] = height_rms(rows[:, 0], rows[:, 1], name)
-    return out
+    """The comparison's numbers of one run (``warpfree.validation.dam_break_3d.compare``)."""
+    return compare(case["series"])
 
 
 def compact(case: dict) -> dict:
-    """The case as stored: each series as its 5 ms running mean every 5 ms in place of the 1 kHz samples."""
+    """The case as stored: each series as its 5 ms running mean every 5 ms in place of its samples."""
     series = {}
     for name, rows in case["series"].items():
         rows = np.asarray(rows)
-        keep = slice(2, None, 5)
+        step = max(1, int(round(0.005 / float(np.median(np.diff(rows[:, 0]))))))
+        keep = slice(step // 2, None, step)
         series[name] = np.column_stack([np.round(rows[keep, 0], 4),
                                         np.round(running_mean(rows[:, 0], rows[:, 1])[keep], 4)]).tolist()
     return {**case, "series": series, "stored": "5 ms running mean every 5 ms"}

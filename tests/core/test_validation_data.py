@@ -192,3 +192,48 @@ def test_buchner_reference_front_transcription():
     np.testing.assert_allclose(data[:, 0], np.arange(31) * 0.02, atol=1e-12)
     assert np.all(np.diff(data[:, 1]) > 0)
     assert data[0, 1] == 1.2 - 0.015 / 2 and data[-1, 1] == 3.2055490866952914
+
+
+def test_buchner_figures_and_checks_pass_the_experiment_and_fail_what_is_off():
+    """The experiment's own figures (its digitised points: arrival T = 2.47, impact mean +0.59, first peak 0.687 at
+    2.77, run-up 0.567, second peak 0.877 at 5.83); a run that is the experiment (its points interpolated every 1 ms
+    of t) passes every check; one arriving 10 % late, one pulled below 0 over the impact, one peaking 30 % high, each
+    fails that check only."""
+    f = db.BUCHNER_P1_FIGURES
+    assert (f["arrival"], f["peak1"], f["peak1_T"], f["peak2"], f["peak2_T"]) == (2.47263, 0.68698, 2.77411,
+                                                                                   0.87672, 5.83288)
+    assert abs(f["mean_impact"] - 0.5922) < 1e-4 and abs(f["mean_run_up"] - 0.5670) < 1e-4
+    unit = np.sqrt(db.BUCHNER_H / 9.81)   # s per unit of T
+    T = np.arange(0.0, 2.0, 1e-3) / unit
+    exp = np.interp(T, db.BUCHNER_P1[:, 0], db.BUCHNER_P1[:, 1], left=0.0)
+    run = db.wall_pressure_figures(T, exp, smoothing=0.005 / unit)
+    checks = db.wall_pressure_checks(run)
+    assert set(checks) == {"arrival_T", "negative_mean_impact", "peak1", "mean_run_up"}
+    assert all(c["passed"] for c in checks.values()), checks
+    late = db.wall_pressure_checks(db.wall_pressure_figures(T, np.interp(T / 1.1, db.BUCHNER_P1[:, 0],
+                                                                         db.BUCHNER_P1[:, 1], left=0.0), 0.005 / unit))
+    assert not late["arrival_T"]["passed"] and late["peak1"]["passed"]
+    pulled = np.where((T > 2.6) & (T < 3.0), -0.1, exp)
+    assert not db.wall_pressure_checks(db.wall_pressure_figures(T, pulled, 0.005 / unit))["negative_mean_impact"]["passed"]
+    high = np.where(T < 3.0, 1.3 * exp, exp)
+    verdict = {k: c["passed"] for k, c in db.wall_pressure_checks(db.wall_pressure_figures(T, high, 0.005 / unit)).items()}
+    assert verdict == {"arrival_T": True, "negative_mean_impact": True, "peak1": False, "mean_run_up": True}
+    short = db.wall_pressure_figures(T[T < 3.5], exp[T < 3.5], 0.005 / unit)
+    assert short["mean_run_up"] is None and set(db.wall_pressure_checks(short)) == {"arrival_T", "negative_mean_impact"}
+
+
+def test_spheric2_comparison_of_the_record_with_itself_and_the_gauges_checks():
+    """The record compared with itself: no error; its heights 0.2 of their range too high fail the gauges' checks;
+    a run shorter than 1 s has no gauge checks."""
+    import warpfree.validation.dam_break_3d as d3
+
+    t = d3.KLEEFSMAN["t"]
+    series = {n: np.column_stack([t, d3.KLEEFSMAN[n]]) for n in ("P1", "P3", "H2", "H4")}
+    figures = d3.compare(series)
+    assert figures["P1"]["arrival_error"] == 0.0 and figures["P1"]["peak_ratio"] == 1.0
+    assert figures["P3"]["mean_error"] == 0.0 and figures["H2"]["rms"] == 0.0
+    assert all(c["passed"] for c in d3.height_checks(figures, 2.0).values())
+    raised = dict(series, H4=np.column_stack([t, d3.KLEEFSMAN["H4"] + 0.2 * np.ptp(d3.KLEEFSMAN["H4"])]))
+    checks = d3.height_checks(d3.compare(raised), 2.0)
+    assert checks["H2_rms_of_range"]["passed"] and not checks["H4_rms_of_range"]["passed"]
+    assert d3.height_checks(figures, 0.6) == {}

@@ -366,11 +366,12 @@ def test_a_distributed_galerkin_solve_is_refused_in_one_line_without_petsc(tmp_p
 
 @needs_mpi
 @pytest.mark.parametrize("scene,ranks,sensors", [
-    ("dam_break_2d", 2, ["wall=pressure:4.0,0.05;0.0,0.3@0.005", "gauge=height:0.5,0;3.0,0@0.01"]),
+    ("dam_break_2d", 2, ["wall=pressure:4.0,0.05;0.0,0.3@0.005", "gauge=height:0.5,0;3.0,0@0.01",
+                         "face=panel:0.0,0.0;0.0,0.05;0.0,0.1@0.005"]),
     ("dam_break_3d", 3, ["p1=pressure:0.8245,0.471,0.021@0.005", "h4=height:2.638,0.5,0@0.01",
                          "obstacle=force:0.75,0.5,0.08@0.005"])])
 def test_distributed_sensors_record_the_one_process_series_bitwise(scene, ranks, sensors, tmp_path):
-    """Pressure sensors, water gauges and the force on the obstacle: the same rows, bitwise, on several ranks (each
+    """Pressure sensors (at points and a panel), water gauges and the force on the obstacle: the same rows, bitwise, on several ranks (each
     point read by the rank holding it, the force summed over the walls in their global order) as in one process."""
     # the 3D obstacle (0.16 m wide) has wall particles from dx = 0.06 down
     sets = smallest_sets(scene)

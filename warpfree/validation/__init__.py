@@ -9,7 +9,7 @@ from importlib import resources
 
 import numpy as np
 
-__all__ = ["read_csv", "tolerance_check", "validation_block", "check_lines"]
+__all__ = ["read_csv", "tolerance_check", "validation_block", "check_lines", "running_mean"]
 
 
 def read_csv(case: str, filename: str) -> tuple[list[str], np.ndarray]:
@@ -44,6 +44,15 @@ def read_csv(case: str, filename: str) -> tuple[list[str], np.ndarray]:
                          f"{len(header)} columns ({','.join(header)})")
     data = np.array(rows, dtype=np.float64).reshape(len(rows), len(header))
     return header, data
+
+
+def running_mean(t: np.ndarray, values: np.ndarray, width: float) -> np.ndarray:
+    """The mean of ``values`` over ``width`` (in the units of ``t``) centred on each sample, fewer samples at the
+    ends: a series sampled every Δt averages round(width/Δt) samples (a transducer's reading over its response)."""
+    t, values = np.asarray(t, dtype=np.float64), np.asarray(values, dtype=np.float64)
+    n = max(1, int(round(width / float(np.median(np.diff(t))))))
+    kernel = np.ones(n)
+    return np.convolve(values, kernel, mode="same") / np.convolve(np.ones_like(values), kernel, mode="same")
 
 
 def tolerance_check(value: float, tolerance: float, source: str, reference: float = 0.0, unit: str = "",

@@ -603,7 +603,9 @@ class WCSPHSolver(TimeDependentSolver):
         """The fluid at ``points`` ((m, dim) or (m, 3), m): ``filled`` (Σ V_j W_j: 1 inside the water, about 1/2 at
         a free surface or a wall's face, 0 in air), ``pressure`` (Pa, from the equation of state of the current
         density), ``density`` (kg/m³) and ``velocity`` ((m, 3), m/s), fitted first-order consistent from the fluid
-        within the support (``kernels/wcsph_sensors.py``; NaN where no fluid is). The same values on every rank: each
+        within the support, and ``wall_pressure`` (Pa: the average over the fluid and the wall particles within the
+        support, what a pressure transducer in a wall's face reads) (``kernels/wcsph_sensors.py``; NaN where no fluid
+        is). The same values on every rank: each
         point is gathered by the rank whose box holds it, from its particles and ghosts in the one process's order."""
         pts = np.asarray(points, dtype=np.float64)
         if pts.ndim != 2 or pts.shape[1] not in (self.dim, 3) or not np.all(np.isfinite(pts)):
@@ -611,21 +613,26 @@ class WCSPHSolver(TimeDependentSolver):
                                            f"{pts.shape}")
         pts = points3(pts)
         mine = np.flatnonzero(self.spread.decomposition.owner(pts) == self.world.rank)
-        out = np.zeros((len(pts), 6))
+        out = np.zeros((len(pts), 7))
         if mine.size:
             dev = self.launcher.device
             grid = self.moving_neighbours.grids[MovingNeighbours.MOVING]
             at = wp.array(pts[mine].astype(np.float32), dtype=wp.vec3, device=dev)
-            filled, pressure, density = (wp.zeros(mine.size, dtype=float, device=dev) for _ in range(3))
+            filled, pressure, density, surface = (wp.zeros(mine.size, dtype=float, device=dev) for _ in range(4))
             velocity = wp.zeros(mine.size, dtype=wp.vec3, device=dev)
             terms = self.model.terms
-            sample = make_sample(terms.kernel, terms.dim, terms.periodic)
+            walls = self.moving_neighbours.grids.get("walls", grid)  # none: the fluid's grid, never queried
+            sample = make_sample(terms.kernel, terms.dim, terms.periodic,
+                                 "walls" in self.moving_neighbours.grids and terms.walls == "dynamic")
             self.launcher.launch(sample, mine.size, [self.model.constants, self.arrays, grid.id, grid.points,
-                                                     grid.source_id, grid.radius, at, filled, pressure, density,
-                                                     velocity], once=True)
-            out[mine] = np.column_stack([filled.numpy(), pressure.numpy(), density.numpy(), velocity.numpy()])
+                                                     grid.source_id, walls.id, walls.points, walls.source_id,
+                                                     grid.radius, at, filled, pressure, density, velocity, surface],
+                                 once=True)
+            out[mine] = np.column_stack([filled.numpy(), pressure.numpy(), density.numpy(), velocity.numpy(),
+                                         surface.numpy()])
         out = self.world.allreduce(out, "sum")  # each point's values from one rank, zeros from the others: exact
-        return {"filled": out[:, 0], "pressure": out[:, 1], "density": out[:, 2], "velocity": out[:, 3:6]}
+        return {"filled": out[:, 0], "pressure": out[:, 1], "density": out[:, 2], "velocity": out[:, 3:6],
+                "wall_pressure": out[:, 6]}
 
     def force_on(self, walls: str, about) -> tuple[np.ndarray, np.ndarray]:
         """The fluid's force on the ``walls`` ("obstacles" or "containers": their wall particles) (N; per metre of
