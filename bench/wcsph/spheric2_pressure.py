@@ -11,6 +11,7 @@ What it measures
     * H2, H4: the rms difference from the record over 0-2 s, in units of the record's range (``height_rms``).
 
     python bench/wcsph/spheric2_pressure.py [--dx 0.05,0.04,0.03] [--threads 2] [--variant "name=value ..."]...
+    python bench/wcsph/spheric2_pressure.py --dx 0.02 --results spheric2_pressure_fine   # one finer run, once
 
 Each ``--variant`` (scene settings, space-separated; ``default`` for none) is run at every ``--dx``, side by side.
 Writes bench/results/spheric2_pressure.{json,md,png}.
@@ -34,7 +35,8 @@ from warpfree.validation.dam_break_3d import (EXPERIMENT, KLEEFSMAN, RHO_G_H, co
                                               running_mean)
 
 #: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
-RUN_ALL = [["--dx", "0.05,0.04,0.03", "--variant", "default", "--variant", "riemann=3 alpha=0"]]
+RUN_ALL = [["--dx", "0.05,0.04,0.03", "--variant", "default", "--variant", "riemann=3 alpha=0"],
+           ["--dx", "0.02", "--results", "spheric2_pressure_fine"]]
 
 T_END = 2.0
 PRESSURES, HEIGHTS = ("P1", "P3"), ("H2", "H4")
@@ -144,10 +146,12 @@ def plot(result: dict, variants: list[tuple]):
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     common.add_variant_sweep(p, "0.05,0.04,0.03")
+    p.add_argument("--results", default="spheric2_pressure",
+                   help="the results' name in bench/results (another keeps a single finer run beside the sweep)")
     args = p.parse_args(argv)
     variants, cases = common.variant_sweep(args, run_case, lambda case: compact({**case, "figures": figures(case)}))
     result = {"machine": common.machine_info(), "threads": args.threads, "experiment": EXPERIMENT, "cases": cases}
-    common.write_results("spheric2_pressure", result, markdown(result), plot(result, variants))
+    common.write_results(args.results, result, markdown(result), plot(result, variants))
     return 0
 
 

@@ -111,6 +111,25 @@ def test_wall_pressure_is_the_average_over_the_water_and_the_wall_and_reads_the_
     assert panel.sample(solver)[0] == pytest.approx((got[0] + got[1]) / 3.0, rel=1e-12)
 
 
+def test_filled_support_is_one_in_the_water_and_against_walls_and_less_in_the_surface_layer(tank):
+    """Σ V W over the fluid and the walls: 1 (within 2 %) wherever the support is under water, also in the rows
+    against the floor and the side walls; 0.6-0.9 in the top row (dx/2 under the surface, its support cut: measured
+    0.70-0.86); the body's noise leaves that row out (``pressure_noise(body_only=True)``), so it is at most the whole
+    fluid's."""
+    from warpfree.solvers.wcsph.scene_tools import BODY_FILLED, filled_support, pressure_noise
+
+    solver = tank.solver
+    x = solver.fluid_positions().astype(np.float64)
+    filled = filled_support(solver)
+    top = x[:, 1] > DEPTH - DX
+    under = x[:, 1] < DEPTH - 2.0 * solver.model.params.h   # the whole support under the surface
+    against_walls = (x[:, 1] < DX) | (x[:, 0] < DX) | (x[:, 0] > WIDTH - DX)
+    assert np.all(np.abs(filled[under] - 1.0) < 0.02), (filled[under].min(), filled[under].max())
+    assert np.count_nonzero(against_walls & under) > 40
+    assert np.all((filled[top] > 0.6) & (filled[top] < BODY_FILLED))
+    assert 0.0 < pressure_noise(solver, body_only=True) <= pressure_noise(solver)
+
+
 def test_a_gauge_reads_the_depth_a_pressure_sensor_zero_in_air_and_the_force_on_the_tank_its_weight(tank):
     """The gauge on the floor reads H within dx/4 (measured 0.07 dx); a pressure sensor above the water reads 0 Pa
     (gauge), on the floor ρ0 g H within 3 %; the water's force on the tank's walls is its weight within 1 % (measured

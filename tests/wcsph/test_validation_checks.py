@@ -7,7 +7,9 @@ from warpfree.scene_loader import load_scene
 
 CASES = {
     "dam_break_2d": {"front.dZ_max_martin_moyce", "front.dZ_collapse_martin_moyce"},
-    "dam_break_3d": {"obstacle.fluid_particles_inside"},
+    "dam_break_3d": {"obstacle.fluid_particles_inside", "spheric2.H2_rms_of_range", "spheric2.H4_rms_of_range"},
+    "dam_break_wall_2d": {"wall_pressure.arrival_T", "wall_pressure.negative_mean_impact", "wall_pressure.peak1",
+                          "wall_pressure.mean_run_up"},
     "tank_at_rest_2d": {"hydrostatic.pressure_error_max", "hydrostatic.kinetic_energy_max",
                         "hydrostatic.surface_spread_max"},
     "standing_wave_2d": {"standing_wave.frequency_error", "standing_wave.amplitude_ratio", "standing_wave.decay_rate",

@@ -265,7 +265,8 @@ BUCHNER_P1_FIGURES = wall_pressure_figures(BUCHNER_P1[:, 0], BUCHNER_P1[:, 1])
 def wall_pressure_checks(figures: dict) -> dict:
     """The checks of a run's P1 figures against the experiment's (those its series covers): the arrival within 5 % of
     its T, no negative mean over the first impact (a wetted wall in air is not pulled), the first peak and the
-    run-up's mean within 20 %. The second peak is reported, not checked (README.md: the reference codes' is late too)."""
+    run-up's mean within 20 %. The second peak is reported, not checked (README.md: the reference codes' is late
+    too)."""
     exp = BUCHNER_P1_FIGURES
     checks = {}
     if figures["arrival"] is not None:
