@@ -36,18 +36,19 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import common  # noqa: E402
 
-from warpfree.validation.dam_break_2d import BUCHNER_FRONT_TRIXIPARTICLES, BUCHNER_P1  # noqa: E402
+from warpfree.validation import running_mean  # noqa: E402
+from warpfree.validation.dam_break_2d import (BUCHNER_FRONT_TRIXIPARTICLES, BUCHNER_P1, BUCHNER_P1_FACE,  # noqa: E402
+                                              BUCHNER_P1_FIGURES, BUCHNER_TANK_LENGTH, wall_pressure_figures)
 
 #: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
 RUN_ALL = [["--dx", "0.03,0.02,0.01", "--variant", "default", "--variant", "riemann=3 alpha=0", "--variant",
             "tension=false", "--variant", "riemann=3 alpha=0 tension=false"]]
 
 H, WIDTH, LENGTH, G, RHO0 = 0.6, 1.2, 3.22, 9.81, 1000.0
-#: the transducer's face on the wall (x = 3.22 m): ten points from y = 0.07 to 0.16 m (its top at the experiment's middle)
-FACE = [(3.22, round(float(y), 4)) for y in np.linspace(0.16, 0.07, 10)]
+#: the transducer's face on the wall: ten points over BUCHNER_P1_FACE (its top at the experiment's middle), as the
+#: scene dam_break_wall_2d reads it
+FACE = [(BUCHNER_TANK_LENGTH, round(float(y), 4)) for y in np.linspace(BUCHNER_P1_FACE[1], BUCHNER_P1_FACE[0], 10)]
 SENSOR = "P1=panel:" + ";".join(f"{x},{y}" for x, y in FACE) + "@0.001"
-#: the pressure (ρ g H) whose first crossing is the arrival, in the runs (their 5 ms mean) and in the experiment
-ARRIVAL = 0.05
 T_END = 2.0
 
 
@@ -74,44 +75,40 @@ def run_case(dx: float, threads: int, settings: tuple = ()) -> dict:
             "step_s": summary["phases_s"]["step"], "particles": summary["model"]["n_particles"]}
 
 
-def running_mean(values: np.ndarray, width: int) -> np.ndarray:
-    """The mean over ``width`` samples centred on each (shorter at the ends)."""
-    kernel = np.ones(width)
-    return np.convolve(values, kernel, mode="same") / np.convolve(np.ones_like(values), kernel, mode="same")
-
-
 def figures(case: dict) -> dict:
-    """The comparison's numbers (T and p/(ρ g H)) of one run."""
+    """The comparison's numbers (T and p/(ρ g H)) of one run: the validation's (``wall_pressure_figures``: arrival,
+    means, peaks, named as in the table) and the benchmark's own (the lowest 5 ms mean over the impact, the rms
+    difference from the experiment's points, the noise, the front against the reference run)."""
     T = np.asarray(case["t"]) * np.sqrt(G / H)
     p = np.asarray(case["p"]) / (RHO0 * G * H)
     per_ms = 1.0e-3 * np.sqrt(G / H)  # one sample in T
-    mean5 = running_mean(p, 5)
-    mean50 = running_mean(p, 50)
-    wet = np.flatnonzero(mean5 > ARRIVAL)
-    early, late, runup = (T >= 2.6) & (T <= 3.0), (T >= 5.0) & (T <= 6.5), (T >= 3.0) & (T <= 4.0)
-    first = T <= 4.0
+    mean5, mean50 = running_mean(T, p, 5 * per_ms), running_mean(T, p, 50 * per_ms)
+    early, quiet = (T >= 2.6) & (T <= 3.0), (T >= 3.5) & (T <= 5.0)
     exp_T, exp_p = BUCHNER_P1[:, 0], BUCHNER_P1[:, 1]
     inside = exp_T <= T[-1]
     rms = float(np.sqrt(np.mean((np.interp(exp_T[inside], T, mean5) - exp_p[inside]) ** 2)))
-    quiet = (T >= 3.5) & (T <= 5.0)
     ref_t, ref_x = BUCHNER_FRONT_TRIXIPARTICLES[:, 0], BUCHNER_FRONT_TRIXIPARTICLES[:, 1]
     front_t, front = np.asarray(case["front_t"]), np.asarray(case["front"])
     lag = {when: float(np.interp(when, front_t, front) - front[0] - (np.interp(when, ref_t, ref_x) - ref_x[0]))
            for when in (0.4, 0.58)}
-    return {"arrival_T": float(T[wet[0]]) if wet.size else None, "mean_2.6_3.0": float(p[early].mean()),
-            "lowest_5ms_2.6_3.0": float(mean5[early].min()), "mean_3.0_4.0": float(p[runup].mean()),
-            "peak1": float(mean5[first].max()), "peak1_T": float(T[first][np.argmax(mean5[first])]),
-            "peak2": float(mean5[late].max()), "peak2_T": float(T[late][np.argmax(mean5[late])]),
+    return {**named(wall_pressure_figures(T, p, smoothing=5 * per_ms)),
+            "lowest_5ms_2.6_3.0": float(mean5[early].min()),
             "rms_vs_experiment": rms, "noise_rms": float(np.sqrt(np.mean((p - mean50)[quiet] ** 2))),
             "front_vs_reference_0.4": lag[0.4], "front_vs_reference_0.58": lag[0.58],
             "sample_T": per_ms}
+
+
+def named(figures: dict) -> dict:
+    """``wall_pressure_figures``' figures under the names of this benchmark's table (its windows in T)."""
+    names = {"arrival": "arrival_T", "mean_impact": "mean_2.6_3.0", "mean_run_up": "mean_3.0_4.0"}
+    return {names.get(k, k): v for k, v in figures.items()}
 
 
 def compact(case: dict) -> dict:
     """The case as stored: its 5 ms running mean every 5 ms (t, p) in place of the 1 kHz samples, and the front."""
     t, p = np.asarray(case["t"]), np.asarray(case["p"])
     keep = slice(2, None, 5)
-    return {**case, "t": np.round(t[keep], 4).tolist(), "p": np.round(running_mean(p, 5)[keep], 1).tolist(),
+    return {**case, "t": np.round(t[keep], 4).tolist(), "p": np.round(running_mean(t, p, 0.005)[keep], 1).tolist(),
             "series": "5 ms running mean every 5 ms"}
 
 
@@ -172,13 +169,7 @@ def main(argv=None) -> int:
     common.add_variant_sweep(p, "0.03,0.02,0.01")
     args = p.parse_args(argv)
     variants, cases = common.variant_sweep(args, run_case, lambda case: compact({**case, "figures": figures(case)}))
-    exp_T, exp_p = BUCHNER_P1[:, 0], BUCHNER_P1[:, 1]
-    first, late = exp_T <= 4.0, (exp_T >= 5.0) & (exp_T <= 6.5)
-    experiment = {"arrival_T": float(exp_T[np.argmax(exp_p > ARRIVAL)]),
-                  "mean_2.6_3.0": float(exp_p[(exp_T >= 2.6) & (exp_T <= 3.0)].mean()),
-                  "mean_3.0_4.0": float(exp_p[(exp_T >= 3.0) & (exp_T <= 4.0)].mean()),
-                  "peak1": float(exp_p[first].max()), "peak1_T": float(exp_T[first][np.argmax(exp_p[first])]),
-                  "peak2": float(exp_p[late].max()), "peak2_T": float(exp_T[late][np.argmax(exp_p[late])])}
+    experiment = named(BUCHNER_P1_FIGURES)
     result = {"machine": common.machine_info(), "threads": args.threads, "sensor": SENSOR, "experiment": experiment,
               "cases": cases}
     common.write_results("buchner_pressure", result, markdown(result), plot(result, variants))
