@@ -33,10 +33,10 @@ from warpfree.geometry import lattice_box
 from warpfree.errors import ParameterError, reported_as
 from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_parameters
 from warpfree.smoothing import SmoothingKernel
-from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, DynamicViscosity,
-                                                EndTime, FixedStep, FrameField, Gravity, HFactor, Kernel,
-                                                OutputInterval, RestDensity, Riemann, Shifting, SoundSpeed, Spacing, Tension,
-                                                WallLayers, Walls, WallSafety)
+from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, DensityGradient,
+                                               DynamicViscosity, EndTime, FixedStep, FrameField, Gravity, HFactor,
+                                               Kernel, OutputInterval, RestDensity, Riemann, Shifting, SoundSpeed,
+                                               Spacing, Tension, WallLayers, Walls, WallSafety)
 from warpfree.solvers.wcsph.scene_tools import (box_2d, box_walls_2d, front_position, hydrostatic_density,
                                                  require_wall_cover)
 from warpfree.run import OutputOptions
@@ -68,7 +68,8 @@ def build(a: Annotated[float, Param("m", "width a of the water column", "(0, inf
           tank_height: Annotated[float, Param("a", "height of the tank, in column widths a", "(0, inf)")] = 4.0,
           h_factor: HFactor = 1.6, kernel: Kernel = SmoothingKernel.WENDLAND_C2, alpha: ArtificialViscosity = 0.1,
           wall_artificial: Annotated[bool, Param("", "artificial viscosity on fluid-wall pairs too")] = False,
-          delta: DensityDiffusion = 0.1, mu: DynamicViscosity = 1.0e-3, boundary_model: Walls = BoundaryModel.DYNAMIC,
+          delta: DensityDiffusion = 0.1, delta_gradient: DensityGradient = False,
+          mu: DynamicViscosity = 1.0e-3, boundary_model: Walls = BoundaryModel.DYNAMIC,
           wall_safety: WallSafety = 0.75, cfl: Courant = 0.4, g: Gravity = 9.81, rho0: RestDensity = 1000.0,
           wall_layers: WallLayers = 3, checkpoint_every: CheckpointEvery = 0, dt: FixedStep = None,
           frames: Frames = True, frame_field: FrameField = FluidField.SPEED, vtk: Vtk = True,
@@ -86,7 +87,7 @@ def build(a: Annotated[float, Param("m", "width a of the water column", "(0, inf
     with reported_as(layers="wall_layers", lj_r0="wall_safety"):
         walls = box_walls_2d(length, top, dx, wall_layers)
         fp = FluidParams(dim=2, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
-                         delta=delta, gravity=(0.0, -g, 0.0), boundary_model=boundary_model, cfl=cfl,
+                         delta=delta, delta_gradient=delta_gradient, gravity=(0.0, -g, 0.0), boundary_model=boundary_model, cfl=cfl,
                          wall_artificial_viscosity=wall_artificial, lj_d=2.0 * g * height, shifting=shifting,
                          riemann=riemann, tension=tension,
                          lj_r0=dx if boundary_model is BoundaryModel.LENNARD_JONES else wall_safety * dx,

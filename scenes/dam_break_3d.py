@@ -34,10 +34,10 @@ from warpfree.solvers.wcsph.surface_layers import surface_layers
 from warpfree.errors import ParameterError, reported_as
 from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_parameters
 from warpfree.smoothing import SmoothingKernel
-from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, DynamicViscosity,
-                                                EndTime, FixedStep, FrameField, Gravity, HFactor, Kernel,
-                                                OutputInterval, RestDensity, Riemann, SoundSpeed, Spacing, Tension,
-                                                WallLayers, WallSafety)
+from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, DensityGradient,
+                                               DynamicViscosity, EndTime, FixedStep, FrameField, Gravity, HFactor,
+                                               Kernel, OutputInterval, RestDensity, Riemann, SoundSpeed, Spacing,
+                                               Tension, WallLayers, WallSafety)
 from warpfree.solvers.wcsph.scene_tools import clear_of, hydrostatic_density, require_wall_cover
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import FluidField, FluidParams, WCSPHModel, WCSPHSolver
@@ -71,7 +71,8 @@ def build(dx: Spacing = 0.05, t_end: EndTime = 1.0, output_interval: OutputInter
           column_length: Annotated[float, Param("m", "length of the water column along x", "(0, inf)")] = 1.228,
           column_height: Annotated[float, Param("m", "height of the water column", "(0, inf)")] = 0.55,
           h_factor: HFactor = 1.3, kernel: Kernel = SmoothingKernel.WENDLAND_C2, alpha: ArtificialViscosity = 0.1,
-          delta: DensityDiffusion = 0.1, mu: DynamicViscosity = 1.0e-3, wall_safety: WallSafety = 0.75,
+          delta: DensityDiffusion = 0.1, delta_gradient: DensityGradient = False,
+          mu: DynamicViscosity = 1.0e-3, wall_safety: WallSafety = 0.75,
           cfl: Courant = 0.3, g: Gravity = 9.81, rho0: RestDensity = 1000.0, wall_layers: WallLayers = 3,
           checkpoint_every: CheckpointEvery = 0, dt: FixedStep = None, frames: Frames = True,
           frame_field: FrameField = FluidField.SPEED, vtk: Vtk = True,
@@ -100,7 +101,7 @@ def build(dx: Spacing = 0.05, t_end: EndTime = 1.0, output_interval: OutputInter
         c0 = sound_speed * np.sqrt(2.0 * g * column_height)
         fp = FluidParams(dim=3, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
                          riemann=riemann, tension=tension,
-                         delta=delta, gravity=(0.0, 0.0, -g), cfl=cfl, lj_d=2.0 * g * column_height,
+                         delta=delta, delta_gradient=delta_gradient, gravity=(0.0, 0.0, -g), cfl=cfl, lj_d=2.0 * g * column_height,
                          lj_r0=wall_safety * dx, container_lo=tuple(lo), container_hi=tuple(hi))
         require_wall_cover(wall_layers, dx, fp.support, fp.boundary_model)
         density = hydrostatic_density(fluid[:, 2], lo[2] + column_height, rho0, c0, g)

@@ -27,9 +27,9 @@ import numpy as np
 from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_parameters
 from warpfree.scenes import dam_break_2d
 from warpfree.sensors import PressureSensor
-from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, DensityDiffusion, EndTime, FixedStep,
-                                                FrameField, HFactor, OutputInterval, Riemann, SoundSpeed, Spacing,
-                                                Tension)
+from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, DensityDiffusion, DensityGradient, EndTime,
+                                               FixedStep, FrameField, HFactor, OutputInterval, Riemann, SoundSpeed,
+                                               Spacing, Tension)
 from warpfree.solvers.wcsph import FluidField
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.dam_break_2d import (BUCHNER_H, BUCHNER_P1_FACE, BUCHNER_P1_FIGURES, BUCHNER_TANK_LENGTH,
@@ -50,7 +50,8 @@ SENSOR_INTERVAL = 1.0e-3
 @checked_parameters
 def build(dx: Spacing = 0.01, t_end: EndTime = 2.0, output_interval: OutputInterval = 0.02,
           riemann: Riemann = 3.0, alpha: ArtificialViscosity = 0.0, tension: Tension = True,
-          delta: DensityDiffusion = 0.1, h_factor: HFactor = 1.6, sound_speed: SoundSpeed = 10.0,
+          delta: DensityDiffusion = 0.1, delta_gradient: DensityGradient = False,
+          h_factor: HFactor = 1.6, sound_speed: SoundSpeed = 10.0,
           tank_height: Annotated[float, Param("m", "height of the tank", "(0.6, inf)")] = 1.5,
           checkpoint_every: CheckpointEvery = 0, dt: FixedStep = None, frames: Frames = True,
           frame_field: FrameField = FluidField.PRESSURE, vtk: Vtk = True) -> TimeLoop:
@@ -60,7 +61,7 @@ def build(dx: Spacing = 0.01, t_end: EndTime = 2.0, output_interval: OutputInter
     run = dam_break_2d.build(a=width, dx=dx, t_end=t_end, output_interval=output_interval,
                              column_height=BUCHNER_H / width, tank_length=BUCHNER_TANK_LENGTH / width,
                              tank_height=tank_height / width, riemann=riemann, alpha=alpha, tension=tension,
-                             delta=delta, h_factor=h_factor, sound_speed=sound_speed,
+                             delta=delta, delta_gradient=delta_gradient, h_factor=h_factor, sound_speed=sound_speed,
                              checkpoint_every=checkpoint_every, dt=dt, frames=frames, frame_field=frame_field, vtk=vtk)
     run.name, run.params = "dam_break_wall_2d", params
     face = [(BUCHNER_TANK_LENGTH, y) for y in np.linspace(BUCHNER_P1_FACE[1], BUCHNER_P1_FACE[0], FACE_POINTS)]

@@ -42,7 +42,8 @@ from warpfree.validation.dam_break_2d import (BUCHNER_FRONT_TRIXIPARTICLES, BUCH
 
 #: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
 RUN_ALL = [["--dx", "0.03,0.02,0.01", "--variant", "default", "--variant", "riemann=3 alpha=0", "--variant",
-            "tension=false", "--variant", "riemann=3 alpha=0 tension=false"]]
+            "tension=false", "--variant", "riemann=3 alpha=0 tension=false", "--variant",
+            "riemann=3 alpha=0 delta_gradient=true"]]
 
 H, WIDTH, LENGTH, G, RHO0 = 0.6, 1.2, 3.22, 9.81, 1000.0
 #: the transducer's face on the wall: ten points over BUCHNER_P1_FACE (its top at the experiment's middle), as the

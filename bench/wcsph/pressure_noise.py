@@ -29,7 +29,8 @@ from warpfree.scene_loader import load_scene  # noqa: E402
 from warpfree.solvers.wcsph.scene_tools import BODY_FILLED, filled_support, pressure_noise  # noqa: E402
 
 #: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
-RUN_ALL = [["--variant", "default", "--variant", "riemann=3 alpha=0", "--variant", "riemann=3 alpha=0 tension=false"]]
+RUN_ALL = [["--variant", "default", "--variant", "delta_gradient=true", "--variant", "riemann=3 alpha=0",
+            "--variant", "riemann=3 alpha=0 tension=false"]]
 
 G, RHO0 = 9.81, 1000.0
 

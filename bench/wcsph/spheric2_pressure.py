@@ -35,7 +35,8 @@ from warpfree.validation.dam_break_3d import (EXPERIMENT, KLEEFSMAN, RHO_G_H, co
                                               running_mean)
 
 #: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
-RUN_ALL = [["--dx", "0.05,0.04,0.03", "--variant", "default", "--variant", "riemann=3 alpha=0"],
+RUN_ALL = [["--dx", "0.05,0.04,0.03", "--variant", "default", "--variant", "riemann=3 alpha=0", "--variant",
+            "delta_gradient=true"],
            ["--dx", "0.02", "--results", "spheric2_pressure_fine"]]
 
 T_END = 2.0

@@ -27,6 +27,9 @@ CASES = [("dam_break_2d", 2), ("dam_break_2d", 3), ("dam_break_3d", 3), ("taylor
          ("poiseuille_2d", 2), ("standing_wave_2d", 2), ("em_line_1d", 3), ("em_waveguide_2d", 3),
          ("em_plane_wave_2d", 2), ("em_cavity_2d", 2), ("heat_conduction_2d", 2), ("heat_conduction_2d", 3)]
 
+#: (scene, ranks, settings): model options with a halo exchange of their own (the renormalised density gradient)
+OPTION_CASES = [("dam_break_2d", 3, ["--set", "delta_gradient=true"])]
+
 #: the model's count of each scene family's main set, and the set's name in the distributed layout and the outputs
 MAIN_SETS = {"n_fluid": "fluid", "n_electric": "electric", "n_particles": "particles"}
 
@@ -36,9 +39,11 @@ def run_distributed(ranks: int, args: list[str]) -> subprocess.CompletedProcess:
 
 
 @needs_mpi
-@pytest.mark.parametrize("scene,ranks", CASES)
-def test_a_distributed_run_gives_the_one_process_outputs_bitwise(scene, ranks, tmp_path):
-    sets = smallest_sets(scene)
+@pytest.mark.parametrize("scene,ranks,settings", [
+    pytest.param(scene, ranks, settings, id="-".join([scene, str(ranks), *settings[1::2]]))
+    for scene, ranks, settings in [(scene, ranks, []) for scene, ranks in CASES] + OPTION_CASES])
+def test_a_distributed_run_gives_the_one_process_outputs_bitwise(scene, ranks, settings, tmp_path):
+    sets = smallest_sets_then(scene, settings)
     one, many = tmp_path / "one", tmp_path / "many"
     assert main(["run", scene, *sets, "--out", str(one), "--no-progress", "--no-frames", "--threads", "1"]) == 0
     done = run_distributed(ranks, ["run", scene, *sets, "--out", str(many), "--no-progress", "--no-frames"])

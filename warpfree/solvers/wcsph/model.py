@@ -84,6 +84,8 @@ class FluidParams:
     mu: float = 1.0e-3               # dynamic viscosity (Pa·s), laminar term of Morris 1997 (0 = off)
     alpha: float = 0.0               # Monaghan artificial viscosity (0 = off)
     delta: float = 0.0               # δ-SPH density diffusion coefficient (0 = off; 0.1 typical)
+    delta_gradient: bool = False     # δ-SPH corrected by the renormalised density gradient (Antuono et al. 2010)
+                                     # instead of the hydrostatic one: a pass more per step (kernels/wcsph.py)
     gravity: tuple = (0.0, -9.81, 0.0)
     boundary_model: BoundaryModel = BoundaryModel.DYNAMIC
     no_slip: bool = True             # walls enter the viscous terms with a no-slip ghost velocity
@@ -240,7 +242,7 @@ class WCSPHModel:
         self.viscosity_factor = lattice_second_moment(params.kernel, params.dim, params.h_factor)
         self.terms = FluidTerms(
             kernel=self.kernel_id, dim=params.dim, laminar=params.mu > 0.0, artificial=params.alpha > 0.0,
-            delta_sph=params.delta > 0.0,
+            delta_sph=params.delta > 0.0, delta_gradient=params.delta > 0.0 and bool(params.delta_gradient),
             walls="none" if self.nb == 0 else params.boundary_model.value,
             wall_safety=params.boundary_model is BoundaryModel.DYNAMIC and params.lj_r0 > 0.0,
             no_slip=bool(params.no_slip), wall_artificial=bool(params.wall_artificial_viscosity),

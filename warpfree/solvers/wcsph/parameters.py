@@ -25,6 +25,8 @@ HFactor = Annotated[float, Param("dx", "smoothing length h = h_factor dx", "(0, 
 Kernel = Annotated[SmoothingKernel, Param("", "smoothing kernel W(r, h)")]
 ArtificialViscosity = Annotated[float, Param("", "Monaghan artificial viscosity α (0: off)", "[0, inf)")]
 DensityDiffusion = Annotated[float, Param("", "δ-SPH density diffusion δ (0: off)", "[0, inf)")]
+DensityGradient = Annotated[bool, Param("", "δ-SPH corrected by the renormalised density gradient (Antuono et al. "
+                                            "2010; false: by the hydrostatic gradient)")]
 DynamicViscosity = Annotated[float, Param("Pa·s", "dynamic viscosity μ of the laminar term (0: inviscid)", "[0, inf)")]
 Walls = Annotated[BoundaryModel, Param("", "how wall particles act on the fluid")]
 WallSafety = Annotated[float, Param("dx", "range r0 of the Lennard-Jones safety net of dynamic walls (0: off)",

@@ -195,6 +195,7 @@ class WCSPHSolver(TimeDependentSolver):
         a.shift_velocity = wp.zeros(n_shift, dtype=wp.vec3, device=dev)
         a.shift_acceleration = wp.zeros(n_shift, dtype=wp.vec3, device=dev)
         a.shift_density_rate = wp.zeros(n_shift, dtype=float, device=dev)
+        a.density_gradient = wp.zeros(nf if model.terms.delta_gradient else 1, dtype=wp.vec3, device=dev)
 
         def part(array, start, stop):  # a view of rows [start, stop); Warp refuses empty slices
             return array[start:stop] if stop > start else wp.zeros(0, dtype=array.dtype, device=dev)
@@ -311,13 +312,20 @@ class WCSPHSolver(TimeDependentSolver):
 
     # -- stepping --------------------------------------------------------------------------------
     def compute_rates(self) -> None:
-        """Wall pressure (dynamic walls), then dρ/dt and dv/dt at the predicted state."""
+        """Wall pressure (dynamic walls), the renormalised density gradient (δ-SPH's ``delta_gradient``), then dρ/dt
+        and dv/dt at the predicted state."""
         L, a, c = self.launcher, self.arrays, self.model.constants
         if self.model.terms.walls == "dynamic":
             with self.phases("boundary"):
                 L.launch(self.kernels.wall_pressure, self.nb, [c, a, self.wall_fluid.rows, self._wall_order()])
             with self.phases("exchange"):  # a ghost wall's fluid neighbours are not all held: its owner's values
                 self.spread.walls.refresh(*self._walls_view.values())
+        if self.model.terms.delta_gradient:
+            with self.phases("rates"):
+                L.launch(self.kernels.density_gradient, self._own_rows.shape[0], [c, a, self.fluid_fluid.rows,
+                                                                                   self._own_rows])
+            with self.phases("exchange"):  # a ghost's gradient needs neighbours this rank does not hold
+                self.spread.fluid.refresh(a.density_gradient)
         with self.phases("rates"):
             L.launch(self.kernels.rates, self._own_rows.shape[0], [c, a, self.fluid_fluid.rows, self.fluid_wall.rows,
                                                                     self._own_rows])
