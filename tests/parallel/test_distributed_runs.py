@@ -20,11 +20,11 @@ from warpfree.parallel.petsc_system import PETSC_EXTRA
 needs_mpi = pytest.mark.skipif(find_mpiexec() is None, reason=f"no MPI here: {MPI_EXTRA}")
 
 #: (scene, ranks): walls and a rebalancing cut (2D dam break), a rank that starts with no fluid (3D), periodic
-#: axes cut across (Taylor-Green, Poiseuille), a settled tank given its wave (standing wave); SPEM in 1D, with a PML
+#: axes cut across (Taylor-Green, Poiseuille), a wall moving along its surface (the cavity's lid), a settled tank given its wave (standing wave); SPEM in 1D, with a PML
 #: and a point source (waveguide), with a total-field box (plane wave); the example solver in a doubly periodic box
 #: (heat conduction: its 16 × 16 particles cut in 2 and in 3)
 CASES = [("dam_break_2d", 2), ("dam_break_2d", 3), ("dam_break_3d", 3), ("taylor_green_2d", 3),
-         ("poiseuille_2d", 2), ("standing_wave_2d", 2), ("em_line_1d", 3), ("em_waveguide_2d", 3),
+         ("poiseuille_2d", 2), ("lid_driven_cavity_2d", 3), ("standing_wave_2d", 2), ("em_line_1d", 3), ("em_waveguide_2d", 3),
          ("em_plane_wave_2d", 2), ("em_cavity_2d", 2), ("heat_conduction_2d", 2), ("heat_conduction_2d", 3)]
 
 #: (scene, ranks, settings): model options with a halo exchange of their own (the renormalised density gradient)

@@ -190,6 +190,10 @@ class WCSPHModel:
     fluid_volume: volume (area in 2D) per fluid particle; default dx^dim. A relaxed fill of a region that is not a
         union of lattice cells holds fewer particles than region/dx^dim: each then stands for region/N (the mass
         ρ0 × that volume), or the pressure gradient, which counts a volume per neighbour, falls short by as much.
+    wall_velocity: the walls' surface velocity (m/s): one (dim,) velocity for every wall particle or (nb, dim), one
+        per wall particle in the walls' order (containers', then obstacles'); default at rest. The walls stay in
+        place and the fluid sees them move along their surface (a sliding lid, a belt, a cylinder spinning about its
+        axis): the velocity enters continuity and, through the no-slip ghost velocity, the viscous terms.
     containers, obstacles: the true solid surfaces (3D: watertight trimesh meshes; 2D: closed polygons) that
         the fluid must stay inside / outside. The fluid feels them through a stiff penalty within dx/2 of a
         surface (``warpfree.kernels.wcsph_solids.add_surface_penalty``: it stores the kinetic energy of a particle
@@ -206,7 +210,7 @@ class WCSPHModel:
                f"{group_digits(len(boundary))} wall particles)")
     def __init__(self, fluid, boundary, params: FluidParams, obstacle_boundary=None,
                  boundary_volume: float | None = None, fluid_volume: float | None = None, containers=(),
-                 obstacles=(), launcher: Launcher | None = None):
+                 obstacles=(), wall_velocity=None, launcher: Launcher | None = None):
         params.validate()
         self.launcher = launcher or current_launcher()
         device = self.launcher.device
@@ -238,6 +242,8 @@ class WCSPHModel:
         self.mass = wp.array(np.concatenate([np.full(self.nf, params.rho0 * vol_f),
                                              np.full(self.nb, params.rho0 * vol_b)]).astype(np.float32),
                              dtype=float, device=device)
+        #: (nb, 3) float32 surface velocity of every wall particle (m/s), containers' then obstacles'
+        self.wall_velocity_np = self._wall_velocity(wall_velocity)
         #: the laminar term's lattice second moment S: the kernels take μ/S (see the module docstring)
         self.viscosity_factor = lattice_second_moment(params.kernel, params.dim, params.h_factor)
         self.terms = FluidTerms(
@@ -250,6 +256,30 @@ class WCSPHModel:
             shifting=params.shifting > 0.0, periodic=self.space.periodic)
         self.constants = self._constants()
         self.solids = Solids(self.launcher, params.dim, containers, obstacles) if (containers or obstacles) else None
+
+    def _wall_velocity(self, wall_velocity) -> np.ndarray:
+        """The walls' surface velocity: zero, one velocity for all of them, or one per wall particle (``dim`` or 3
+        components each), finite, and tangent to nothing in particular: the walls stay where they are."""
+        if wall_velocity is None:
+            return np.zeros((self.nb, 3), np.float32)
+        v = np.asarray(wall_velocity, dtype=float)
+        if v.ndim == 1:
+            v = np.tile(v, (self.nb, 1))
+        if v.ndim != 2 or v.shape[0] != self.nb or v.shape[1] not in (self.dim, 3):
+            raise ParameterError("wall_velocity", f"must be one velocity or one per wall particle ({self.nb} rows of "
+                                                  f"{self.dim} components), got shape {np.shape(wall_velocity)}")
+        if not np.all(np.isfinite(v)):
+            raise ParameterError("wall_velocity", "must be finite")
+        if v.shape[1] == 2:
+            v = np.hstack([v, np.zeros((self.nb, 1))])
+        if self.dim == 2 and np.any(v[:, 2] != 0.0):
+            raise ParameterError("wall_velocity", "a 2D wall moves in the plane (z component 0)")
+        return v.astype(np.float32)
+
+    def wall_values(self) -> dict[str, np.ndarray]:
+        """All walls' arrays as the solver lays them out: position (m), mass (kg), surface velocity (m/s)."""
+        return {"position": self.position_np[self.nf:], "mass": self.mass.numpy()[self.nf:],
+                "velocity": self.wall_velocity_np}
 
     def _constants(self) -> FluidConstants:
         P = self.params

@@ -123,8 +123,7 @@ class WCSPHSolver(TimeDependentSolver):
         mass = model.mass.numpy()
         fluid = {"position": model.position_np[:nf], "velocity": v_f.astype(np.float32),
                  "density": rho_f.astype(np.float32), "mass": mass[:nf]}
-        walls = {"position": model.position_np[nf:], "mass": mass[nf:]}
-        fluid, walls = self.spread.held_fluid(fluid), self.spread.held_walls(walls)
+        fluid, walls = self.spread.held_fluid(fluid), self.spread.held_walls(model.wall_values())
         self._grid_sizes = self.spread.grid_sizes(launcher)
         self.max_neighbours = self._check_neighbours(fluid["position"])
         cap = int(self.max_neighbours * (1.0 + params.skin) ** params.dim * 1.2) + 8  # grows if ever too small
@@ -148,7 +147,8 @@ class WCSPHSolver(TimeDependentSolver):
         distributed run), their views, and the neighbour tables of the given capacities (``relayout``: the tables
         kept, as after a migration). ``fluid``: position,
         velocity, density and mass, and optionally pressure, acceleration, density_rate, velocity_eval and
-        density_eval (the predicted state a rebuild carries); ``walls``: position and mass."""
+        density_eval (the predicted state a rebuild carries); ``walls``: position, mass and surface velocity
+        (``WCSPHModel.wall_values``)."""
         dev = self.launcher.device
         model, params = self.model, self.model.params
         nf, nb = len(fluid["position"]), len(walls["position"])
@@ -165,7 +165,7 @@ class WCSPHSolver(TimeDependentSolver):
 
         self.state = WCSPHState(
             position=arr(np.vstack([fluid["position"], walls["position"]]).astype(np.float32), wp.vec3),
-            velocity=arr(np.vstack([fluid["velocity"], np.zeros((nb, 3))]).astype(np.float32), wp.vec3),
+            velocity=arr(np.vstack([fluid["velocity"], walls["velocity"]]).astype(np.float32), wp.vec3),
             density=arr(np.concatenate([fluid["density"], np.full(nb, params.rho0)]).astype(np.float32), float),
             pressure=arr(np.concatenate([fluid.get("pressure", np.zeros(nf)), np.zeros(nb)]).astype(np.float32),
                          float),
@@ -534,7 +534,7 @@ class WCSPHSolver(TimeDependentSolver):
         mass = model.mass.numpy()
         self.spread.respread(whole["position_at_build"].astype(np.float64))
         self._lay_out_again(self.spread.held_fluid(dict(whole, mass=mass[:nf])),
-                            self.spread.held_walls({"position": model.position_np[nf:], "mass": mass[nf:]}))
+                            self.spread.held_walls(model.wall_values()))
         self.clock.values.assign(pieces[0]["clock"])
         self.clock.invalidate()
         self.after_load()

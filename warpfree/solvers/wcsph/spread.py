@@ -137,8 +137,7 @@ class FluidSpread(MovingSpread):
             return fluid_cost, self.wall_points[self.walls.ids[own]], np.asarray(wall_cost, np.float64)[own]
 
         held = self.migrate(held_fluid(), work=own_work, busy=busy)
-        lay_out(held, self.held_walls({"position": self.wall_points.astype(np.float32),
-                                       "mass": self.model.mass.numpy()[self.model.nf:]}))
+        lay_out(held, self.held_walls(self.model.wall_values()))
 
     def counts(self) -> dict[str, int]:
         """Fluid and wall particles owned and ghost on this rank."""
