@@ -70,7 +70,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from .clock import LIMIT, SLOTS, STEP, advance, choose
+from .clock import LIMIT, SLOTS, STEP, TIME, advance, choose
 from .neighbours import NeighbourRows
 from .smoothing import kernel_grad_coef, kernel_shape, kernel_w
 from .space import Box, displacement, displacement_function, image_displacement, wrap
@@ -227,6 +227,36 @@ def equation_of_state(first: int, c: FluidConstants, density: wp.array(dtype=flo
     """p_i = B[(ρ_i/ρ0)^γ - 1], no lower than the floor (fluid particles)."""
     i = first + wp.tid()
     pressure[i] = fluid_pressure(c, density[i])
+
+
+@wp.func
+def table_value(times: wp.array(dtype=wp.float64), values: wp.array(dtype=float), t: wp.float64) -> float:
+    """A function of time given as a table: linear between the points (``times`` increasing), the end values
+    beyond them."""
+    m = times.shape[0]
+    if t <= times[0]:
+        return values[0]
+    if t >= times[m - 1]:
+        return values[m - 1]
+    k = int(1)
+    while times[k] < t:
+        k += 1
+    w = float((t - times[k - 1]) / (times[k] - times[k - 1]))
+    return (1.0 - w) * values[k - 1] + w * values[k]
+
+
+@wp.kernel
+def wall_motion(first: int, nf: int, clock: wp.array(dtype=wp.float64), at_step_end: int,
+                times: wp.array(dtype=wp.float64), factors: wp.array(dtype=float),
+                surface_velocity: wp.array(dtype=wp.vec3), velocity: wp.array(dtype=wp.vec3)):
+    """The walls' velocity at the time of the rates: v_k(t) = f(t) v0_k for held wall k = first + tid (particle
+    nf + k), f the walls' velocity factor (a table, :func:`table_value`), v0 their surface velocity (m/s); t the
+    clock's time, plus its step with ``at_step_end`` (the rates after a drift are those at t + Δt)."""
+    k = first + wp.tid()
+    t = clock[TIME]
+    if at_step_end != 0:
+        t = t + clock[STEP]
+    velocity[nf + k] = table_value(times, factors, t) * surface_velocity[k]
 
 
 @wp.struct

@@ -2,7 +2,7 @@
 velocities of the steady Navier–Stokes solution.
 
 A square cavity of side L = ``size`` full of water, at rest at t = 0; its lid (the wall above y = L) slides along x at
-U = ``lid_speed`` from the start, the other three walls are at rest; no-slip everywhere, no gravity; ν = U L/Re. The
+U = ``lid_speed`` from the start (or reaches it over ``lid_ramp``), the other three walls are at rest; no-slip everywhere, no gravity; ν = U L/Re. The
 flow spins up a primary vortex and settles to the steady solution Ghia et al. tabled at Re = 100, 400 and 1000.
 
 Measured at every output: u on the vertical centreline x = L/2 and v on the horizontal one y = L/2, at Ghia's 15
@@ -61,6 +61,8 @@ def build(n: Annotated[int, Param("", "particles across the cavity (dx = size/n)
           size: Annotated[float, Param("m", "side L of the square cavity", "(0, inf)")] = 1.0,
           lid_speed: Annotated[float, Param("m/s", "speed U of the lid along x", "(0, inf)")] = 1.0,
           mach: Annotated[float, Param("", "Mach number of the lid (c0 = U/mach)", "(0, 0.5)")] = 0.1,
+          lid_ramp: Annotated[float, Param("L/U", "the lid's start: its speed rises linearly from 0 to U over this time "
+                                                  "(0: at once)", "[0, inf)")] = 0.0,
           t_end: EndTime = 20.0, output_interval: OutputInterval = 0.5,
           average_from: Annotated[float, Param("L/U", "the profiles are averaged over the outputs from this time on",
                                                "[0, inf)")] = 10.0,
@@ -93,7 +95,9 @@ def build(n: Annotated[int, Param("", "particles across the cavity (dx = size/n)
                          delta=delta, gravity=(0.0, 0.0, 0.0), boundary_model=BoundaryModel.DYNAMIC, no_slip=True,
                          cfl=cfl, lj_d=lid_speed ** 2, lj_r0=wall_safety * dx,
                          container_lo=(-0.5 * w, -0.5 * w, -1.0), container_hi=(size + 0.5 * w, size + 0.5 * w, 1.0))
-        model = WCSPHModel(fluid, walls, fp, containers=[box_2d(size, size)], wall_velocity=wall_velocity)
+        ramp = ([0.0, lid_ramp * size / lid_speed], [0.0, 1.0]) if lid_ramp > 0 else None
+        model = WCSPHModel(fluid, walls, fp, containers=[box_2d(size, size)], wall_velocity=wall_velocity,
+                           wall_velocity_factor=ramp)
     solver = WCSPHSolver(model)
 
     ref = ghia.interior_points(reynolds) if reynolds in ghia.REYNOLDS else None

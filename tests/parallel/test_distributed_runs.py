@@ -27,8 +27,10 @@ CASES = [("dam_break_2d", 2), ("dam_break_2d", 3), ("dam_break_3d", 3), ("taylor
          ("poiseuille_2d", 2), ("lid_driven_cavity_2d", 3), ("standing_wave_2d", 2), ("em_line_1d", 3), ("em_waveguide_2d", 3),
          ("em_plane_wave_2d", 2), ("em_cavity_2d", 2), ("heat_conduction_2d", 2), ("heat_conduction_2d", 3)]
 
-#: (scene, ranks, settings): model options with a halo exchange of their own (the renormalised density gradient)
-OPTION_CASES = [("dam_break_2d", 3, ["--set", "delta_gradient=true"])]
+#: (scene, ranks, settings): model options with a halo exchange of their own (the renormalised density gradient) or
+#: held per rank (the walls' velocity factor)
+OPTION_CASES = [("dam_break_2d", 3, ["--set", "delta_gradient=true"]),
+                ("lid_driven_cavity_2d", 3, ["--set", "lid_ramp=0.4"])]
 
 #: the model's count of each scene family's main set, and the set's name in the distributed layout and the outputs
 MAIN_SETS = {"n_fluid": "fluid", "n_electric": "electric", "n_particles": "particles"}

@@ -194,6 +194,10 @@ class WCSPHModel:
         per wall particle in the walls' order (containers', then obstacles'); default at rest. The walls stay in
         place and the fluid sees them move along their surface (a sliding lid, a belt, a cylinder spinning about its
         axis): the velocity enters continuity and, through the no-slip ghost velocity, the viscous terms.
+    wall_velocity_factor: (times (s), factors): the walls move at f(t) × ``wall_velocity``, f linear between the
+        table's points and its end values beyond them (a start-up ramp, an oscillation sampled finely enough);
+        default f = 1. The walls' acceleration is not in their Adami pressure (exact for a steady surface velocity,
+        and for a wall oscillating in its own plane, which pushes on nothing).
     containers, obstacles: the true solid surfaces (3D: watertight trimesh meshes; 2D: closed polygons) that
         the fluid must stay inside / outside. The fluid feels them through a stiff penalty within dx/2 of a
         surface (``warpfree.kernels.wcsph_solids.add_surface_penalty``: it stores the kinetic energy of a particle
@@ -210,7 +214,7 @@ class WCSPHModel:
                f"{group_digits(len(boundary))} wall particles)")
     def __init__(self, fluid, boundary, params: FluidParams, obstacle_boundary=None,
                  boundary_volume: float | None = None, fluid_volume: float | None = None, containers=(),
-                 obstacles=(), wall_velocity=None, launcher: Launcher | None = None):
+                 obstacles=(), wall_velocity=None, wall_velocity_factor=None, launcher: Launcher | None = None):
         params.validate()
         self.launcher = launcher or current_launcher()
         device = self.launcher.device
@@ -244,6 +248,8 @@ class WCSPHModel:
                              dtype=float, device=device)
         #: (nb, 3) float32 surface velocity of every wall particle (m/s), containers' then obstacles'
         self.wall_velocity_np = self._wall_velocity(wall_velocity)
+        #: (times (s), factors) of the walls' velocity factor f(t), or None: the walls move at v0 throughout
+        self.wall_velocity_factor = self._velocity_factor(wall_velocity_factor)
         #: the laminar term's lattice second moment S: the kernels take μ/S (see the module docstring)
         self.viscosity_factor = lattice_second_moment(params.kernel, params.dim, params.h_factor)
         self.terms = FluidTerms(
@@ -275,6 +281,24 @@ class WCSPHModel:
         if self.dim == 2 and np.any(v[:, 2] != 0.0):
             raise ParameterError("wall_velocity", "a 2D wall moves in the plane (z component 0)")
         return v.astype(np.float32)
+
+    def _velocity_factor(self, table):
+        """The walls' velocity factor as (times, factors) float64/float32 arrays: times strictly increasing, both
+        finite, one factor per time."""
+        if table is None:
+            return None
+        try:
+            times, factors = (np.asarray(a, dtype=float).ravel() for a in table)
+        except (TypeError, ValueError):
+            raise ParameterError("wall_velocity_factor", "must be (times, factors): two sequences of numbers") from None
+        if len(times) == 0 or len(times) != len(factors):
+            raise ParameterError("wall_velocity_factor", f"needs one factor per time, got {len(times)} times and "
+                                                         f"{len(factors)} factors")
+        if not (np.all(np.isfinite(times)) and np.all(np.isfinite(factors))):
+            raise ParameterError("wall_velocity_factor", "must be finite")
+        if np.any(np.diff(times) <= 0.0):
+            raise ParameterError("wall_velocity_factor", "its times must increase")
+        return times.astype(np.float64), factors.astype(np.float32)
 
     def wall_values(self) -> dict[str, np.ndarray]:
         """All walls' arrays as the solver lays them out: position (m), mass (kg), surface velocity (m/s)."""

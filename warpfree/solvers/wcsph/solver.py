@@ -196,6 +196,11 @@ class WCSPHSolver(TimeDependentSolver):
         a.shift_acceleration = wp.zeros(n_shift, dtype=wp.vec3, device=dev)
         a.shift_density_rate = wp.zeros(n_shift, dtype=float, device=dev)
         a.density_gradient = wp.zeros(nf if model.terms.delta_gradient else 1, dtype=wp.vec3, device=dev)
+        #: the held walls' surface velocity v0 and the velocity factor's table (walls moving as f(t) v0), or None
+        self._wall_motion = None
+        if model.wall_velocity_factor is not None and nb:
+            times, factors = model.wall_velocity_factor
+            self._wall_motion = (arr(times, wp.float64), arr(factors, float), arr(walls["velocity"], wp.vec3))
 
         def part(array, start, stop):  # a view of rows [start, stop); Warp refuses empty slices
             return array[start:stop] if stop > start else wp.zeros(0, dtype=array.dtype, device=dev)
@@ -272,7 +277,7 @@ class WCSPHSolver(TimeDependentSolver):
         self.launcher.launch(K.equation_of_state, self.nf, [c, a.density_eval, self.state.pressure])
         with self.phases("neighbours"):
             self.moving_neighbours.rebuild()
-        self.compute_rates()
+        self.compute_rates(at_step_end=False)
         self.spread.fluid.refresh(self.state.acceleration, self.state.density_rate)  # the ghosts' first drift's
         self._launch_report()
 
@@ -311,10 +316,16 @@ class WCSPHSolver(TimeDependentSolver):
         self.clock.invalidate()
 
     # -- stepping --------------------------------------------------------------------------------
-    def compute_rates(self) -> None:
-        """Wall pressure (dynamic walls), the renormalised density gradient (δ-SPH's ``delta_gradient``), then dρ/dt
-        and dv/dt at the predicted state."""
+    def compute_rates(self, at_step_end: bool = True) -> None:
+        """The walls' velocity (walls moving as f(t) v0), wall pressure (dynamic walls), the renormalised density
+        gradient (δ-SPH's ``delta_gradient``), then dρ/dt and dv/dt at the predicted state: at t + Δt after a drift
+        (``at_step_end``), at the clock's t otherwise."""
         L, a, c = self.launcher, self.arrays, self.model.constants
+        if self._wall_motion is not None:
+            times, factors, surface_velocity = self._wall_motion
+            with self.phases("boundary"):
+                L.launch(K.wall_motion, self.nb, [self.nf, self.clock.values, int(at_step_end), times, factors,
+                                                  surface_velocity, a.velocity])
         if self.model.terms.walls == "dynamic":
             with self.phases("boundary"):
                 L.launch(self.kernels.wall_pressure, self.nb, [c, a, self.wall_fluid.rows, self._wall_order()])
