@@ -139,12 +139,15 @@ class FluidArrays:
     density_eval: wp.array(dtype=float)        # (nf) predictor ρ* = ρ + ½Δt dρ/dt
     ghost_velocity: wp.array(dtype=wp.vec3)    # (nb) no-slip ghost velocity of the walls
     position_at_build: wp.array(dtype=wp.vec3)  # (nf) positions when the neighbour tables were built
-    report: wp.array(dtype=wp.vec4)            # (nf) |Δx since build|², |v|², |a|², status
+    report: wp.array(dtype=wp.vec4)            # (nf; nf + nb with bodies: their walls' rows after the fluid's)
+                                               # |Δx since build|², |v|², |a|², status
     shift_velocity: wp.array(dtype=wp.vec3)    # (nf) δu, m/s (particle shifting; written by rates)
     shift_acceleration: wp.array(dtype=wp.vec3)  # (nf) (δu·∇)v, m/s²
     shift_density_rate: wp.array(dtype=float)  # (nf) δu·∇ρ, kg/(m³ s)
     density_gradient: wp.array(dtype=wp.vec3)  # (nf) renormalised ∇ρ at the predicted state, kg/m⁴ (δ-SPH's
                                                # ``delta_gradient``; one unused row otherwise)
+    wall_acceleration: wp.array(dtype=wp.vec3)  # (nb) the walls' acceleration a_w, m/s² (moving walls; one unused
+                                                # row otherwise)
 
 
 @dataclass(frozen=True)
@@ -162,6 +165,7 @@ class FluidTerms:
     no_slip: bool = True             # walls enter the laminar viscous term with the ghost velocity
     wall_artificial: bool = False    # artificial viscosity on fluid-wall pairs too (with the ghost velocity)
     riemann: bool = False            # fluid pairs' pressure from a low-dissipation Riemann solver (Zhang et al. 2017)
+    moving_walls: bool = False       # walls that accelerate (rigid bodies): a_w in their Adami pressure
     shifting: bool = False           # particle shifting (A > 0)
     periodic: tuple = (False, False, False)
 
@@ -256,7 +260,9 @@ def wall_motion(first: int, nf: int, clock: wp.array(dtype=wp.float64), at_step_
     t = clock[TIME]
     if at_step_end != 0:
         t = t + clock[STEP]
-    velocity[nf + k] = table_value(times, factors, t) * surface_velocity[k]
+    v0 = surface_velocity[k]
+    if wp.dot(v0, v0) > 0.0:  # a wall with none (at rest, or moved by a rigid body) keeps its velocity
+        velocity[nf + k] = table_value(times, factors, t) * v0
 
 
 @wp.struct
@@ -486,7 +492,10 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
             srw += f.density_eval[j] * w * rij
             svw += f.velocity_eval[j] * w
         if sw > 0.0:
-            pw = (spw + wp.dot(c.gravity, srw)) / sw
+            g = c.gravity
+            if wp.static(terms.moving_walls):
+                g = g - f.wall_acceleration[k]
+            pw = (spw + wp.dot(g, srw)) / sw
             f.pressure[i] = pw
             f.density[i] = tait_density(pw, c.rho0, c.b, c.gamma)
             f.ghost_velocity[k] = 2.0 * f.velocity[i] - svw / sw

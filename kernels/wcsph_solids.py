@@ -123,6 +123,29 @@ class SurfacePenalty:
     stiffness: float
 
 
+@wp.func
+def surface_overlap(penalty: SurfacePenalty, k: int, x: wp.vec3):
+    """(r0 - s, n) for solid k when point x is closer to its surface than r0 on the allowed side, or past it (s the
+    signed distance, > 0 on the allowed side; n the unit normal pointing to the allowed side); (0, 0) otherwise."""
+    s = penalty.solids
+    found, closest, inside = closest_point(s, k, x, 2.0 * penalty.reach)
+    depth = float(0.0)
+    n = wp.vec3(0.0, 0.0, 0.0)
+    if found != 0:
+        d = x - closest
+        dist = wp.length(d)
+        allowed = inside == s.inside_allowed[k]
+        signed = dist
+        if not allowed:
+            signed = -dist
+        if signed < penalty.reach and dist > 0.0:
+            depth = penalty.reach - signed
+            n = d / dist
+            if not allowed:
+                n = -n
+    return depth, n
+
+
 @wp.kernel
 def add_surface_penalty(
     first: int,
@@ -143,19 +166,36 @@ def add_surface_penalty(
         return
     x = positions[i]
     a = wp.vec3(0.0, 0.0, 0.0)
-    s = penalty.solids
-    for k in range(s.count):
-        found, closest, inside = closest_point(s, k, x, 2.0 * penalty.reach)
-        if found != 0:
-            d = x - closest
-            dist = wp.length(d)
-            allowed = inside == s.inside_allowed[k]
-            signed = dist
-            if not allowed:
-                signed = -dist
-            if signed < penalty.reach and dist > 0.0:
-                n = d / dist
-                if not allowed:
-                    n = -n
-                a += penalty.stiffness * (penalty.reach - signed) * n
+    for k in range(penalty.solids.count):
+        depth, n = surface_overlap(penalty, k, x)
+        if depth > 0.0:
+            a += penalty.stiffness * depth * n
     acceleration[i] = acceleration[i] + a
+
+
+@wp.kernel
+def contact_acceleration(
+    first: int,
+    penalty: SurfacePenalty,
+    solid_count: int,
+    rows: wp.array(dtype=wp.int32),
+    offset: int,
+    positions: wp.array(dtype=wp.vec3),
+    velocities: wp.array(dtype=wp.vec3),
+    acceleration: wp.array(dtype=wp.vec3),
+):
+    """The contact of a moving body's wall particle i = offset + rows[tid] with the first ``solid_count`` solids (the
+    static ones): for every surface it is closer to than r0 on the allowed side (or past), the acceleration
+    max(stiffness (r0 - s) - 2 sqrt(stiffness) v·n, 0) n, the penalty of ``add_surface_penalty`` with a critical
+    damper on the normal speed (a body comes to rest on a floor without bouncing, and the damper never pulls)."""
+    t = first + wp.tid()
+    i = offset + rows[t]
+    x = positions[i]
+    v = velocities[i]
+    a = wp.vec3(0.0, 0.0, 0.0)
+    for k in range(solid_count):
+        depth, n = surface_overlap(penalty, k, x)
+        if depth > 0.0:
+            push = penalty.stiffness * depth - 2.0 * wp.sqrt(penalty.stiffness) * wp.dot(v, n)
+            a += wp.max(push, 0.0) * n
+    acceleration[t] = a

@@ -340,6 +340,9 @@ class MovingNeighbours:
     radius: interaction radius (m). skin: extra margin (m), >= 0 (0: rebuild every step).
     static_sets: name -> positions of static sets (walls, nodes) that query or are queried.
     position_at_build: the array to keep the build positions in (a solver passes its state's), or None.
+    static_at_build: name -> an array for a static set that moves all the same (walls of a rigid body, moved by the
+        solver, not integrated here): its positions are kept there at each :meth:`rebuild` and its grid is built
+        from them, so that its tables stay valid while it too moves less than skin/2 (the solver's bound covers it).
     sized_for: set name ("moving" or a static set's) -> the grid points its hash table is sized for
         (:class:`NeighbourGrid`; a distributed run's ranks pass the whole sets').
     """
@@ -348,7 +351,7 @@ class MovingNeighbours:
 
     def __init__(self, launcher: Launcher, space: Space, positions: wp.array, radius: float, skin: float,
                  static_sets: dict[str, wp.array] | None = None, position_at_build: wp.array | None = None,
-                 sized_for: dict[str, int] | None = None):
+                 sized_for: dict[str, int] | None = None, static_at_build: dict[str, wp.array] | None = None):
         self.launcher = launcher
         self.space = space
         self.radius = require_positive("radius", radius)
@@ -361,6 +364,7 @@ class MovingNeighbours:
             raise ParameterError("position_at_build", f"must be like positions ({positions.shape[0]} vec3)")
         self.position_at_build = position_at_build
         self.static_sets = dict(static_sets or {})
+        self.static_at_build = self._at_build(static_at_build)
         reach = self.radius + self.skin
         sized_for = dict(sized_for or {})
         self.grids = {self.MOVING: NeighbourGrid(launcher, reach, space, sized_for=sized_for.get(self.MOVING))}
@@ -382,8 +386,17 @@ class MovingNeighbours:
         self.tables[name] = (table, query, source, exclude_self)
         return table
 
+    def _at_build(self, static_at_build: dict[str, wp.array] | None) -> dict[str, wp.array]:
+        out = dict(static_at_build or {})
+        for name, arr in out.items():
+            pos = self.static_sets.get(name)
+            if pos is None or arr.shape != pos.shape or arr.dtype != pos.dtype:
+                raise ParameterError("static_at_build", f"{name!r} must be like the static set of that name")
+        return out
+
     def follow(self, positions: wp.array, position_at_build: wp.array,
-               static_sets: dict[str, wp.array] | None = None) -> None:
+               static_sets: dict[str, wp.array] | None = None,
+               static_at_build: dict[str, wp.array] | None = None) -> None:
         """The same sets laid out anew (a rank's part after a migration): the moving set's ``positions`` and
         ``position_at_build`` arrays, the static sets' new positions (their grids built over them at once). The grids'
         hash tables and the tables' arrays are kept (reused while they fit); the tables are filled at the next
@@ -394,8 +407,10 @@ class MovingNeighbours:
         if set(new_static) != set(self.static_sets):
             raise ParameterError("static_sets", f"must name the same sets as before: {sorted(self.static_sets)}")
         self.positions, self.position_at_build, self.static_sets = positions, position_at_build, new_static
+        self.static_at_build = self._at_build(static_at_build)
         for name, pos in new_static.items():
-            self.grids[name].build(pos)
+            if name not in self.static_at_build:  # a moving one's grid: at the next build
+                self.grids[name].build(pos)
 
     def table(self, name: str) -> NeighbourTable:
         """The neighbour table called ``name``."""
@@ -409,13 +424,18 @@ class MovingNeighbours:
     def rebuild(self) -> None:
         """Build at the current positions: copy them to :attr:`position_at_build`, then :meth:`build_tables`."""
         wp.copy(self.position_at_build, self.positions)
+        for name, at_build in self.static_at_build.items():
+            wp.copy(at_build, self.static_sets[name])
         self.build_tables()
 
     def build_tables(self) -> None:
         """Grid of the moving set and every table, from :attr:`position_at_build` (also after a resume)."""
         self.grids[self.MOVING].build(self.position_at_build)
+        for name, at_build in self.static_at_build.items():
+            self.grids[name].build(at_build)
         for table, query, source, exclude_self in self.tables.values():
-            q = self.position_at_build if query == self.MOVING else self.static_sets[query]
+            q = (self.position_at_build if query == self.MOVING
+                 else self.static_at_build.get(query, self.static_sets[query]))
             table.fill(self.grids[source], q, exclude_self)
         self.builds += 1
 

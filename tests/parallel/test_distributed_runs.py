@@ -66,6 +66,28 @@ def test_a_distributed_run_gives_the_one_process_outputs_bitwise(scene, ranks, s
 
 
 @needs_mpi
+@pytest.mark.parametrize("scene", ["carried_tank_scene", "floating_box_scene"])
+def test_a_rigid_body_moves_across_the_ranks_bitwise(scene, tmp_path):
+    """A tank, a rigid body, carried 1 m along x (2.5 tank widths) on 3 ranks: its walls, cut among the ranks at the
+    start, follow it into other ranks' boxes at the rebuilds, and its water with them; a floating box, its load
+    summed over the ranks' walls in their global order: the one process's outputs, bitwise (the box's sensor
+    too)."""
+    from pathlib import Path
+
+    scene = str(Path(__file__).parents[1] / "helpers" / f"{scene}.py")
+    one, many = tmp_path / "one", tmp_path / "many"
+    assert main(["run", scene, "--out", str(one), "--no-progress", "--no-frames", "--threads", "1"]) == 0
+    done = run_distributed(3, ["run", scene, "--out", str(many), "--no-progress", "--no-frames"])
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert snapshot_differences(one, many) == []
+    a, b = summary(one), summary(many)
+    assert a["steps"] == b["steps"] and relative_differences(a["diagnostics"], b["diagnostics"]) == {}
+    assert sum(b["model"]["distributed"]["fluid_owned"]) == a["model"]["n_fluid"]
+    for csv in (one / "sensors").glob("*.csv"):
+        assert csv.read_bytes() == (many / "sensors" / csv.name).read_bytes(), csv.name
+
+
+@needs_mpi
 @pytest.mark.parametrize("scene,ranks", [("pic_plasma_oscillation", 2), ("pic_two_stream", 3)])
 def test_a_distributed_plasma_moves_its_particles_bitwise_and_sums_them_to_round_off(scene, ranks, tmp_path):
     """The particles (every snapshot, in id order) and the nodal charge and potential bitwise; the step's particle

@@ -30,6 +30,7 @@ from warpfree.particles import to_vec3
 from warpfree.smoothing import SmoothingKernel
 from warpfree.space import Space
 
+from .bodies import Bodies
 from .solids import Solids
 
 __all__ = ["FluidParams", "WCSPHModel", "BoundaryModel", "lattice_second_moment"]
@@ -214,7 +215,8 @@ class WCSPHModel:
                f"{group_digits(len(boundary))} wall particles)")
     def __init__(self, fluid, boundary, params: FluidParams, obstacle_boundary=None,
                  boundary_volume: float | None = None, fluid_volume: float | None = None, containers=(),
-                 obstacles=(), wall_velocity=None, wall_velocity_factor=None, launcher: Launcher | None = None):
+                 obstacles=(), wall_velocity=None, wall_velocity_factor=None, bodies=(),
+                 launcher: Launcher | None = None):
         params.validate()
         self.launcher = launcher or current_launcher()
         device = self.launcher.device
@@ -225,7 +227,9 @@ class WCSPHModel:
         xo = (to_vec3(obstacle_boundary, "obstacle_boundary") if obstacle_boundary is not None
               and np.size(obstacle_boundary) else np.zeros((0, 3), np.float32))
         self.n_container_walls = len(xb)
-        xb = np.vstack([xb, xo])
+        #: the rigid bodies among the walls, or None
+        self.bodies = Bodies(bodies, params.dim, len(xb) + len(xo), self.launcher) if len(bodies) else None
+        xb = np.vstack([xb, xo] + ([self.bodies.particles] if self.bodies else []))
         lo, hi = np.asarray(params.container_lo, float), np.asarray(params.container_hi, float)
         outside = np.any((xf < lo) | (xf > hi), axis=1)
         if outside.any():
@@ -248,6 +252,8 @@ class WCSPHModel:
                              dtype=float, device=device)
         #: (nb, 3) float32 surface velocity of every wall particle (m/s), containers' then obstacles'
         self.wall_velocity_np = self._wall_velocity(wall_velocity)
+        if self.bodies is not None and np.any(self.wall_velocity_np[self.bodies.wall_body >= 0] != 0.0):
+            raise ParameterError("wall_velocity", "a body's walls move with the body: give them no surface velocity")
         #: (times (s), factors) of the walls' velocity factor f(t), or None: the walls move at v0 throughout
         self.wall_velocity_factor = self._velocity_factor(wall_velocity_factor)
         #: the laminar term's lattice second moment S: the kernels take μ/S (see the module docstring)
@@ -258,10 +264,12 @@ class WCSPHModel:
             walls="none" if self.nb == 0 else params.boundary_model.value,
             wall_safety=params.boundary_model is BoundaryModel.DYNAMIC and params.lj_r0 > 0.0,
             no_slip=bool(params.no_slip), wall_artificial=bool(params.wall_artificial_viscosity),
-            riemann=params.riemann > 0.0,
+            riemann=params.riemann > 0.0, moving_walls=self.bodies is not None,
             shifting=params.shifting > 0.0, periodic=self.space.periodic)
         self.constants = self._constants()
-        self.solids = Solids(self.launcher, params.dim, containers, obstacles) if (containers or obstacles) else None
+        body_surfaces = self.bodies.surfaces() if self.bodies is not None else []
+        self.solids = (Solids(self.launcher, params.dim, containers, obstacles, body_surfaces)
+                       if (containers or obstacles or body_surfaces) else None)
 
     def _wall_velocity(self, wall_velocity) -> np.ndarray:
         """The walls' surface velocity: zero, one velocity for all of them, or one per wall particle (``dim`` or 3
@@ -301,9 +309,13 @@ class WCSPHModel:
         return times.astype(np.float64), factors.astype(np.float32)
 
     def wall_values(self) -> dict[str, np.ndarray]:
-        """All walls' arrays as the solver lays them out: position (m), mass (kg), surface velocity (m/s)."""
-        return {"position": self.position_np[self.nf:], "mass": self.mass.numpy()[self.nf:],
-                "velocity": self.wall_velocity_np}
+        """All walls' arrays as the solver lays them out: position (m, at t = 0), mass (kg), surface velocity (m/s);
+        with bodies, each wall's body (-1: at rest) and offset in its body's frame (m, float64)."""
+        values = {"position": self.position_np[self.nf:], "mass": self.mass.numpy()[self.nf:],
+                  "velocity": self.wall_velocity_np}
+        if self.bodies is not None:
+            values.update(body=self.bodies.wall_body, offset=self.bodies.wall_offset)
+        return values
 
     def _constants(self) -> FluidConstants:
         P = self.params
@@ -349,4 +361,6 @@ class WCSPHModel:
         d.update({"h": P.h, "support": P.support, "B": P.b, "viscosity_factor": self.viscosity_factor,
                   "n_fluid": self.nf, "n_boundary": self.nb,
                   "n_particles": self.n, "compiled_terms": asdict(self.terms)})
+        if self.bodies is not None:
+            d["bodies"] = self.bodies.describe()
         return d

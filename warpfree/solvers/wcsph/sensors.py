@@ -1,4 +1,5 @@
-"""The fluid's own sensors: water gauges (``height``) and the force on solids (``force``). Pressure sensors are the
+"""The fluid's own sensors: water gauges (``height``), the force on solids (``force``) and a rigid body's motion
+(``body``). Pressure sensors are the
 core's (:class:`warpfree.sensors.PressureSensor`, through :meth:`WCSPHSolver.field_at`).
 
 A force sensor records the fluid's force on the obstacles' wall particles (or the containers') and its moment about a
@@ -23,7 +24,7 @@ import numpy as np
 from warpfree.errors import ParameterError
 from warpfree.sensors import DEFAULT_INTERVAL, Sensor, register_kind
 
-__all__ = ["WaterGauge", "ForceSensor"]
+__all__ = ["WaterGauge", "ForceSensor", "BodySensor"]
 
 #: the filled fraction at a free surface (a flat surface of uniform fluid: half the support filled)
 SURFACE_FILLED = 0.5
@@ -137,6 +138,58 @@ class ForceSensor(Sensor):
         return {**super().describe(), "walls": self.walls, "about": self.about.tolist()}
 
 
+class BodySensor(Sensor):
+    """The motion of rigid body ``body`` (its index in the model's ``bodies``): its reference point's position (m;
+    for a floating body its centre of mass), its rotation (2D: the angle about z, rad; 3D: the quaternion x, y, z, w),
+    velocity (m/s) and spin (rad/s), and the fluid's force on it (N; per metre in 2D) and moment about the reference
+    point (``WCSPHSolver.body_loads``)."""
+
+    kind: ClassVar[str] = "body"
+
+    def __init__(self, name: str, body: int = 0, interval: float = DEFAULT_INTERVAL):
+        super().__init__(name, interval)
+        if not isinstance(body, (int, np.integer)) or body < 0:
+            raise ParameterError("sensor", f"{name}: a body's index is a whole number >= 0, got {body!r}")
+        self.body = int(body)
+        self._dim = 3
+
+    def check(self, solver) -> None:
+        if getattr(solver, "name", "") != "wcsph":
+            raise ParameterError("sensor", f"{self.name}: a body sensor reads a WCSPH fluid, not {solver.name}")
+        bodies = solver.model.bodies
+        if bodies is None or self.body >= bodies.count:
+            raise ParameterError("sensor", f"{self.name}: this scene has {0 if bodies is None else bodies.count} "
+                                           f"bodies, no body {self.body}")
+        self._dim = solver.dim
+
+    def columns(self, solver) -> list[tuple[str, str]]:
+        d = self._dim
+        force, moment = ("N/m", "N") if d == 2 else ("N", "N m")
+        cols = [(a, "m") for a in "xyz"[:d]]
+        cols += [("angle", "rad")] if d == 2 else [(f"q{a}", "") for a in "xyzw"]
+        cols += [(f"v{a}", "m/s") for a in "xyz"[:d]]
+        cols += [("spin", "rad/s")] if d == 2 else [(f"spin_{a}", "rad/s") for a in "xyz"]
+        cols += [(f"force_{a}", force) for a in "xyz"[:d]]
+        cols += [("moment_z", moment)] if d == 2 else [(f"moment_{a}", moment) for a in "xyz"]
+        return cols
+
+    def sample(self, solver) -> np.ndarray:
+        from warpfree.kernels import wcsph_bodies as bk
+
+        d, b = self._dim, self.body
+        row = solver.body_state()[b]
+        force, moment = (v[b] for v in solver.body_loads())
+        q = row[bk.BODY_ROTATION:bk.BODY_ROTATION + 4]
+        rotation = [2.0 * np.arctan2(q[2], q[3])] if d == 2 else list(q)
+        spin = row[bk.BODY_SPIN:bk.BODY_SPIN + 3]
+        return np.array(list(row[:d]) + rotation + list(row[bk.BODY_VELOCITY:bk.BODY_VELOCITY + d])
+                        + ([spin[2]] if d == 2 else list(spin)) + list(force[:d])
+                        + ([moment[2]] if d == 2 else list(moment)))
+
+    def describe(self) -> dict:
+        return {**super().describe(), "body": self.body}
+
+
 def _force_sensor(name, points, interval):
     if len(points) != 1:
         raise ParameterError("sensor", f"{name}: a force sensor takes one point, the moment's centre")
@@ -146,3 +199,12 @@ def _force_sensor(name, points, interval):
 register_kind("force", "X,Y[,Z]: the moment's centre (m); on the obstacles", _force_sensor)
 register_kind("height", "X,Y[,Z][;...]: base points on the floor (m)",
               lambda name, points, interval: WaterGauge(name, points, interval))
+register_kind("body", "K: the index of a rigid body of the scene (its position, rotation, velocity and load)",
+              lambda name, points, interval: BodySensor(name, _body_index(name, points), interval))
+
+
+def _body_index(name, points) -> int:
+    value = np.asarray(points, dtype=np.float64).ravel()
+    if value.size != 1 or value[0] != np.round(value[0]) or value[0] < 0:
+        raise ParameterError("sensor", f"{name}: a body sensor takes one body index, got {value.tolist()!r}")
+    return int(value[0])

@@ -18,6 +18,7 @@ import warp as wp
 from warpfree.device import Launcher
 from warpfree.errors import ParameterError
 from warpfree.geometry import is_mesh
+from warpfree.kernels import wcsph_bodies as bk
 from warpfree.kernels import wcsph_solids as sk
 
 __all__ = ["Solids", "Penetration"]
@@ -40,17 +41,27 @@ class Penetration:
 
 class Solids:
     """Closed surfaces in a ``dim``-D scene (2 or 3): ``containers`` and ``obstacles``, each a
-    ``trimesh.Trimesh`` (3D, watertight) or an (M, 2) polygon (2D, closed, any orientation)."""
+    ``trimesh.Trimesh`` (3D, watertight) or an (M, 2) polygon (2D, closed, any orientation); ``bodies``: the surfaces
+    of rigid bodies as (surface, body index, the body's reference point at t = 0, whether it holds the fluid: a
+    container, else an obstacle), which :meth:`follow` their bodies (``warpfree.solvers.wcsph.bodies``)."""
 
-    def __init__(self, launcher: Launcher, dim: int, containers=(), obstacles=()):
+    def __init__(self, launcher: Launcher, dim: int, containers=(), obstacles=(), bodies=()):
         if dim not in (2, 3):
             raise ParameterError("dim", f"solids are 2D polygons or 3D meshes, got dim={dim!r}")
         self.launcher = launcher
         self.dim = dim
         dev = launcher.device
-        shapes = [(1, s) for s in containers] + [(0, s) for s in obstacles]
+        bodies = list(bodies)
+        shapes = ([(1, s) for s in containers] + [(0, s) for s in obstacles]
+                  + [(int(inside), s) for s, _, _, inside in bodies])
         self.names = [f"outside container {k}" for k in range(len(containers))] + \
-                     [f"inside obstacle {k}" for k in range(len(obstacles))]
+                     [f"inside obstacle {k}" for k in range(len(obstacles))] + \
+                     [f"{'outside' if inside else 'inside'} body {b}" for _, b, _, inside in bodies]
+        first_body = len(containers) + len(obstacles)
+        #: the solids that do not move (containers and obstacles, before the bodies' surfaces)
+        self.static_count = first_body
+        #: the moving surfaces: 2D, (each vertex's body or -1, its offset) over all vertices; 3D, (mesh, body, offsets)
+        self._moving = None
         s = sk.Solids()
         s.count, s.planar = len(shapes), int(dim == 2)
         s.inside_allowed = wp.array(np.array([i for i, _ in shapes] or [0], dtype=np.int32), dtype=wp.int32, device=dev)
@@ -77,6 +88,33 @@ class Solids:
             s.meshes = wp.zeros(1, dtype=wp.uint64, device=dev)
             s.max_dist = 1.0e30
         self.struct = s
+        if bodies and dim == 2:
+            body_of_vertex = np.concatenate([np.full(len(p), -1 if k < first_body else bodies[k - first_body][1],
+                                                     np.int32) for k, p in enumerate(polygons)])
+            centre = np.vstack([np.tile(np.zeros(3) if k < first_body else bodies[k - first_body][2], (len(p), 1))
+                                for k, p in enumerate(polygons)])
+            vertices = np.vstack(polygons).astype(np.float32).astype(np.float64)
+            offset = np.column_stack([vertices, np.zeros(len(vertices))]) - centre
+            self._moving = (wp.array(body_of_vertex, dtype=wp.int32, device=dev),
+                            wp.array(offset, dtype=wp.vec3d, device=dev))
+        elif bodies:
+            self._moving = [(self._meshes[first_body + m], b, wp.array(
+                np.asarray(self._meshes[first_body + m].points.numpy(), np.float64) - centre, dtype=wp.vec3d,
+                device=dev)) for m, (_, b, centre, _) in enumerate(bodies)]
+
+    def follow(self, body_state: wp.array) -> None:
+        """The bodies' surfaces where their state ((count, BODY_COLUMNS) float64, ``kernels/wcsph_bodies.py``) puts
+        them: 2D polygons' vertices moved, 3D meshes' points moved and refitted."""
+        if self._moving is None:
+            return
+        if self.dim == 2:
+            body_of_vertex, offset = self._moving
+            self.launcher.launch(bk.rigid_vertices, offset.shape[0], [body_of_vertex, offset, body_state,
+                                                                      self.struct.vertices])
+            return
+        for mesh, body, offset in self._moving:
+            self.launcher.launch(bk.rigid_mesh_points, offset.shape[0], [int(body), offset, body_state, mesh.points])
+            mesh.refit()
 
     def __len__(self) -> int:
         return self.struct.count

@@ -30,10 +30,13 @@ from warpfree.progress import announced, group_digits
 from warpfree.graph import StepGraph
 from warpfree.kernels import clock as ck
 from warpfree.reduce import Reduction
+from warpfree.kernels import wcsph_bodies as bw
 from warpfree.kernels.wcsph_sensors import make_sample
+from warpfree.kernels import wcsph_solids as sk
 from warpfree.kernels.wcsph_solids import add_surface_penalty
 from warpfree.solver import OutputSet, State, TimeDependentSolver
 
+from .bodies import BODY_SLICES, quat_matrix, quat_multiply, rotation_quat
 from .model import WCSPHModel
 from .spread import STEP_FIELDS, WORK_PHASES, FluidSpread
 
@@ -120,6 +123,13 @@ class WCSPHSolver(TimeDependentSolver):
         self._walls_in_order = None  # the wall-pressure pass's launch order (:meth:`_wall_order`)
         self._busy_at_rebuild = 0.0  # the work phases' seconds at the last rebuild (:meth:`_busy_since_rebuild`)
         self._limits = self._step_limits()
+        #: the rigid bodies' state and its value at the tables' build ((count, BODY_COLUMNS) float64, the same on every
+        #: rank; ``kernels/wcsph_bodies.py``), or None
+        self._body_state = self._body_state_at_build = None
+        if model.bodies is not None:
+            self._body_state = wp.array(model.bodies.initial_state(), dtype=wp.float64, device=launcher.device)
+            self._body_state_at_build = wp.clone(self._body_state)
+            self._body_half = np.zeros((model.bodies.count, 6))  # the floating bodies' V½, Ω½ within a step
         mass = model.mass.numpy()
         fluid = {"position": model.position_np[:nf], "velocity": v_f.astype(np.float32),
                  "density": rho_f.astype(np.float32), "mass": mass[:nf]}
@@ -139,6 +149,9 @@ class WCSPHSolver(TimeDependentSolver):
                                               f"{inside.max_depth:.3g} m {inside.where}, particle {inside.first_index})")
             # the fluid starts dx/2 clear of the surfaces (like its first wall layer on the other side)
             self._penalty = self.solids.penalty(0.5 * params.dx, params.c0)
+            #: a floating body's contact with the static solids: its wall particles, dx/2 inside its surface, kept
+            #: dx/2 clear of theirs (the same penalty, damped)
+            self._contact = self._penalty
         self.initialise()
 
     def _lay_out(self, fluid: dict[str, np.ndarray], walls: dict[str, np.ndarray], capacities: dict[str, int],
@@ -175,6 +188,8 @@ class WCSPHSolver(TimeDependentSolver):
             else wp.zeros(nf, dtype=wp.vec3, device=dev),
             clock=self.clock.values)
         S = self.state
+        if model.bodies is not None:
+            S.body_state, S.body_state_at_build = self._body_state, self._body_state_at_build
         # which fluid particles the arrays hold: a checkpoint read on another number of processes needs it
         S.fluid_id = self.spread.fluid.ids.astype(np.int64)
         S.fluid_owned = self.spread.fluid.owned.astype(np.int8)
@@ -190,7 +205,17 @@ class WCSPHSolver(TimeDependentSolver):
         a.velocity_eval = fluid_or_zeros("velocity_eval", wp.vec3, nf)
         a.density_eval = fluid_or_zeros("density_eval", float, nf)
         a.ghost_velocity = wp.zeros(max(nb, 1), dtype=wp.vec3, device=dev)
-        a.report = wp.zeros(nf, dtype=wp.vec4, device=dev)
+        bodies = model.bodies is not None
+        a.report = wp.zeros(nf + (nb if bodies else 0), dtype=wp.vec4, device=dev)  # with bodies: their walls' rows
+        a.wall_acceleration = wp.zeros(nb if bodies else 1, dtype=wp.vec3, device=dev)
+        #: with bodies, each held wall's body (-1: at rest), its offset in the body's frame and its position at the
+        #: tables' build
+        self._wall_body = self._wall_offset = self._wall_position_at_build = None
+        if bodies:
+            self._wall_body = arr(walls["body"], wp.int32)
+            self._wall_body_np = np.asarray(walls["body"])
+            self._wall_offset = arr(walls["offset"], wp.vec3d)
+            self._wall_position_at_build = wp.zeros(nb, dtype=wp.vec3, device=dev)
         n_shift = nf if model.terms.shifting else 1  # scratch of this step's shift (written by rates, used by kick)
         a.shift_velocity = wp.zeros(n_shift, dtype=wp.vec3, device=dev)
         a.shift_acceleration = wp.zeros(n_shift, dtype=wp.vec3, device=dev)
@@ -228,9 +253,11 @@ class WCSPHSolver(TimeDependentSolver):
         # Neighbour candidates within support + skin, rebuilt once a fluid particle may have moved skin/2. A layout
         # after a migration keeps the grids and tables (their capacities and arrays) and fills them at the rebuild.
         a.position_at_build = S.position_at_build
+        if bodies:
+            self._place_walls()
         if relayout:
             self.moving_neighbours.follow(self.fluid.position, S.position_at_build,
-                                          {"walls": self.walls} if model.nb else None)
+                                          {"walls": self.walls} if model.nb else None, self._walls_at_build())
         else:
             self._make_tables(capacities)
         if not model.nb:  # valid empty rows for the kernels
@@ -242,7 +269,7 @@ class WCSPHSolver(TimeDependentSolver):
         self.moving_neighbours = MovingNeighbours(
             self.launcher, model.space, self.fluid.position, params.support, model.skin,
             static_sets={"walls": self.walls} if model.nb else None, position_at_build=S.position_at_build,
-            sized_for=self._grid_sizes)
+            sized_for=self._grid_sizes, static_at_build=self._walls_at_build())
         self.fluid_fluid = self.moving_neighbours.add_table("fluid_fluid", "moving", "moving",
                                                             capacities["fluid_fluid"], exclude_self=True)
         if model.nb:
@@ -250,6 +277,159 @@ class WCSPHSolver(TimeDependentSolver):
                                                                capacities["fluid_wall"])
             self.wall_fluid = self.moving_neighbours.add_table("wall_fluid", "walls", "moving",
                                                                capacities["wall_fluid"])
+
+    def _walls_at_build(self) -> dict[str, wp.array] | None:
+        """The walls' positions at the tables' build, when bodies move some of them (else the walls are static)."""
+        return {"walls": self._wall_position_at_build} if self._wall_position_at_build is not None else None
+
+    # -- rigid bodies ----------------------------------------------------------------------------
+    def _move_bodies(self, at_step_end: bool) -> None:
+        """The bodies' state at the time of the next rates (t + Δt after a drift, else t): the prescribed ones' from
+        their motions, the floating ones' drifted (:meth:`_drift_floating`); then their walls and surfaces where it
+        puts them."""
+        bodies = self.model.bodies
+        bodies.launch_poses(self.clock.values, at_step_end, self._body_state)
+        if bodies.floating and at_step_end:
+            self._drift_floating()
+        self._place_walls()
+
+    def _drift_floating(self) -> None:
+        """The floating bodies' half kick and drift (float64, on the host: a few numbers a body), in step with the
+        fluid's leapfrog: V½ = V + ½Δt A, c ← c + Δt V½, q ← exp(½Δt Ω½) q; their velocity at t + Δt predicted as
+        V½ + ½Δt A (what the walls carry into the rates, as the fluid's v*)."""
+        bodies, dt = self.model.bodies, float(self.clock.step)
+        state = self._body_state.numpy()
+        x, q, v, w, a, alpha = BODY_SLICES
+        for b in bodies.floating:
+            row = state[b]
+            half_v, half_w = row[v] + 0.5 * dt * row[a], row[w] + 0.5 * dt * row[alpha]
+            row[x] += dt * half_v
+            turned = quat_multiply(rotation_quat(dt * half_w), row[q])
+            row[q] = turned / np.linalg.norm(turned)
+            row[v], row[w] = half_v + 0.5 * dt * row[a], half_w + 0.5 * dt * row[alpha]
+            self._body_half[b] = np.concatenate([half_v, half_w])
+        self._body_state.assign(state)
+
+    def _kick_floating(self, initial: bool = False) -> None:
+        """The floating bodies' accelerations from the fluid's load on them (:meth:`body_loads`) and their weight,
+        A = F/m and α = I⁻¹ (τ - Ω × I Ω) (I turned with the body), over their free degrees of freedom; then, but for
+        the ``initial`` rates, their second half kick V = V½ + ½Δt A."""
+        bodies, dt = self.model.bodies, float(self.clock.step)
+        force, moment = self.body_loads()
+        state = self._body_state.numpy()
+        gravity = np.asarray(self.model.params.gravity, dtype=np.float64)
+        _, q, v, w, a, alpha = BODY_SLICES
+        for b in bodies.floating:
+            row = state[b]
+            free_t, free_r = bodies.free[b, :3], bodies.free[b, 3:]
+            rotation = quat_matrix(row[q])
+            inertia = rotation @ bodies.inertia[b] @ rotation.T
+            row[a] = (force[b] / bodies.mass[b] + gravity) * free_t
+            row[alpha] = np.linalg.solve(inertia, moment[b] - np.cross(row[w], inertia @ row[w])) * free_r
+            if not initial:
+                half = self._body_half[b]
+                row[v], row[w] = half[:3] + 0.5 * dt * row[a], half[3:] + 0.5 * dt * row[alpha]
+        self._body_state.assign(state)
+
+    def body_state(self) -> np.ndarray:
+        """(count, BODY_COLUMNS) float64: every rigid body's state now (``kernels/wcsph_bodies.py``: position,
+        rotation quaternion, velocity, spin, acceleration, spin rate), a copy, the same on every rank."""
+        if self._body_state is None:
+            return np.zeros((0, bw.BODY_COLUMNS))
+        return self._body_state.numpy().copy()
+
+    def body_loads(self) -> tuple[np.ndarray, np.ndarray]:
+        """The fluid's force (N; per metre in 2D) on each body and its moment about the body's reference point (N m),
+        (count, 3) float64 each: the reaction to the wall terms of the last rates on its wall particles, summed in
+        the walls' global order, the same on every rank (as :meth:`force_on`)."""
+        bodies = self.model.bodies
+        part = self.spread.walls
+        own = part.owned_index
+        mine = own[self._wall_body_np[own] >= 0]
+        ids, force, where = self._wall_forces(mine, part.ids[mine], self._contact_forces(mine))
+        body = bodies.wall_body[ids]
+        state = self._body_state.numpy()
+        arm = where - state[body, BODY_SLICES[0]]
+        total, moment = np.zeros((bodies.count, 3)), np.zeros((bodies.count, 3))
+        for b in range(bodies.count):
+            on = body == b
+            total[b] = force[on].sum(axis=0)
+            moment[b] = np.cross(arm[on], force[on]).sum(axis=0)
+        return total, moment
+
+    def _contact_forces(self, rows: np.ndarray) -> np.ndarray | None:
+        """The static solids' contact force (N; per metre in 2D) on each held wall of ``rows`` of a floating body
+        (``kernels/wcsph_solids.py: contact_acceleration`` times its share of the body's mass; zero for the prescribed
+        bodies' walls), or None without static solids."""
+        solids, bodies = self.model.solids, self.model.bodies
+        if solids is None or solids.static_count == 0 or not bodies.floating or not rows.size:
+            return None
+        dev = self.launcher.device
+        out = wp.zeros(rows.size, dtype=wp.vec3, device=dev)
+        self.launcher.launch(sk.contact_acceleration, rows.size, [
+            self._contact, solids.static_count, wp.array(rows.astype(np.int32), dtype=wp.int32, device=dev), self.nf,
+            self.arrays.position, self.arrays.velocity, out], once=True)
+        body = self._wall_body_np[rows]
+        share = np.zeros(len(body))
+        for b in bodies.floating:
+            share[body == b] = bodies.mass[b] / np.count_nonzero(bodies.wall_body == b)
+        return out.numpy().astype(np.float64) * share[:, None]
+
+    def _wall_forces(self, rows: np.ndarray, ids: np.ndarray,
+                     extra: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The fluid's force on each held wall of ``rows`` (this rank's own; global wall ``ids``), plus ``extra`` (a
+        force per row) when given, and its position, gathered from every rank in the walls' global order: (ids,
+        forces (m, 3), positions (m, 3)), float64."""
+        force = np.zeros((0, 3))
+        if rows.size:
+            dev = self.launcher.device
+            out = wp.zeros(rows.size, dtype=wp.vec3, device=dev)
+            self.launcher.launch(self.kernels.wall_force, rows.size, [
+                self.model.constants, self.arrays, self.wall_fluid.rows,
+                wp.array(rows.astype(np.int32), dtype=wp.int32, device=dev), out], once=True)
+            force = out.numpy().astype(np.float64)
+            if extra is not None:
+                force = force + extra
+        where = self.walls.numpy()[rows].astype(np.float64)
+        every = self.world.allgather_objects((ids, force, where))
+        ids = np.concatenate([e[0] for e in every])
+        order = np.argsort(ids, kind="stable")
+        return (ids[order], np.concatenate([e[1] for e in every])[order],
+                np.concatenate([e[2] for e in every])[order])
+
+    def _place_walls(self) -> None:
+        """The bodies' held walls (position, velocity, acceleration, report rows) and surfaces at the bodies' state."""
+        a = self.arrays
+        self.launcher.launch(bw.rigid_walls, self.nb, [
+            self.nf, self.model.constants.box, self._wall_body, self._wall_offset, self._body_state, a.position,
+            a.velocity, a.wall_acceleration, self._wall_position_at_build, a.report])
+        if self.model.solids is not None:
+            self.model.solids.follow(self._body_state)
+
+    def _build_tables(self) -> None:
+        """The neighbour tables at the current positions (the fluid's and the bodies' walls'), the bodies' state at
+        the build kept with them."""
+        self.moving_neighbours.rebuild()
+        if self._body_state is not None:
+            wp.copy(self._body_state_at_build, self._body_state)
+            self._place_walls()  # their report rows: moved 0 since this build
+
+    def _tables_from_state(self) -> None:
+        """After a checkpoint: the tables the run had, from the build positions in the state (the fluid's, and the
+        bodies' walls where the bodies' state at the build put them)."""
+        if self._body_state is not None:
+            wp.copy(self._wall_position_at_build, self.walls)
+            self.launcher.launch(bw.rigid_points, self.nb, [self.model.constants.box, self._wall_body,
+                                                            self._wall_offset, self._body_state_at_build,
+                                                            self._wall_position_at_build])
+            self._place_walls()
+        self.moving_neighbours.build_tables()
+
+    def _host_wall_positions(self) -> np.ndarray:
+        """(nb, 3) float64: every wall of the model where the bodies' state puts it (on the host, every rank the same):
+        which rank holds which wall."""
+        model = self.model
+        return model.bodies.wall_positions(self._body_state.numpy(), model.position_np[model.nf:])
 
     # -- set-up --------------------------------------------------------------------------------
     def _check_neighbours(self, fluid_position: np.ndarray) -> int:
@@ -275,9 +455,15 @@ class WCSPHSolver(TimeDependentSolver):
         wp.copy(a.velocity_eval, self.fluid["velocity"])
         wp.copy(a.density_eval, self.fluid["density"])
         self.launcher.launch(K.equation_of_state, self.nf, [c, a.density_eval, self.state.pressure])
+        if self._body_state is not None:
+            with self.phases("boundary"):
+                self._move_bodies(at_step_end=False)
         with self.phases("neighbours"):
-            self.moving_neighbours.rebuild()
+            self._build_tables()
         self.compute_rates(at_step_end=False)
+        if self._body_state is not None and self.model.bodies.floating:
+            with self.phases("boundary"):
+                self._kick_floating(initial=True)
         self.spread.fluid.refresh(self.state.acceleration, self.state.density_rate)  # the ghosts' first drift's
         self._launch_report()
 
@@ -287,7 +473,8 @@ class WCSPHSolver(TimeDependentSolver):
         every velocity damped as v ← v e^(-γΔt) (γ = ``damping``, 1/s), then velocities set to zero and the rates
         recomputed. Positions, densities and pressures keep what the discrete equations balance (a lattice or a
         relaxed arrangement given hydrostatic densities is only near that: its first steps would start a
-        transient). Returns the step count and the kinetic energy and largest speed at the end of the settling."""
+        transient). Floating bodies move with the water meanwhile and end at rest with it. Returns the step count and
+        the kinetic energy and largest speed at the end of the settling."""
         require_positive("settle", duration)
         require_positive("damping", damping)
         self._set_damping(damping)
@@ -305,6 +492,12 @@ class WCSPHSolver(TimeDependentSolver):
             self._set_damping(0.0)
         d = self.diagnostics()
         self.fluid["velocity"].zero_()
+        if self._body_state is not None and self.model.bodies.floating:  # the floating bodies at rest too
+            state = self._body_state.numpy()
+            _, _, v, w, _, _ = BODY_SLICES
+            state[self.model.bodies.floating, v] = 0.0
+            state[self.model.bodies.floating, w] = 0.0
+            self._body_state.assign(state)
         self.initialise()
         return {"steps": steps, "kinetic_energy": d["kinetic_energy"], "max_speed": d["max_speed"]}
 
@@ -401,9 +594,10 @@ class WCSPHSolver(TimeDependentSolver):
         """:meth:`advance` as two Warp graphs around the host's rebuild decision: (drift), then a neighbour
         rebuild if the last report says a particle may have moved past the skin, then (rates, kick, report)."""
         L, a, c = self.launcher, self.arrays, self.model.constants
+        if self._body_state is not None and self.model.bodies.floating:
+            return None  # the floating bodies' step is the host's, between launches
         with L.capturing() as first:
-            with self.phases("integrate"):
-                L.launch(self.kernels.drift, self.nf, [c, a, self.clock.values])
+            self._drift()
         with L.capturing() as second:
             self._after_drift()
 
@@ -422,10 +616,16 @@ class WCSPHSolver(TimeDependentSolver):
         moved2, v2, a2, _ = self.report()
         return math.sqrt(moved2) + dt * (math.sqrt(v2) + 0.5 * dt * math.sqrt(a2))
 
-    def _launch_step(self, moved_bound: float) -> None:
+    def _drift(self) -> None:
+        """The fluid's drift to t + Δt, and the bodies moved there."""
         with self.phases("integrate"):
-            self.launcher.launch(self.kernels.drift, self.nf, [self.model.constants, self.arrays,
-                                                                self.clock.values])
+            self.launcher.launch(self.kernels.drift, self.nf, [self.model.constants, self.arrays, self.clock.values])
+        if self._body_state is not None:
+            with self.phases("boundary"):
+                self._move_bodies(at_step_end=True)
+
+    def _launch_step(self, moved_bound: float) -> None:
+        self._drift()
         if self.moving_neighbours.needs_rebuild(moved_bound):
             self._rebuild()
         self._after_drift()
@@ -434,8 +634,10 @@ class WCSPHSolver(TimeDependentSolver):
         """The neighbour tables at the current positions; in a distributed run the fluid first moves to the ranks
         whose boxes now hold it (and the decomposition is cut anew when the work is out of balance)."""
         with self.phases("neighbours"):
+            if self._body_state is not None and not self.spread.whole:
+                self.spread.move_walls(self._host_wall_positions())
             self.spread.redistribute(self._held_fluid, self._work, self._lay_out_again, self._busy_since_rebuild())
-            self.moving_neighbours.rebuild()
+            self._build_tables()
 
     def _busy_since_rebuild(self) -> float:
         """Seconds of this rank's work on its particles (``spread.WORK_PHASES``) since the last rebuild."""
@@ -467,8 +669,12 @@ class WCSPHSolver(TimeDependentSolver):
         self._lay_out(fluid, walls, {}, relayout=True)
 
     def _after_drift(self) -> None:
-        """Rates at the predicted state, the second kick, the step report and the clock's time."""
+        """Rates at the predicted state, the second kick (the floating bodies' too), the step report and the clock's
+        time."""
         self.compute_rates()
+        if self._body_state is not None and self.model.bodies.floating:
+            with self.phases("boundary"):
+                self._kick_floating()
         with self.phases("integrate"):
             self.launcher.launch(self.kernels.kick, self.nf, [self.model.constants, self.arrays,
                                                                self.clock.values])
@@ -526,8 +732,9 @@ class WCSPHSolver(TimeDependentSolver):
                 f"dx) {inside.where}")
 
     def after_load(self) -> None:
-        """After a checkpoint: the tables from the loaded ``position_at_build``, the report from the loaded state."""
-        self.moving_neighbours.build_tables()
+        """After a checkpoint: the tables from the loaded ``position_at_build`` (and the bodies' state at the build),
+        the report from the loaded state."""
+        self._tables_from_state()
         self._launch_report()
 
     #: the fluid arrays a checkpoint read on another number of processes carries (the walls' are recomputed by a
@@ -543,6 +750,10 @@ class WCSPHSolver(TimeDependentSolver):
         # each piece's fluid rows (its combined arrays hold its walls after them): as many as its ``fluid_id``
         whole = whole_from_pieces(pieces, self.RESTORED, "fluid_id", nf, owned="fluid_owned")
         mass = model.mass.numpy()
+        if self._body_state is not None:  # the same on every rank: the first piece's
+            self._body_state.assign(pieces[0]["body_state"])
+            self._body_state_at_build.assign(pieces[0]["body_state_at_build"])
+            self.spread.move_walls(self._host_wall_positions())
         self.spread.respread(whole["position_at_build"].astype(np.float64))
         self._lay_out_again(self.spread.held_fluid(dict(whole, mass=mass[:nf])),
                             self.spread.held_walls(model.wall_values()))
@@ -660,20 +871,7 @@ class WCSPHSolver(TimeDependentSolver):
         on every rank."""
         (box_rows, box_ids), (obs_rows, obs_ids) = self._own_walls()
         rows, ids = (obs_rows + self.n_container_walls, obs_ids) if walls == "obstacles" else (box_rows, box_ids)
-        force = np.zeros((0, 3))
-        if rows.size:
-            dev = self.launcher.device
-            out = wp.zeros(rows.size, dtype=wp.vec3, device=dev)
-            self.launcher.launch(self.kernels.wall_force, rows.size, [
-                self.model.constants, self.arrays, self.wall_fluid.rows,
-                wp.array(rows.astype(np.int32), dtype=wp.int32, device=dev), out], once=True)
-            force = out.numpy().astype(np.float64)
-        where = self.walls.numpy()[rows].astype(np.float64)
-        every = self.world.allgather_objects((ids, force, where))
-        ids = np.concatenate([e[0] for e in every])
-        order = np.argsort(ids, kind="stable")
-        force = np.concatenate([e[1] for e in every])[order]
-        where = np.concatenate([e[2] for e in every])[order]
+        _, force, where = self._wall_forces(rows, ids)
         arm = where - points3(np.asarray(about, dtype=np.float64).reshape(1, -1))[0]
         return force.sum(axis=0), np.cross(arm, force).sum(axis=0)
 

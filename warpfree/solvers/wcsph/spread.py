@@ -67,6 +67,7 @@ class FluidSpread(MovingSpread):
         self.fluid_start = x[: model.nf]
         self.wall_points = x[model.nf:]
         self.walls: Partition | None = None
+        self._walls_moved = False  # walls moved (rigid bodies) since their part was made
         super().__init__(world, self.fluid_start, cell=P.support, depth=P.support + model.skin, dim=P.dim,
                          lower=P.container_lo, upper=P.container_hi, periodic=P.periodic, method=method,
                          rebalance=rebalance)
@@ -80,11 +81,18 @@ class FluidSpread(MovingSpread):
         """The wall particles, each :data:`WALL_COST` of a fluid particle before neighbour counts are known."""
         return self.wall_points, np.full(len(self.wall_points), WALL_COST)
 
+    def move_walls(self, points: np.ndarray) -> None:
+        """Every wall's position now ((nb, 3), the same on every rank: rigid bodies move some): the next cut weighs
+        them there and the walls' part is made anew from them at the next :meth:`redistribute` (or cut)."""
+        self.wall_points = np.asarray(points, dtype=np.float64)
+        self._walls_moved = True
+
     def follow_cut(self) -> None:
         """The walls' part on the current cut."""
         if self.walls is not None:
             self.walls.release()
         self.walls = Partition.of_all(self.world, self.decomposition, self.depth, self.wall_points)
+        self._walls_moved = False
 
     # -- the held arrays ------------------------------------------------------------------------------------
     def n_container_walls(self) -> int:
@@ -137,6 +145,8 @@ class FluidSpread(MovingSpread):
             return fluid_cost, self.wall_points[self.walls.ids[own]], np.asarray(wall_cost, np.float64)[own]
 
         held = self.migrate(held_fluid(), work=own_work, busy=busy)
+        if self._walls_moved:  # the walls' part where they are now (the work above was the held walls' before)
+            self.follow_cut()
         lay_out(held, self.held_walls(self.model.wall_values()))
 
     def counts(self) -> dict[str, int]:
