@@ -47,6 +47,10 @@ __all__ = ["WCSPHSolver", "WCSPHState", "FluidField"]
 #: too small for dx.
 MIN_NEIGHBOURS = {1: 4, 2: 20, 3: 56}
 
+#: how far (in dx) a floating body's wall particles are kept from the static solids' surfaces: its own surface then
+#: stays one spacing from theirs
+CONTACT_REACH = 1.5
+
 #: the units of the output sets' quantities (SI)
 UNITS = {"position": "m", "velocity": "m/s", "speed": "m/s", "density": "kg/m³", "pressure": "Pa"}
 
@@ -150,8 +154,10 @@ class WCSPHSolver(TimeDependentSolver):
             # the fluid starts dx/2 clear of the surfaces (like its first wall layer on the other side)
             self._penalty = self.solids.penalty(0.5 * params.dx, params.c0)
             #: a floating body's contact with the static solids: its wall particles, dx/2 inside its surface, kept
-            #: dx/2 clear of theirs (the same penalty, damped)
-            self._contact = self._penalty
+            #: 1.5 dx clear of theirs (the surface penalty's stiffness over that reach, damped), so that one layer of
+            #: water, dx/2 clear of both surfaces, stays between them: the last one the resolution holds (a body
+            #: closer would crush it against the penalty on both sides)
+            self._contact = self.solids.penalty(CONTACT_REACH * params.dx, params.c0)
         self.initialise()
 
     def _lay_out(self, fluid: dict[str, np.ndarray], walls: dict[str, np.ndarray], capacities: dict[str, int],
