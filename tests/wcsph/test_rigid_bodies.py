@@ -221,56 +221,42 @@ def test_the_wave_flume_names_a_bad_setting_in_one_line(setting, parameter, caps
 
 
 def test_a_floating_box_released_too_high_settles_at_archimedes_draft_and_stays():
-    """A box 0.4 m wide and 0.2 m tall of density 500 kg/m³ (Archimedes' draft T = 0.1 m) released 2 cm too high in a
-    tank 2 m wide, free in x, y and rotation, moved by the fluid's force and moment on its wall particles and its
-    weight. The water is settled with damping for 3 s (the box comes down with it), then the run goes on free for
-    1 s: the draft (the level at two gauges 0.2 m from the side walls less the box's bottom) stays within 1 % of T,
-    the box at rest within 1 mm vertically, 1 cm horizontally and 0.01 rad. Measured at dx = 0.02 m: draft +0.66 %,
-    0.18 mm, 3.3 mm, 7.2 mrad (over 2 s free: +0.88 %, 0.43 mm, 6.9 mm, 8.7 mrad; at dx = 0.01 m over 2 s: +0.59 %,
-    0.17 mm, 0.3 mm, 2.1 mrad: the sway and roll left from the settling fall with dx)."""
-    from helpers.floating_box_scene import BREADTH, DENSITY, DROP, HEIGHT, WIDTH, floating_box_solver
-    from warpfree.solvers.wcsph.sensors import WaterGauge
-
+    """The shipped ``floating_box_2d`` at its defaults: a box 0.4 m wide and 0.2 m tall of density 500 kg/m³
+    (Archimedes' draft T = 0.1 m) released 2 cm too high in a tank 2 m wide, free in x, y and rotation, moved by the
+    fluid's force and moment on its wall particles and its weight; the water settled with damping for 3 s (the box
+    comes down with it), then 1 s free: the mean draft (the level at two gauges less the box's bottom) within 1 % of
+    T, the box at rest within 1 mm vertically, 1 cm sideways and 0.01 rad. Measured at dx = 0.02 m: +0.65 %,
+    0.18 mm, 3.3 mm, 7.2 mrad (``--set dx=0.01 --set t_end=2``: +0.49 %, 0.10 mm, 0.86 mm, 3.5 mrad: the sway and
+    roll left from the settling fall with dx)."""
     device.use("cpu", 2)
-    solver = floating_box_solver(0.02)
-    draft = DENSITY / 1000.0 * HEIGHT
-    start = solver.body_state()[0]
-    assert solver.model.bodies.mass[0] == pytest.approx(DENSITY * BREADTH * HEIGHT)
-    solver.settle(3.0, 5.0)
-    settled = solver.body_state()[0]
-    assert settled[1] < start[1] - 0.5 * DROP          # it came down
-    t, path = 0.0, []
-    while t < 1.0:
-        dt = solver.stable_dt()
-        solver.step(dt)
-        t += dt
-        assert solver.problem() is None
-        row = solver.body_state()[0]
-        path.append((row[0], row[1], 2.0 * np.arctan2(row[5], row[6])))
-    path = np.array(path)
-    gauges = WaterGauge("level", [(0.2, 0.0), (WIDTH - 0.2, 0.0)], 0.01)
-    gauges.check(solver)
-    level = gauges.sample(solver).mean()
-    bottom = path[:, 1].mean() - 0.5 * HEIGHT
-    assert abs((level - bottom) / draft - 1.0) < 0.01, (level, bottom)
-    assert np.ptp(path[:, 1]) < 1e-3 and np.ptp(path[:, 0]) < 1e-2 and np.abs(path[:, 2]).max() < 0.01
+    run = load_scene("floating_box_2d").build(frames=False, vtk=False)
+    solver = run.solver
+    assert solver.model.bodies.mass[0] == pytest.approx(500.0 * 0.4 * 0.2)
+    assert solver.body_state()[0][1] < 0.4 + 0.1 - 0.01       # the settling brought it down from 0.42 m
+    summary = run.run(None, progress=False)
+    floating = summary["analysis"]["floating"]
+    assert summary["validation"]["passed"], floating
+    assert abs(floating["draft_error"]) < 0.01 and floating["heave_range"] < 1e-3
     assert solver.audit() is None
 
 
 def test_a_floating_body_resumes_bitwise(tmp_path):
     """The floating box's run cut after a checkpoint and resumed ends with the uninterrupted run's state (the
     bodies' state and their state at the last table build included) and its body sensor's rows, bitwise."""
-    from helpers.floating_box_scene import build
-
     device.use("cpu", 2)
-    full = build(t_end=0.3, output_interval=0.1, vtk=False)
-    full.checkpoint_every = 40
+
+    def build():
+        run = load_scene("floating_box_2d").build(dx=0.04, settle=0.0, t_end=0.3, output_interval=0.1, frames=False,
+                                                  vtk=False)
+        run.checkpoint_every = 40
+        return run
+
+    full = build()
     full.run(str(tmp_path / "full"), progress=False)
-    cut = build(t_end=0.3, output_interval=0.1, vtk=False)
-    cut.checkpoint_every, cut.max_steps = 40, full.step_count // 2 + 1
+    cut = build()
+    cut.max_steps = full.step_count // 2 + 1
     cut.run(str(tmp_path / "cut"), progress=False)
-    resumed = build(t_end=0.3, output_interval=0.1, vtk=False)
-    resumed.checkpoint_every = 40
+    resumed = build()
     resumed.run(str(tmp_path / "cut"), resume=True, progress=False)
     assert resumed.step_count == full.step_count
     a, b = full.solver.state.numpy(), resumed.solver.state.numpy()
