@@ -321,8 +321,8 @@ class WCSPHSolver(TimeDependentSolver):
         A = F/m and α = I⁻¹ (τ - Ω × I Ω) (I turned with the body), over their free degrees of freedom; then, but for
         the ``initial`` rates, their second half kick V = V½ + ½Δt A."""
         bodies, dt = self.model.bodies, float(self.clock.step)
-        force, moment = self.body_loads()
         state = self._body_state.numpy()
+        force, moment = self.body_loads(state)
         gravity = np.asarray(self.model.params.gravity, dtype=np.float64)
         _, q, v, w, a, alpha = BODY_SLICES
         for b in bodies.floating:
@@ -344,17 +344,18 @@ class WCSPHSolver(TimeDependentSolver):
             return np.zeros((0, bw.BODY_COLUMNS))
         return self._body_state.numpy().copy()
 
-    def body_loads(self) -> tuple[np.ndarray, np.ndarray]:
+    def body_loads(self, state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The fluid's force (N; per metre in 2D) on each body and its moment about the body's reference point (N m),
         (count, 3) float64 each: the reaction to the wall terms of the last rates on its wall particles, summed in
-        the walls' global order, the same on every rank (as :meth:`force_on`)."""
+        the walls' global order, the same on every rank (as :meth:`force_on`). ``state``: the bodies' state already read
+        (else read here)."""
         bodies = self.model.bodies
         part = self.spread.walls
         own = part.owned_index
         mine = own[self._wall_body_np[own] >= 0]
         ids, force, where = self._wall_forces(mine, part.ids[mine], self._contact_forces(mine))
         body = bodies.wall_body[ids]
-        state = self._body_state.numpy()
+        state = self._body_state.numpy() if state is None else state
         arm = where - state[body, BODY_SLICES[0]]
         total, moment = np.zeros((bodies.count, 3)), np.zeros((bodies.count, 3))
         for b in range(bodies.count):
