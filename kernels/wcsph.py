@@ -148,6 +148,8 @@ class FluidArrays:
                                                # ``delta_gradient``; one unused row otherwise)
     wall_acceleration: wp.array(dtype=wp.vec3)  # (nb) the walls' acceleration a_w, m/s² (moving walls; one unused
                                                 # row otherwise)
+    zone: wp.array(dtype=wp.int32)             # (nf) 0 in the domain, k + 1 in opening k's buffer (open boundaries,
+                                               # ``kernels/wcsph_open.py``; one unused row otherwise)
 
 
 @dataclass(frozen=True)
@@ -167,6 +169,7 @@ class FluidTerms:
     riemann: bool = False            # fluid pairs' pressure from a low-dissipation Riemann solver (Zhang et al. 2017)
     moving_walls: bool = False       # walls that accelerate (rigid bodies): a_w in their Adami pressure
     shifting: bool = False           # particle shifting (A > 0)
+    open_boundaries: bool = False    # buffer particles (``FluidArrays.zone`` != 0) take no rates
     periodic: tuple = (False, False, False)
 
 
@@ -541,6 +544,15 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
         ``rows``: the fluid rows whose rates are needed (every row in one process; a rank's own, its ghosts taking
         their owners' after the kick)."""
         i = rows[first + wp.tid()]
+        if wp.static(terms.open_boundaries):
+            if f.zone[i] != 0:  # a buffer particle: it moves with its opening's values (kernels/wcsph_open.py)
+                f.density_rate[i] = 0.0
+                f.acceleration[i] = wp.vec3(0.0, 0.0, 0.0)
+                if wp.static(terms.shifting):
+                    f.shift_velocity[i] = wp.vec3(0.0, 0.0, 0.0)
+                    f.shift_acceleration[i] = wp.vec3(0.0, 0.0, 0.0)
+                    f.shift_density_rate[i] = 0.0
+                return
         xi = f.position[i]
         vi = f.velocity_eval[i]
         rhoi = f.density_eval[i]

@@ -43,6 +43,33 @@ SINGULAR = wp.constant(1.0e-6)
 #: wall (a few particles along a line, which the fit extrapolates from)
 NOISE_GAIN = wp.constant(10.0)
 
+
+
+@wp.func
+def linear_fit(m: wp.mat44, m2: wp.mat44, s: float, s2: float, dim: int) -> wp.mat44:
+    """The fit's matrix F, the coefficients a = F b of φ ≈ a·p(r) from b = Σ V W p φ (p = [1, r/h]): M⁻¹ where the
+    moment matrix M = Σ V W p pᵀ, divided by s = Σ V W, has a determinant above :data:`SINGULAR` and the fit's value
+    multiplies the noise by at most :data:`NOISE_GAIN` (M2 = Σ (V W)² p pᵀ, s2 = Σ (V W)²), else the Shepard
+    average's diag(1/s, 0, 0, 0). In 2D the 4th row and column are unused (zero)."""
+    shepard = wp.mat44(1.0 / s, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    mn = m / s
+    fit = shepard
+    if dim == 2:
+        m3 = wp.mat33(mn[0, 0], mn[0, 1], mn[0, 2], mn[1, 0], mn[1, 1], mn[1, 2], mn[2, 0], mn[2, 1], mn[2, 2])
+        if wp.determinant(m3) > SINGULAR:
+            inv = wp.inverse(m3) / s
+            fit = wp.mat44(inv[0, 0], inv[0, 1], inv[0, 2], 0.0, inv[1, 0], inv[1, 1], inv[1, 2], 0.0,
+                           inv[2, 0], inv[2, 1], inv[2, 2], 0.0, 0.0, 0.0, 0.0, 0.0)
+    else:
+        if wp.determinant(mn) > SINGULAR:
+            fit = wp.inverse(mn) / s
+    # the fit's weights a_j = V_j W_j row·p_j against the average's V_j W_j / s: Σ a_j² / Σ (V_j W_j / s)²
+    row = wp.vec4(fit[0, 0], fit[0, 1], fit[0, 2], fit[0, 3])
+    if wp.dot(row, m2 * row) > NOISE_GAIN * s2 / (s * s):
+        fit = shepard
+    return fit
+
+
 _made: dict = {}
 
 
@@ -125,21 +152,8 @@ def make_sample(kind: int, dim: int, periodic: tuple, walls: bool) -> "wp.Kernel
             velocity[i] = wp.vec3(nan, nan, nan)
             return
         # the linear fit where it is well posed: φ(x) = first component of M⁻¹ b (row 0 of the inverse)
-        mn = m / s
-        shepard = wp.vec4(1.0 / s, 0.0, 0.0, 0.0)  # the Shepard average's weights
-        row = shepard
-        if wp.static(dim == 2):
-            m3 = wp.mat33(mn[0, 0], mn[0, 1], mn[0, 2], mn[1, 0], mn[1, 1], mn[1, 2], mn[2, 0], mn[2, 1], mn[2, 2])
-            if wp.determinant(m3) > SINGULAR:
-                inv = wp.inverse(m3)
-                row = wp.vec4(inv[0, 0], inv[0, 1], inv[0, 2], 0.0) / s
-        else:
-            if wp.determinant(mn) > SINGULAR:
-                inv = wp.inverse(mn)
-                row = wp.vec4(inv[0, 0], inv[0, 1], inv[0, 2], inv[0, 3]) / s
-        # the fit's weights a_j = V_j W_j row·p_j against the average's V_j W_j / s: Σ a_j² / Σ (V_j W_j / s)²
-        if wp.dot(row, m2 * row) > NOISE_GAIN * s2 / (s * s):
-            row = shepard
+        fit = linear_fit(m, m2, s, s2, wp.static(dim))
+        row = wp.vec4(fit[0, 0], fit[0, 1], fit[0, 2], fit[0, 3])
         pressure[i] = wp.dot(row, bp)
         density[i] = wp.dot(row, br)
         velocity[i] = wp.vec3(wp.dot(row, bx), wp.dot(row, by), wp.dot(row, bz))

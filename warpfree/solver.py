@@ -348,6 +348,13 @@ class TimeDependentSolver(Solver):
     def after_load(self) -> None:
         """Rebuild derived structures (neighbour tables, reductions) after the state was loaded."""
 
+    def load_state(self, values: dict, source: str) -> None:
+        """Take the state of a checkpoint of this run's own layout (``values``: its arrays and host values;
+        ``source``: what to name in a refusal), then :meth:`after_load`."""
+        self.state.assign(values, source)
+        self.clock.invalidate()  # its array may have been loaded with the state: read it anew
+        self.after_load()
+
     def restore_pieces(self, pieces: list[dict]) -> None:
         """Take the state from a checkpoint written by any number of processes: ``pieces``, each process's state
         (rank order; one piece from one process), into this process's part (then as :meth:`after_load`). A solver that

@@ -275,9 +275,7 @@ class TimeLoop(Run):
 
     def load_checkpoint(self, path: str) -> None:
         loop, series, state = checkpoint.load(path)
-        self.solver.state.assign(state, f"checkpoint {path}")
-        self.solver.clock.invalidate()  # its array may have been loaded with the state: read it anew
-        self.solver.after_load()
+        self.solver.load_state(state, f"checkpoint {path}")
         self._take_loop(loop, series, path)
 
     def _take_loop(self, loop: dict, series: dict, path: str) -> None:

@@ -120,3 +120,17 @@ def relative_differences(a, b, prefix: str = "") -> dict[str, float]:
 
 def summary(run: Path) -> dict:
     return json.loads((run / "summary.json").read_text())
+
+
+def cut_and_resumed(build, directory: Path):
+    """A run made by ``build()`` (a TimeLoop with checkpoints) run whole, and the same run cut a step past half way and
+    resumed from its last checkpoint: (the whole run, the resumed run), for their states and series to be compared."""
+    full = build()
+    full.run(str(directory / "full"), progress=False)
+    cut = build()
+    cut.max_steps = full.step_count // 2 + 1
+    cut.run(str(directory / "cut"), progress=False)
+    resumed = build()
+    resumed.run(str(directory / "cut"), resume=True, progress=False)
+    assert resumed.step_count == full.step_count
+    return full, resumed

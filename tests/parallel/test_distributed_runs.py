@@ -89,6 +89,25 @@ def test_a_rigid_body_moves_across_the_ranks_bitwise(scene, settings, tmp_path):
 
 
 @needs_mpi
+def test_water_entering_and_leaving_across_the_ranks_keeps_the_one_process_ids_bitwise(tmp_path):
+    """The channel between an inlet and an outlet on 3 ranks: the particles each rank makes at the inlet take the one
+    process's ids (in the crossing particles' id order over every rank), those beyond the outlet leave whichever rank
+    holds them; every snapshot (in id order), the probes and the openings' counts as the one process's, bitwise."""
+    sets = smallest_sets("channel_flow_2d")
+    one, many = tmp_path / "one", tmp_path / "many"
+    assert main(["run", "channel_flow_2d", *sets, "--out", str(one), "--no-progress", "--no-frames",
+                 "--threads", "1"]) == 0
+    done = run_distributed(3, ["run", "channel_flow_2d", *sets, "--out", str(many), "--no-progress", "--no-frames"])
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert snapshot_differences(one, many) == []
+    a, b = summary(one), summary(many)
+    assert a["steps"] == b["steps"] and a["probes"] == b["probes"]
+    assert a["probes"]["inlet_made"][-1] > 0 and a["probes"]["outlet_taken_out"][-1] > 0
+    assert relative_differences(a["analysis"], b["analysis"]) == {}
+    assert sum(b["model"]["distributed"]["fluid_owned"]) == a["probes"]["particles"][-1]
+
+
+@needs_mpi
 @pytest.mark.parametrize("scene,ranks", [("pic_plasma_oscillation", 2), ("pic_two_stream", 3)])
 def test_a_distributed_plasma_moves_its_particles_bitwise_and_sums_them_to_round_off(scene, ranks, tmp_path):
     """The particles (every snapshot, in id order) and the nodal charge and potential bitwise; the step's particle

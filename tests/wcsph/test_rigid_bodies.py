@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from helpers.runs import cut_and_resumed
 from warpfree import device
 from warpfree.cli import main
 from warpfree.errors import ParameterError
@@ -251,14 +252,7 @@ def test_a_floating_body_resumes_bitwise(tmp_path):
         run.checkpoint_every = 40
         return run
 
-    full = build()
-    full.run(str(tmp_path / "full"), progress=False)
-    cut = build()
-    cut.max_steps = full.step_count // 2 + 1
-    cut.run(str(tmp_path / "cut"), progress=False)
-    resumed = build()
-    resumed.run(str(tmp_path / "cut"), resume=True, progress=False)
-    assert resumed.step_count == full.step_count
+    full, resumed = cut_and_resumed(build, tmp_path)
     a, b = full.solver.state.numpy(), resumed.solver.state.numpy()
     assert "body_state" in a and "body_state_at_build" in a
     for key in a:

@@ -1,10 +1,12 @@
 """WCSPH fluids (Monaghan 1994): the model (:mod:`.model`), the solver (:mod:`.solver`), free surfaces
-(:mod:`.surface`), rigid bodies among the walls (:mod:`.bodies`) and the helpers of the fluid scenes (:mod:`.scene_tools`). Kernels:
+(:mod:`.surface`), rigid bodies among the walls (:mod:`.bodies`), inlets and outlets
+(:mod:`.openings`) and the helpers of the fluid scenes (:mod:`.scene_tools`). Kernels:
 ``warpfree.kernels.wcsph``."""
 
 from .bodies import PrescribedMotion, RigidBody
+from .openings import Opening
 from .model import BoundaryModel, FluidParams, WCSPHModel
 from .solver import FluidField, WCSPHSolver, WCSPHState
 
-__all__ = ["BoundaryModel", "FluidField", "FluidParams", "PrescribedMotion", "RigidBody", "WCSPHModel", "WCSPHSolver",
+__all__ = ["BoundaryModel", "FluidField", "FluidParams", "Opening", "PrescribedMotion", "RigidBody", "WCSPHModel", "WCSPHSolver",
            "WCSPHState"]

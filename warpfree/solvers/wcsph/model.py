@@ -31,6 +31,7 @@ from warpfree.smoothing import SmoothingKernel
 from warpfree.space import Space
 
 from .bodies import Bodies
+from .openings import Openings
 from .solids import Solids
 
 __all__ = ["FluidParams", "WCSPHModel", "BoundaryModel", "lattice_second_moment"]
@@ -199,6 +200,8 @@ class WCSPHModel:
         table's points and its end values beyond them (a start-up ramp, an oscillation sampled finely enough);
         default f = 1. The walls' acceleration is not in their Adami pressure (exact for a steady surface velocity,
         and for a wall oscillating in its own plane, which pushes on nothing).
+    openings: inlets and outlets (:class:`~warpfree.solvers.wcsph.openings.Opening`): planes with a buffer of fluid
+        particles behind each (laid out in ``fluid`` with the rest of the fluid), where fluid enters and leaves.
     containers, obstacles: the true solid surfaces (3D: watertight trimesh meshes; 2D: closed polygons) that
         the fluid must stay inside / outside. The fluid feels them through a stiff penalty within dx/2 of a
         surface (``warpfree.kernels.wcsph_solids.add_surface_penalty``: it stores the kinetic energy of a particle
@@ -215,7 +218,7 @@ class WCSPHModel:
                f"{group_digits(len(boundary))} wall particles)")
     def __init__(self, fluid, boundary, params: FluidParams, obstacle_boundary=None,
                  boundary_volume: float | None = None, fluid_volume: float | None = None, containers=(),
-                 obstacles=(), wall_velocity=None, wall_velocity_factor=None, bodies=(),
+                 obstacles=(), wall_velocity=None, wall_velocity_factor=None, bodies=(), openings=(),
                  launcher: Launcher | None = None):
         params.validate()
         self.launcher = launcher or current_launcher()
@@ -243,6 +246,8 @@ class WCSPHModel:
         self.nb = len(xb)
         self.n = self.nf + self.nb
         self.space = params.space()
+        #: the inlets and outlets (:class:`~warpfree.solvers.wcsph.openings.Openings`), or None
+        self.openings = Openings(openings, params, self.skin, device, xf) if len(openings) else None
         self.kernel_id = kernel_id(params.kernel)
         lattice = params.dx ** params.dim
         vol_f = lattice if fluid_volume is None else require_positive("fluid_volume", fluid_volume)
@@ -265,7 +270,7 @@ class WCSPHModel:
             wall_safety=params.boundary_model is BoundaryModel.DYNAMIC and params.lj_r0 > 0.0,
             no_slip=bool(params.no_slip), wall_artificial=bool(params.wall_artificial_viscosity),
             riemann=params.riemann > 0.0, moving_walls=self.bodies is not None,
-            shifting=params.shifting > 0.0, periodic=self.space.periodic)
+            shifting=params.shifting > 0.0, open_boundaries=self.openings is not None, periodic=self.space.periodic)
         self.constants = self._constants()
         body_surfaces = self.bodies.surfaces() if self.bodies is not None else []
         self.solids = (Solids(self.launcher, params.dim, containers, obstacles, body_surfaces)
@@ -363,4 +368,6 @@ class WCSPHModel:
                   "n_particles": self.n, "compiled_terms": asdict(self.terms)})
         if self.bodies is not None:
             d["bodies"] = self.bodies.describe()
+        if self.openings is not None:
+            d["openings"] = self.openings.describe()
         return d

@@ -31,6 +31,7 @@ from warpfree.graph import StepGraph
 from warpfree.kernels import clock as ck
 from warpfree.reduce import Reduction
 from warpfree.kernels import wcsph_bodies as bw
+from warpfree.kernels.wcsph_open import make_buffer_values
 from warpfree.kernels.wcsph_sensors import make_sample
 from warpfree.kernels import wcsph_solids as sk
 from warpfree.kernels.wcsph_solids import add_surface_penalty
@@ -123,6 +124,14 @@ class WCSPHSolver(TimeDependentSolver):
         #: how the fluid is spread over the ranks (one process: a one-rank partition, the whole fluid)
         self.spread = FluidSpread(self.world, model)
         self.kernels = K.make_kernels(model.terms)
+        #: the inlets and outlets, or None; with them, the fluid ids issued so far and each opening's particles made
+        #: and taken out (over every rank: host state)
+        self.openings = model.openings
+        if self.openings is not None:
+            self._buffer_values = make_buffer_values(model.terms.kernel, params.dim, model.space.periodic)
+            self._issued = nf
+            self._made = np.zeros(self.openings.count, dtype=np.int64)
+            self._taken_out = np.zeros(self.openings.count, dtype=np.int64)
         self._report = Reduction(launcher, wp.vec4, "max")
         self._walls_in_order = None  # the wall-pressure pass's launch order (:meth:`_wall_order`)
         self._busy_at_rebuild = 0.0  # the work phases' seconds at the last rebuild (:meth:`_busy_since_rebuild`)
@@ -199,6 +208,9 @@ class WCSPHSolver(TimeDependentSolver):
         # which fluid particles the arrays hold: a checkpoint read on another number of processes needs it
         S.fluid_id = self.spread.fluid.ids.astype(np.int64)
         S.fluid_owned = self.spread.fluid.owned.astype(np.int8)
+        if self.openings is not None:  # the fluid's ids are sparse: those issued, and the openings' counts
+            S.fluid_ids_issued = int(self._issued)
+            S.opening_made, S.opening_taken_out = self._made.copy(), self._taken_out.copy()
         #: the fluid rows this rank computes rates for: its own (a ghost's come from its owner)
         self._own_rows = arr(self.spread.fluid.owned_index.astype(np.int32), wp.int32)
         self.mass = arr(np.concatenate([fluid["mass"], walls["mass"]]), float)
@@ -227,6 +239,7 @@ class WCSPHSolver(TimeDependentSolver):
         a.shift_acceleration = wp.zeros(n_shift, dtype=wp.vec3, device=dev)
         a.shift_density_rate = wp.zeros(n_shift, dtype=float, device=dev)
         a.density_gradient = wp.zeros(nf if model.terms.delta_gradient else 1, dtype=wp.vec3, device=dev)
+        a.zone = wp.zeros(nf if self.openings is not None else 1, dtype=wp.int32, device=dev)
         #: the held walls' surface velocity v0 and the velocity factor's table (walls moving as f(t) v0), or None
         self._wall_motion = None
         if model.wall_velocity_factor is not None and nb:
@@ -517,10 +530,20 @@ class WCSPHSolver(TimeDependentSolver):
 
     # -- stepping --------------------------------------------------------------------------------
     def compute_rates(self, at_step_end: bool = True) -> None:
-        """The walls' velocity (walls moving as f(t) v0), wall pressure (dynamic walls), the renormalised density
+        """The buffer particles' values (openings), the walls' velocity (walls moving as f(t) v0), wall pressure
+        (dynamic walls), the renormalised density
         gradient (δ-SPH's ``delta_gradient``), then dρ/dt and dv/dt at the predicted state: at t + Δt after a drift
         (``at_step_end``), at the clock's t otherwise."""
         L, a, c = self.launcher, self.arrays, self.model.constants
+        if self.openings is not None:
+            grid = self.moving_neighbours.grids[MovingNeighbours.MOVING]
+            with self.phases("boundary"):
+                L.launch(self._buffer_values, self._own_rows.shape[0], [
+                    c, a, self.openings.struct, grid.id, grid.points, grid.source_id, grid.radius, self._own_rows,
+                    self.clock.values, int(at_step_end)])
+            with self.phases("exchange"):  # a ghost buffer particle's mirror point may lie beyond this rank's fluid
+                self.spread.fluid.refresh(a.zone, self.fluid["velocity"], a.velocity_eval, self.fluid["density"],
+                                          a.density_eval, self.fluid["pressure"])
         if self._wall_motion is not None:
             times, factors, surface_velocity = self._wall_motion
             with self.phases("boundary"):
@@ -603,6 +626,8 @@ class WCSPHSolver(TimeDependentSolver):
         L, a, c = self.launcher, self.arrays, self.model.constants
         if self._body_state is not None and self.model.bodies.floating:
             return None  # the floating bodies' step is the host's, between launches
+        if self.openings is not None:
+            return None  # the fluid's arrays are made anew where particles enter and leave
         with L.capturing() as first:
             self._drift()
         with L.capturing() as second:
@@ -643,8 +668,55 @@ class WCSPHSolver(TimeDependentSolver):
         with self.phases("neighbours"):
             if self._body_state is not None and not self.spread.whole:
                 self.spread.move_walls(self._host_wall_positions())
-            self.spread.redistribute(self._held_fluid, self._work, self._lay_out_again, self._busy_since_rebuild())
+            if self.openings is not None:
+                self._enter_and_leave()
+            else:
+                self.spread.redistribute(self._held_fluid, self._work, self._lay_out_again,
+                                         self._busy_since_rebuild())
             self._build_tables()
+
+    def _enter_and_leave(self) -> None:
+        """At a rebuild with openings (``openings.py``): a buffer particle that crossed its plane into the domain since
+        the last build makes a new one a buffer depth behind it (the next ids, in the crossing particles' id order over
+        every rank); a particle beyond its buffer's far end is taken out; then the fluid is laid out anew (moving to
+        the ranks that hold it in a distributed run)."""
+        openings, part = self.openings, self.spread.fluid
+        values = self._held_fluid()
+        x = values["position"]
+        was, now = openings.zone(self.state.position_at_build.numpy()), openings.zone(x)
+        owned = part.owned.astype(bool)
+        parents = np.flatnonzero(owned & (was >= 0) & (now < 0))
+        leaving = openings.beyond(x, now)
+        parent_ids = part.ids[parents].astype(np.int64)
+        every = np.sort(np.concatenate(self.world.allgather(parent_ids)))
+        child_ids = self._issued + np.searchsorted(every, parent_ids)
+        k = openings.count
+        counts = np.concatenate([np.bincount(was[parents], minlength=k),
+                                 np.bincount(now[owned & leaving], minlength=k)]).astype(np.int64)
+        counts = self.world.allreduce(counts, "sum")
+        self._issued += every.size
+        self._made += counts[:k]
+        self._taken_out += counts[k:]
+        keep = np.flatnonzero(~leaving)
+        rows = np.concatenate([keep, parents])
+        fluid = {name: v[rows] for name, v in values.items()}
+        behind = (openings.thickness[was[parents], None] * openings.normal[was[parents]]).astype(np.float32)
+        fluid["position"][keep.size:] -= behind
+        fluid["acceleration"][keep.size:] = 0.0
+        fluid["density_rate"][keep.size:] = 0.0
+        ids = np.concatenate([part.ids[keep].astype(np.int64), child_ids])
+        own = np.concatenate([owned[keep], np.ones(parents.size, dtype=bool)])
+        fluid_cost, wall_cost = self._work()
+        self.spread.redistribute_changed(fluid, ids, own, self._issued, lambda: (fluid_cost[rows], wall_cost),
+                                         self._lay_out_again, self._busy_since_rebuild())
+
+    def opening_counts(self) -> dict[str, dict[str, int]]:
+        """Each opening's particles made (fluid that entered the domain through it) and taken out (fluid that left
+        through it) since t = 0, over every rank, by name."""
+        if self.openings is None:
+            return {}
+        return {name: {"made": int(self._made[k]), "taken_out": int(self._taken_out[k])}
+                for k, name in enumerate(self.openings.names)}
 
     def _busy_since_rebuild(self) -> float:
         """Seconds of this rank's work on its particles (``spread.WORK_PHASES``) since the last rebuild."""
@@ -751,22 +823,41 @@ class WCSPHSolver(TimeDependentSolver):
     def restore_pieces(self, pieces: list[dict]) -> None:
         """The whole fluid from every process's checkpoint (each its own particles, by ``fluid_id``), spread anew over
         this run's ranks as at a rebuild from the build positions: the tables, made from ``position_at_build``, are
-        the ones the run had, and it continues as it would have."""
+        the ones the run had, and it continues as it would have. With openings the ids are sparse (the ids issued and
+        the openings' counts come with the first piece)."""
         model = self.model
-        nf = model.nf
+        count = model.nf
+        if self.openings is not None:
+            first = pieces[0]
+            if "fluid_ids_issued" not in first:
+                raise ParameterError("resume", "the checkpoint does not match this scene: it has no openings")
+            count = int(first["fluid_ids_issued"])
+            self._issued = count
+            self._made = np.array(first["opening_made"], dtype=np.int64)
+            self._taken_out = np.array(first["opening_taken_out"], dtype=np.int64)
         # each piece's fluid rows (its combined arrays hold its walls after them): as many as its ``fluid_id``
-        whole = whole_from_pieces(pieces, self.RESTORED, "fluid_id", nf, owned="fluid_owned")
-        mass = model.mass.numpy()
+        whole = whole_from_pieces(pieces, self.RESTORED, "fluid_id", None if self.openings is not None else count,
+                                  owned="fluid_owned")
+        ids = whole.pop("fluid_id", None)
         if self._body_state is not None:  # the same on every rank: the first piece's
             self._body_state.assign(pieces[0]["body_state"])
             self._body_state_at_build.assign(pieces[0]["body_state_at_build"])
             self.spread.move_walls(self._host_wall_positions())
-        self.spread.respread(whole["position_at_build"].astype(np.float64))
-        self._lay_out_again(self.spread.held_fluid(dict(whole, mass=mass[:nf])),
-                            self.spread.held_walls(model.wall_values()))
+        rows = self.spread.respread(whole["position_at_build"].astype(np.float64), ids, count)
+        fluid = {k: v[rows] for k, v in whole.items()}
+        fluid["mass"] = np.full(rows.size, model.mass.numpy()[0])  # every fluid particle has the same mass
+        self._lay_out_again(fluid, self.spread.held_walls(model.wall_values()))
         self.clock.values.assign(pieces[0]["clock"])
         self.clock.invalidate()
         self.after_load()
+
+    def load_state(self, values: dict, source: str) -> None:
+        """A checkpoint of this run's own layout; with openings (a fluid whose count changes) through
+        :meth:`restore_pieces`, which lays the arrays out for its count."""
+        if self.openings is None:
+            super().load_state(values, source)
+        else:
+            self.restore_pieces([values])
 
     # -- outputs, diagnostics ------------------------------------------------------------------------
     @property

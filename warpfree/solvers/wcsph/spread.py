@@ -149,6 +149,36 @@ class FluidSpread(MovingSpread):
             self.follow_cut()
         lay_out(held, self.held_walls(self.model.wall_values()))
 
+    def redistribute_changed(self, values: dict[str, np.ndarray], ids: np.ndarray, owned: np.ndarray, issued: int,
+                             work: Callable[[], tuple[np.ndarray, np.ndarray]],
+                             lay_out: Callable[[dict[str, np.ndarray], dict[str, np.ndarray]], None],
+                             busy: float | None = None) -> None:
+        """:meth:`redistribute` for a fluid that particles joined and left at this rebuild (openings): ``values``, the
+        rows this rank now has (NumPy, by name), with their global ``ids`` and which of them it owns (the new ones: the
+        rank that made them); ``issued``: the ids issued so far; ``work()``: the cost of each of those rows and of each
+        held wall. In one process the part is the rows as given; ``lay_out`` takes them."""
+        if self.whole:
+            self.moving.release()
+            self.moving = Partition(self.world, self.decomposition, self.depth, np.asarray(ids, np.int64),
+                                    np.ones(len(ids), dtype=bool), {}, {}, issued)
+            lay_out(values, self.held_walls(self.model.wall_values()))
+            return
+
+        def own_work():
+            fluid_cost, wall_cost = work()
+            own = self.walls.owned_index
+            return fluid_cost, self.wall_points[self.walls.ids[own]], np.asarray(wall_cost, np.float64)[own]
+
+        before = self.moving
+        before.count = int(issued)
+        held = self.migrate(dict(values, fluid_id=np.asarray(ids, np.int64)), owned=np.asarray(owned, bool),
+                            ids="fluid_id", work=own_work, busy=busy)
+        before.release()
+        held.pop("fluid_id")
+        if self._walls_moved:
+            self.follow_cut()
+        lay_out(held, self.held_walls(self.model.wall_values()))
+
     def counts(self) -> dict[str, int]:
         """Fluid and wall particles owned and ghost on this rank."""
         return {"fluid_owned": self.fluid.n_owned, "fluid_ghosts": self.fluid.n_ghosts,
