@@ -43,7 +43,9 @@ class Opening:
     velocity: the fluid's velocity in the buffer (m/s; ``dim`` or 3 components), pointing into the domain (an inlet);
         None: the fluid's own, mirrored across the plane (zero normal gradient: an outflow or a pressure inlet).
     pressure: the pressure at the plane (Pa), continued into the buffer with the fluid's gradient; None: the fluid's,
-        extrapolated to first order. An opening prescribes its velocity, its pressure or both.
+        extrapolated to first order. An opening prescribes its velocity, its pressure or both. Where the flow's
+        pressure would fall below zero (a body's wake), an outlet's background pressure of a few ρU² keeps it
+        positive: water under tension opens voids.
     ramp: the prescribed velocity's start-up (s): it rises as U (1 - cos(π t/ramp))/2 from 0 to U, so that the water
         at rest is not struck at once (a weakly compressible fluid rings with the sound it makes); 0: U from t = 0.
     thickness: the buffer's depth T (m), whole spacings, at least the kernel's support plus the tables' skin; None:
