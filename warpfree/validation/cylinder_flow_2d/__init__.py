@@ -150,6 +150,7 @@ def plot_cylinder(path: str, t, drag, lift, x, u, radius: float, result: dict, l
     for ax in (a1, a2):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
+    shedding = f", St {result['strouhal']:.3f}" if np.isfinite(result["strouhal"]) else ""
     fig.suptitle(f"Cylinder at Re = {result['reynolds']:g}: C_D {result['drag_mean']:.3f}, wake "
-                 f"{result['wake_length']:.3f} D, St {result['strouhal']:.3f}", fontsize=10)
+                 f"{result['wake_length']:.3f} D{shedding}", fontsize=10)
     save_figure(fig, path)
