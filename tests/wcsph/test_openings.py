@@ -8,8 +8,10 @@ from helpers.runs import cut_and_resumed
 from warpfree import device
 from warpfree.errors import ParameterError
 from warpfree.geometry import lattice_box
+from warpfree.parallel import Decomposition
 from warpfree.scene_loader import load_scene
 from warpfree.solvers.wcsph import FluidParams, Opening, WCSPHModel, WCSPHSolver
+from warpfree.solvers.wcsph.spread import opening_mirrors
 
 DX = 0.1
 
@@ -73,6 +75,36 @@ def test_water_that_enters_and_leaves_keeps_its_ids_and_its_count():
     inlet = x[:, 0] < 0.0
     assert np.allclose(v[inlet, 0], 0.1) and np.all(v[inlet, 1] == 0.0)
     assert x[:, 0].min() >= -0.4 - 1e-6  # the inlet's buffer is 4 spacings deep: nothing behind it
+
+
+def test_a_rank_holds_the_fluid_its_buffer_particles_read_about_their_mirror_points():
+    """Space cut across the stream at every cell face near either opening: the rank that owns a buffer particle holds
+    (owned or ghost) every fluid particle its mirror point may read before the next rebuild: within the support of
+    the mirror point once either has moved skin/2, i.e. within support + skin of it now, for a particle up to half a
+    spacing past the buffer's far end (deeper, it is taken out). Without the mirrors' ghosts some cut misses some."""
+    model = channel_model([INLET, OUTLET])
+    P, o = model.params, model.openings
+    x = model.position_np[: model.nf].astype(np.float64)
+    x = np.vstack([x, x + [0.5 * DX, 0.0, 0.0], x - [0.5 * DX, 0.0, 0.0]])  # particles between the lattice's rows
+    depth = P.support + model.skin  # the ghosts' depth, and how far a mirror point's reads reach
+    mirrors = opening_mirrors(model)
+    missed_without = 0
+    for k in range(o.count):
+        d = (x - o.point[k]) @ o.normal[k]
+        buffer = np.flatnonzero((d < 0.0) & (d >= -(o.thickness[k] + o.margin)))
+        domain = np.flatnonzero(d >= 0.0)
+        mirror = x[buffer] - 2.0 * d[buffer, None] * o.normal[k]
+        for face in o.point[k][0] + np.arange(-8, 9) * P.support:
+            dec = Decomposition(np.array([[-np.inf] * 3, [face, -np.inf, -np.inf]]),
+                                np.array([[face, np.inf, np.inf], [np.inf] * 3]), np.zeros(3), 2, "slabs",
+                                P.support)
+            owner = dec.owner(x[buffer])
+            for rank in (0, 1):
+                reads = np.linalg.norm(x[domain][None, :, :] - mirror[owner == rank][:, None, :], axis=2) < depth
+                needed = domain[np.any(reads, axis=0)]
+                assert dec.held_by(x[needed], rank, depth, mirrors).all(), (o.names[k], face, rank)
+                missed_without += int(np.count_nonzero(~dec.held_by(x[needed], rank, depth)))
+    assert missed_without > 0
 
 
 @pytest.mark.slow

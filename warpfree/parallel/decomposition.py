@@ -11,7 +11,10 @@ count, or 1):
 
 An item belongs to the box that holds it (lower faces closed, upper open). A rank needs, besides its own items,
 every item within ``depth`` of its box (its ghosts: :mod:`warpfree.parallel.halo`); :meth:`Decomposition.near`
-finds them, by the distance to each box (the minimum image across periodic axes).
+finds them, by the distance to each box (the minimum image across periodic axes). Where a rank also reads items
+across a plane (an opening's buffer particle takes its values from the fluid about its mirror image, the point as far
+in front of the plane as it is behind), :class:`Mirrors` adds the items whose mirror image lies within ``depth`` of
+the box.
 
 Refused: more ranks than cells to cut along the decomposition's axes (a box would hold no whole cell).
 """
@@ -25,7 +28,7 @@ import numpy as np
 from warpfree.errors import ParameterError
 from warpfree.parameters import Choice
 
-__all__ = ["Decomposition", "CutMethod", "imbalance"]
+__all__ = ["Decomposition", "CutMethod", "Mirrors", "imbalance"]
 
 
 class CutMethod(Choice):
@@ -40,6 +43,28 @@ def imbalance(costs) -> float:
     costs = np.asarray(costs, dtype=np.float64)
     mean = costs.mean() if costs.size else 0.0
     return float(costs.max() / mean) if mean > 0 else 1.0
+
+
+@dataclass(frozen=True)
+class Mirrors:
+    """Planes across which a rank reads items: plane k through ``point[k]`` with unit normal ``normal[k]`` ((k, 3)
+    each) reflects an item at signed distance d = (x - point)·normal in ``[-behind[k], reach[k]]`` (m) to
+    x - 2 d normal. A rank whose box lies within ``depth`` of that image holds the item as a ghost: its own items
+    behind the plane read the items about their mirror images."""
+
+    point: np.ndarray
+    normal: np.ndarray
+    reach: np.ndarray
+    behind: np.ndarray
+
+    def images(self, points: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """For each plane: (the rows of ``points`` (n, 3) in its range, their mirror images (m, 3))."""
+        out = []
+        for point, normal, reach, behind in zip(self.point, self.normal, self.reach, self.behind):
+            d = (points - point) @ normal
+            rows = np.flatnonzero((d >= -behind) & (d <= reach))
+            out.append((rows, points[rows] - 2.0 * d[rows, None] * normal))
+        return out
 
 
 @dataclass
@@ -139,14 +164,20 @@ class Decomposition:
             out[miss] = np.argmin(d, axis=1)
         return out
 
-    def held_by(self, points: np.ndarray, rank: int, depth: float) -> np.ndarray:
-        """Which points ``rank`` holds (bool (n,)): those its box owns and, as ghosts, those within ``depth`` of it."""
-        return (self.owner(points) == rank) | self.near(points, rank, depth)
+    def held_by(self, points: np.ndarray, rank: int, depth: float, mirrors: Mirrors | None = None) -> np.ndarray:
+        """Which points ``rank`` holds (bool (n,)): those its box owns and, as ghosts, those within ``depth`` of it
+        (or whose mirror image is, :meth:`near`)."""
+        return (self.owner(points) == rank) | self.near(points, rank, depth, mirrors)
 
-    def near(self, points: np.ndarray, rank: int, depth: float) -> np.ndarray:
-        """Which points lie within ``depth`` of ``rank``'s box (bool (n,)), across periodic faces too."""
-        p = self._wrapped(np.asarray(points, dtype=np.float64).reshape(-1, 3))
-        return self._distance(p, rank) <= depth
+    def near(self, points: np.ndarray, rank: int, depth: float, mirrors: Mirrors | None = None) -> np.ndarray:
+        """Which points lie within ``depth`` of ``rank``'s box (bool (n,)), across periodic faces too; with
+        ``mirrors``, also those whose mirror image across one of its planes does."""
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        out = self._distance(self._wrapped(p), rank) <= depth
+        if mirrors is not None:
+            for rows, image in mirrors.images(p):
+                out[rows] |= self._distance(self._wrapped(image), rank) <= depth
+        return out
 
     def _wrapped(self, p: np.ndarray) -> np.ndarray:
         out = p.copy()

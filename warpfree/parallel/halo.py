@@ -28,7 +28,7 @@ import math
 import numpy as np
 import warp as wp
 
-from .decomposition import Decomposition
+from .decomposition import Decomposition, Mirrors
 from .world import World
 
 __all__ = ["Partition", "host_view", "whole_from_pieces"]
@@ -59,13 +59,16 @@ class Partition:
     """This rank's part of one item set: ``ids`` (sorted global ids of the items it holds), ``owned`` (bool, per held
     item), ``send[r]`` (held indices of owned items rank r holds as ghosts) and ``receive[s]`` (held indices of the
     ghosts rank s owns), both in global-id order; ``count``: the size of the id space (every id is below it: the set's
-    global size when its ids are 0..N-1, the ids ever issued when items join and leave)."""
+    global size when its ids are 0..N-1, the ids ever issued when items join and leave); ``mirrors``: planes across
+    which a rank also holds the items whose mirror image is near its box (:class:`~.decomposition.Mirrors`), or None."""
 
     def __init__(self, world: World, decomposition: Decomposition, depth: float, ids: np.ndarray, owned: np.ndarray,
-                 send: dict[int, np.ndarray], receive: dict[int, np.ndarray], count: int):
+                 send: dict[int, np.ndarray], receive: dict[int, np.ndarray], count: int,
+                 mirrors: Mirrors | None = None):
         self.world = world
         self.decomposition = decomposition
         self.depth = float(depth)
+        self.mirrors = mirrors
         self.ids = ids
         self.owned = owned
         self.owned_index = np.flatnonzero(owned)
@@ -101,7 +104,7 @@ class Partition:
     # -- making one -----------------------------------------------------------------------------------------
     @classmethod
     def of_items(cls, world: World, decomposition: Decomposition, depth: float, ids: np.ndarray,
-                 points: np.ndarray, count: int) -> "Partition":
+                 points: np.ndarray, count: int, mirrors: Mirrors | None = None) -> "Partition":
         """The part made from exactly the items this rank holds (global ``ids``, ascending, and their ``points``):
         owned where the box holds them; each owned item sent to every other rank it is near; each ghost received
         from the rank that owns it. Every rank computes the same owner and nearness for an item from the same
@@ -114,20 +117,21 @@ class Partition:
         for r in range(world.size):
             if r == rank:
                 continue
-            near = own[decomposition.near(points[own], r, depth)] if own.size else own
+            near = own[decomposition.near(points[own], r, depth, mirrors)] if own.size else own
             if near.size:
                 send[r] = near
             theirs = np.flatnonzero(owner == r)
             if theirs.size:
                 receive[r] = theirs
-        return cls(world, decomposition, depth, ids, owned, send, receive, count)
+        return cls(world, decomposition, depth, ids, owned, send, receive, count, mirrors)
 
     @classmethod
-    def of_all(cls, world: World, decomposition: Decomposition, depth: float, points: np.ndarray) -> "Partition":
+    def of_all(cls, world: World, decomposition: Decomposition, depth: float, points: np.ndarray,
+               mirrors: Mirrors | None = None) -> "Partition":
         """The part of this rank when every rank knows every item's position (``points``: all N, global order)."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        ids = np.flatnonzero(decomposition.held_by(points, world.rank, depth))
-        return cls.of_items(world, decomposition, depth, ids, points[ids], points.shape[0])
+        ids = np.flatnonzero(decomposition.held_by(points, world.rank, depth, mirrors))
+        return cls.of_items(world, decomposition, depth, ids, points[ids], points.shape[0], mirrors)
 
     def redistribute(self, decomposition: Decomposition, points: np.ndarray, fields: dict[str, np.ndarray]):
         """Move the items to where they now belong: each rank sends each item it owns, with its ``fields`` (held
@@ -145,7 +149,7 @@ class Partition:
         packed = np.hstack([_rows(gid), _rows(p)] + rows)
         sends, keep = {}, None
         for r in range(world.size):
-            to_r = (owner == r) | decomposition.near(p, r, self.depth)
+            to_r = (owner == r) | decomposition.near(p, r, self.depth, self.mirrors)
             if not np.any(to_r):
                 continue
             block = packed[to_r].reshape(-1)
@@ -168,7 +172,7 @@ class Partition:
             ref = np.asarray(fields[k])
             out[k] = np.ascontiguousarray(table[:, at:at + w]).view(ref.dtype).reshape((-1,) + ref.shape[1:])
             at += w
-        part = Partition.of_items(world, decomposition, self.depth, ids, new_points, self.count)
+        part = Partition.of_items(world, decomposition, self.depth, ids, new_points, self.count, self.mirrors)
         self.release()
         return part, out
 

@@ -22,7 +22,7 @@ import numpy as np
 
 from warpfree.errors import ParameterError
 
-from .decomposition import CutMethod, Decomposition, imbalance
+from .decomposition import CutMethod, Decomposition, Mirrors, imbalance
 from .halo import Partition
 from .world import World
 
@@ -50,10 +50,12 @@ class MovingSpread:
     dim: the space's dimension; lower, upper: the domain's bounds (finite where known); periodic: per axis.
     method: how space is cut (:class:`~warpfree.parallel.CutMethod`).
     rebalance: cut anew at a migration when the ranks' work has max/mean above this (>= 1; ``inf``: never).
+    mirrors: planes across which a rank also holds the moving items whose mirror image is near its box
+        (:class:`~warpfree.parallel.decomposition.Mirrors`), or None.
     """
 
     def __init__(self, world: World, positions, *, cell: float, depth: float, dim: int, lower, upper, periodic,
-                 method: CutMethod = CutMethod.RCB, rebalance: float = math.inf):
+                 method: CutMethod = CutMethod.RCB, rebalance: float = math.inf, mirrors: Mirrors | None = None):
         if not rebalance >= 1.0:
             raise ParameterError("rebalance", f"must be >= 1 (max/mean of the ranks' work), got {rebalance!r}")
         self.world = world
@@ -61,13 +63,14 @@ class MovingSpread:
         self.periodic = tuple(bool(p) for p in periodic)
         self.lower, self.upper = points3([lower])[0], points3([upper])[0]
         self.rebalance_above = float(rebalance)
+        self.mirrors = mirrors
         self.rebalances = 0
         self.last_imbalance: float | None = None
         moving = points3(positions)
         fixed, fixed_cost = self.fixed_items()
         self.decomposition = self.cut(np.vstack([moving, fixed]), np.concatenate([np.ones(len(moving)), fixed_cost]))
         #: this rank's part of the moving items
-        self.moving = Partition.of_all(world, self.decomposition, self.depth, moving)
+        self.moving = Partition.of_all(world, self.decomposition, self.depth, moving, mirrors)
         self.follow_cut()
 
     @property
@@ -120,7 +123,7 @@ class MovingSpread:
         part = self.moving
         if owned is not None:
             part = Partition(self.world, self.decomposition, self.depth, np.asarray(values[ids], np.int64), owned,
-                             {}, {}, self.moving.count)
+                             {}, {}, self.moving.count, self.mirrors)
         positions = points3(values["position"])
         if work is not None:
             self._rebalance(positions[part.owned_index], *work(), part.owned_index, busy)
@@ -153,10 +156,10 @@ class MovingSpread:
         ids = np.arange(len(moving), dtype=np.int64) if ids is None else np.asarray(ids, np.int64)
         fixed, fixed_cost = self.fixed_items()
         self.decomposition = self.cut(np.vstack([moving, fixed]), np.concatenate([np.ones(len(moving)), fixed_cost]))
-        rows = np.flatnonzero(self.decomposition.held_by(moving, self.world.rank, self.depth))
+        rows = np.flatnonzero(self.decomposition.held_by(moving, self.world.rank, self.depth, self.mirrors))
         self.moving.release()
         self.moving = Partition.of_items(self.world, self.decomposition, self.depth, ids[rows], moving[rows],
-                                         len(moving) if count is None else int(count))
+                                         len(moving) if count is None else int(count), self.mirrors)
         self.follow_cut()
         return rows
 

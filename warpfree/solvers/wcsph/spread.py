@@ -6,7 +6,9 @@ ghost; its refreshes and reductions do nothing and nothing moves at a rebuild.
 The fluid and the wall particles are two item sets on one :class:`~warpfree.parallel.Decomposition` (cut over the
 neighbour grid's cells, a cell being the kernel support). A rank holds the fluid and walls its box owns and, as
 ghosts, those within one support plus the tables' skin of it (``depth``), each set in global-id order; its arrays are
-laid out as the one process's, [held fluid | held walls]. A step then needs, besides the one reduction of its report
+laid out as the one process's, [held fluid | held walls]. With openings, a rank also holds the fluid whose mirror image
+across an opening's plane lies within ``depth`` of its box (:func:`opening_mirrors`): its own buffer particles take
+their values from the fluid about their mirror points, as far in front of the plane as they are behind it. A step then needs, besides the one reduction of its report
 (the stable step, the rebuild decision and the status: a max), two refreshes of the ghosts:
 
 - the walls' pressure, density and no-slip velocity after the wall-pressure pass (a ghost wall's fluid neighbours
@@ -26,10 +28,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from warpfree.parallel import CutMethod, Partition, World
+from warpfree.parallel import CutMethod, Mirrors, Partition, World
 from warpfree.parallel.moving import MovingSpread
 
-__all__ = ["FluidSpread", "MOVING_FIELDS", "STEP_FIELDS"]
+__all__ = ["FluidSpread", "MOVING_FIELDS", "STEP_FIELDS", "opening_mirrors"]
 
 #: the fluid arrays a ghost gets from its owner after every kick (held fluid rows)
 STEP_FIELDS = ("position", "velocity", "density", "acceleration", "density_rate")
@@ -47,6 +49,21 @@ REBALANCE = 1.1
 #: the solver's phases whose time is its items' work (the kernels over held particles, no message): what a rank's
 #: measured work since the last rebuild adds up
 WORK_PHASES = ("rates", "boundary", "surfaces")
+
+
+def opening_mirrors(model) -> Mirrors | None:
+    """The openings' planes as :class:`~warpfree.parallel.Mirrors` (None without openings). A buffer particle is at
+    most T + dx/2 behind its plane at a rebuild (farther, it is taken out) and moves at most skin/2 before the next;
+    its mirror point reads the fluid within the support of it, which has moved at most skin/2 since the rebuild: the
+    fluid up to T + dx/2 + support + skin in front of the plane (and, having just crossed it, skin behind it) is
+    reflected. By the triangle inequality its image at the rebuild then lies within support + skin (``depth``) of
+    the box that owned the buffer particle."""
+    o = model.openings
+    if o is None:
+        return None
+    P = model.params
+    reach = o.thickness + o.margin + P.support + model.skin
+    return Mirrors(o.point.astype(np.float64), o.normal.astype(np.float64), reach, np.full(o.count, model.skin))
 
 
 class FluidSpread(MovingSpread):
@@ -70,7 +87,7 @@ class FluidSpread(MovingSpread):
         self._walls_moved = False  # walls moved (rigid bodies) since their part was made
         super().__init__(world, self.fluid_start, cell=P.support, depth=P.support + model.skin, dim=P.dim,
                          lower=P.container_lo, upper=P.container_hi, periodic=P.periodic, method=method,
-                         rebalance=rebalance)
+                         rebalance=rebalance, mirrors=opening_mirrors(model))
 
     @property
     def fluid(self) -> Partition:
@@ -160,7 +177,7 @@ class FluidSpread(MovingSpread):
         if self.whole:
             self.moving.release()
             self.moving = Partition(self.world, self.decomposition, self.depth, np.asarray(ids, np.int64),
-                                    np.ones(len(ids), dtype=bool), {}, {}, issued)
+                                    np.ones(len(ids), dtype=bool), {}, {}, issued, self.mirrors)
             lay_out(values, self.held_walls(self.model.wall_values()))
             return
 
