@@ -107,6 +107,19 @@ def test_a_rank_holds_the_fluid_its_buffer_particles_read_about_their_mirror_poi
     assert missed_without > 0
 
 
+def test_a_channel_driven_by_pressure_sets_poiseuille_s_drop_between_its_openings():
+    """``driven_by = pressure``: the inlet holds 12 μ U L/H² above the outlet, both raised by ``background`` drops;
+    neither prescribes a velocity."""
+    module = load_scene("channel_flow_2d")
+    for background in (0.0, 2.0):
+        run = module.build(**{**module.SMALLEST, "driven_by": "pressure", "background": background, "frames": False,
+                              "vtk": False})
+        o = run.solver.model.openings
+        drop = 12.0 * 1e-3 * 1e-3 * (3.5 * 1e-3) / 1e-3 ** 2  # μ U L/H² at Re = 1, H = 1 mm, ν = 1e-6 m²/s
+        assert o.set_pressure.tolist() == [True, True] and o.set_velocity.tolist() == [False, False]
+        assert o.pressure.tolist() == pytest.approx([(1.0 + background) * drop, background * drop], rel=1e-12)
+
+
 @pytest.mark.slow
 def test_a_channel_between_an_inlet_and_an_outlet_reaches_poiseuille(tmp_path):
     """The scene ``channel_flow_2d`` at n = 12 across (its checks hold the default n = 20 to 1 %): the profile's shape
