@@ -33,7 +33,7 @@ from typing import Annotated
 import numpy as np
 
 from warpfree.errors import ParameterError, reported_as
-from warpfree.geometry import lattice_box
+from warpfree.geometry import circle_polygon, lattice_box
 from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import BoundaryModel, FluidField, FluidParams, Opening, WCSPHModel, WCSPHSolver
@@ -55,14 +55,6 @@ QUICK = {"per_diameter": 8}
 
 #: h = H_FACTOR dx, the kinematic viscosity (m²/s) and the centreline's samples per spacing
 H_FACTOR, NU, SAMPLES_PER_DX = 1.6, 1.0e-6, 2
-
-
-def circle(radius: float, dx: float) -> np.ndarray:
-    """The cylinder's section: a polygon of vertices on the circle (m), at most dx/8 apart (its chords then lie within
-    (dx/8)²/(8 R) of the circle)."""
-    count = max(64, int(np.ceil(2.0 * np.pi * radius / (dx / 8.0))))
-    angle = 2.0 * np.pi * np.arange(count) / count
-    return radius * np.column_stack([np.cos(angle), np.sin(angle)])
 
 
 def potential_flow(points: np.ndarray, speed: float, radius: float) -> np.ndarray:
@@ -130,7 +122,7 @@ def build(per_diameter: Annotated[int, Param("", "particles across the cylinder 
     radius = 0.5 * diameter
     with reported_as(dx="per_diameter, upstream, downstream, width", layers="wall_layers"):  # guards before allocating
         lattice = lattice_box((x_in - buffer, -half), (x_out + buffer, half), dx)
-        section = circle(radius, dx)
+        section = circle_polygon(radius, dx)
         fluid = clear_of(lattice, section, 0.5 * dx)
         rings = surface_layers(section, dx, wall_layers, "inside")
     fp = FluidParams(dim=2, dx=dx, h_factor=H_FACTOR, rho0=rho0, c0=c0, mu=rho0 * NU, delta=delta, shifting=shifting,

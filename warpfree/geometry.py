@@ -55,6 +55,7 @@ __all__ = [
     "load_mesh",
     "clip_polygon",
     "ccw_polygon",
+    "circle_polygon",
     "Side",
 ]
 
@@ -161,6 +162,16 @@ def ccw_polygon(polygon) -> np.ndarray:
     (t_y, -t_x) of an edge's unit tangent t is its outward normal."""
     p = _polygon(polygon)
     return p if _signed_area(p) > 0 else p[::-1]
+
+
+def circle_polygon(radius: float, dx: float, centre=(0.0, 0.0)) -> np.ndarray:
+    """A circle's section of ``radius`` (m) about ``centre``: a counter-clockwise polygon of at least 64 vertices on
+    the circle, at most dx/8 apart (its chords then lie within (dx/8)²/(8 R) of the circle)."""
+    count = max(64, float(np.ceil(2.0 * np.pi * radius / (dx / 8.0))))
+    require_memory("dx", count, 48.0, "polygon vertices")
+    count = int(count)
+    angle = 2.0 * np.pi * np.arange(count) / count
+    return np.asarray(centre, np.float64)[:2] + radius * np.column_stack([np.cos(angle), np.sin(angle)])
 
 
 # ----------------------------------------------------------------------------------------------

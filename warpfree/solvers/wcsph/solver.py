@@ -488,16 +488,24 @@ class WCSPHSolver(TimeDependentSolver):
         self._launch_report()
 
     @announced(lambda self, duration, *a, **k: f"water settled before t = 0 ({duration:.3g} s of damped steps)")
-    def settle(self, duration: float, damping: float) -> dict:
+    def settle(self, duration: float, damping: float, hold_bodies: bool = False) -> dict:
         """Let the fluid come to rest in its own discretisation before t = 0: ``duration`` seconds of steps with
         every velocity damped as v ← v e^(-γΔt) (γ = ``damping``, 1/s), then velocities set to zero and the rates
         recomputed. Positions, densities and pressures keep what the discrete equations balance (a lattice or a
         relaxed arrangement given hydrostatic densities is only near that: its first steps would start a
-        transient). Floating bodies move with the water meanwhile and end at rest with it. Returns the step count and
-        the kinetic energy and largest speed at the end of the settling."""
+        transient). Floating bodies move with the water meanwhile and end at rest with it, or, ``hold_bodies``, are
+        held where they are (released from there at t = 0: a decay test). Returns the step count and the kinetic
+        energy and largest speed at the end of the settling."""
         require_positive("settle", duration)
         require_positive("damping", damping)
         self._set_damping(damping)
+        bodies = self.model.bodies
+        free = None
+        if hold_bodies and bodies is not None and bodies.floating:
+            free, bodies.free = bodies.free, np.zeros_like(bodies.free)
+            state = self._body_state.numpy()   # at rest, and no acceleration left from the initial rates
+            state[bodies.floating, BODY_SLICES[2].start:] = 0.0
+            self._body_state.assign(state)
         t, steps = 0.0, 0
         try:
             while t < duration:
@@ -510,6 +518,8 @@ class WCSPHSolver(TimeDependentSolver):
                     raise RunError(f"settling failed at t = {t:.4g} s: {problem}")
         finally:
             self._set_damping(0.0)
+            if free is not None:
+                bodies.free = free
         d = self.diagnostics()
         self.fluid["velocity"].zero_()
         if self._body_state is not None and self.model.bodies.floating:  # the floating bodies at rest too
