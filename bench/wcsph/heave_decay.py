@@ -25,7 +25,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import common  # noqa: E402
-from wcsph.channel_flow import particle_steps, run_scene  # noqa: E402
+from wcsph.channel_flow import dam_break_cost, particle_steps, run_scene  # noqa: E402
 
 from warpfree.validation import heave_decay_2d as ursell  # noqa: E402
 
@@ -103,12 +103,8 @@ def main(argv=None) -> int:
     for per_radius in (int(v) for v in args.per_radius.split(",")):
         print(f"a = {per_radius} dx", flush=True)
         cases.append(run_case(per_radius, args.threads))
-    print("dam_break_2d", flush=True)
-    dam = run_scene("dam_break_2d", args.threads, [])
     result = {"machine": common.machine_info(), "threads": args.threads, "cases": cases,
-              "dam_break": {"particles": dam["model"]["n_particles"], "steps": dam["steps"],
-                            "step_s": dam["phases_s"]["step"],
-                            "us_per_particle_step": 1e6 * dam["phases_s"]["step"] / particle_steps(dam)}}
+              "dam_break": dam_break_cost(args.threads)}
     common.write_results("heave_decay", result, markdown(result), plot(result))
     return 0
 
