@@ -67,11 +67,14 @@ def test_a_distributed_run_gives_the_one_process_outputs_bitwise(scene, ranks, s
 
 @needs_mpi
 @pytest.mark.parametrize("scene,settings", [
-    ("carried_tank", []), ("floating_box_2d", ["--set", "dx=0.04", "--set", "settle=0", "--set", "t_end=0.6"])])
+    ("carried_tank", []), ("floating_box_2d", ["--set", "dx=0.04", "--set", "settle=0", "--set", "t_end=0.6"]),
+    ("heave_decay_2d", ["--set", "per_radius=4", "--set", "depth=3", "--set", "half_length=4", "--set", "settle=0.5",
+                        "--set", "t_end=2", "--set", "output_interval=0.5"])])
 def test_a_rigid_body_moves_across_the_ranks_bitwise(scene, settings, tmp_path):
     """A tank, a rigid body, carried 1 m along x (2.5 tank widths) on 3 ranks: its walls, cut among the ranks at the
     start, follow it into other ranks' boxes at the rebuilds, and its water with them; a floating box, its load
-    summed over the ranks' walls in their global order: the one process's outputs, bitwise (the sensors too)."""
+    summed over the ranks' walls in their global order; a cylinder held while the water settles, then released: the
+    one process's outputs, bitwise (the sensors too)."""
     from pathlib import Path
 
     if scene == "carried_tank":
