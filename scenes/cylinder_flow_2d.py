@@ -38,7 +38,7 @@ from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_par
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import BoundaryModel, FluidField, FluidParams, Opening, WCSPHModel, WCSPHSolver
 from warpfree.solvers.wcsph.parameters import Courant, FrameField, RestDensity, Shifting, WallLayers
-from warpfree.solvers.wcsph.scene_tools import clear_of, require_wall_cover
+from warpfree.solvers.wcsph.scene_tools import clear_of, require_wall_cover, require_whole_spacings
 from warpfree.solvers.wcsph.sensors import ForceSensor
 from warpfree.solvers.wcsph.surface_layers import surface_layers
 from warpfree.time_loop import TimeLoop
@@ -99,11 +99,8 @@ def build(per_diameter: Annotated[int, Param("", "particles across the cylinder 
     D, times in D/U, the background pressure in ρU²."""
     params = dict(locals())
     dx = diameter / per_diameter
-    for name, value in (("upstream", upstream), ("downstream", downstream), ("width", width)):
-        spacings = value * per_diameter
-        if abs(spacings - round(spacings)) > 1e-6 * spacings:
-            raise ParameterError(name, f"must be whole spacings: {value} D is {spacings:.6g} spacings at "
-                                       f"per_diameter = {per_diameter}")
+    require_whole_spacings({"upstream": upstream, "downstream": downstream, "width": width}, per_diameter, "D",
+                           "per_diameter")
     if averaged > t_end:
         raise ParameterError("averaged", f"must be at most t_end = {t_end} D/U, got {averaged}")
     if output_interval > averaged:

@@ -25,13 +25,14 @@ from typing import Annotated
 
 import numpy as np
 
-from warpfree.errors import ParameterError, reported_as
+from warpfree.errors import reported_as
 from warpfree.geometry import circle_polygon, lattice_box
 from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_parameters
 from warpfree.run import OutputOptions
 from warpfree.solvers.wcsph import BoundaryModel, FluidField, FluidParams, RigidBody, WCSPHModel, WCSPHSolver
 from warpfree.solvers.wcsph.parameters import FrameField, WallLayers
-from warpfree.solvers.wcsph.scene_tools import clear_of, hydrostatic_density, require_wall_cover
+from warpfree.solvers.wcsph.scene_tools import (clear_of, hydrostatic_density, require_wall_cover,
+                                                  require_whole_spacings)
 from warpfree.solvers.wcsph.sensors import BodySensor
 from warpfree.solvers.wcsph.surface_layers import surface_layers
 from warpfree.time_loop import TimeLoop
@@ -69,11 +70,7 @@ def build(per_radius: Annotated[int, Param("", "particles over the cylinder's ra
     lengths in a, times in sqrt(a/g)."""
     params = dict(locals())
     dx = radius / per_radius
-    for name, value in (("depth", depth), ("half_length", half_length)):
-        spacings = value * per_radius
-        if abs(spacings - round(spacings)) > 1e-6 * spacings:
-            raise ParameterError(name, f"must be whole spacings: {value} a is {spacings:.6g} spacings at "
-                                       f"per_radius = {per_radius}")
+    require_whole_spacings({"depth": depth, "half_length": half_length}, per_radius, "a", "per_radius")
     support = 3.2 * dx
     require_wall_cover(wall_layers, dx, support)
     time_unit = math.sqrt(radius / G)

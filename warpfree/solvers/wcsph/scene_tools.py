@@ -10,6 +10,16 @@ from warpfree.errors import ParameterError, require_positive
 from .model import BoundaryModel
 
 
+def require_whole_spacings(lengths: dict, per_unit: int, unit: str, per_name: str) -> None:
+    """Each of ``lengths`` (name -> value in ``unit``) is a whole number of spacings at ``per_unit`` spacings a
+    ``unit`` (its lattice then ends on a row): else ParameterError naming the length."""
+    for name, value in lengths.items():
+        spacings = value * per_unit
+        if abs(spacings - round(spacings)) > 1e-6 * spacings:
+            raise ParameterError(name, f"must be whole spacings: {value} {unit} is {spacings:.6g} spacings at "
+                                       f"{per_name} = {per_unit}")
+
+
 def require_wall_cover(wall_layers: int, dx: float, support: float,
                        boundary_model: BoundaryModel = BoundaryModel.DYNAMIC) -> None:
     """Dynamic walls must fill the kernel support (m) of the fluid row nearest them, which stands dx/2 from the wall:
