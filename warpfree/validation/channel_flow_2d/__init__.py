@@ -142,9 +142,8 @@ def plot_channel(path: str, series: dict, res: dict, width: float, n: int) -> No
                   f"{t[-1]:.3g} s")
     a1.set_xlabel("u / u_max")
     a1.set_ylabel("y / H")
-    a1.set_title(f"channel with an inlet and an outlet, n = {n}: largest error of the mean {res['error_max']:.3g} "
-                 f"u_max",
-                 fontsize=9)
+    a1.set_title(f"channel with an inlet and an outlet, n = {n}\nthe shape's largest error {res['error_max']:.3g} "
+                 f"u_max; the flux U'/U = {res['mean_velocity_ratio']:.3f}", fontsize=9)
     a1.legend(fontsize=7, loc="lower right")
     a1.grid(alpha=0.3)
     a2.semilogy(t[1:], series["profile_error_max"][1:], "o-", ms=3, label="max |bin error| / u_max, each output")
@@ -153,7 +152,7 @@ def plot_channel(path: str, series: dict, res: dict, width: float, n: int) -> No
     a2.set_xlabel("t (s)")
     a2.set_ylabel("error / u_max")
     a2.axvline(res["averaged_from"], color="0.6", ls=":", lw=0.8)
-    a2.set_title(f"from t = {res['averaged_from']:.3g} s: entered {res['entered']}, left {res['left']} particles; "
+    a2.set_title(f"from t = {res['averaged_from']:.3g} s: entered {res['entered']}, left {res['left']} particles\n"
                  f"pressure drop {res['pressure_drop_ratio']:.3f} x 12μUL/H²", fontsize=9)
     a2.legend(fontsize=7)
     a2.grid(alpha=0.3, which="both")
