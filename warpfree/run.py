@@ -198,6 +198,11 @@ class Run(ABC):
                     batch.append(self._frame_job(directory, whole, index, title))
                     for set_name, field in self.output.extra_frames:
                         batch.append(self._frame_job(directory, whole, index, title, set_name, field))
+            for table, (header, rows) in self.solver.output_tables().items():
+                if self.world.is_root:
+                    batch.append(("call", {"function": "warpfree.sensors:write_csv",
+                                           "kwargs": {"path": os.path.join(directory.root, f"{table}.csv"),
+                                                      "header": header, "rows": rows}}))
             if self.output.meshes:
                 for mesh_name, (vertices, faces) in self.solver.output_meshes().items():
                     if self.world.is_root:

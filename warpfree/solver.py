@@ -266,6 +266,12 @@ class Solver(ABC):
         """Name -> (vertices (V, 3), triangles (F, 3)) to write as PLY (e.g. a free surface). None by default."""
         return {}
 
+    def output_tables(self) -> dict[str, tuple[list[tuple[str, str]], np.ndarray]]:
+        """Path (in the run directory, without ``.csv``) -> (columns as (name, unit), rows): tables written whole at
+        every output, e.g. monitors' running transforms. Called on every rank (collective); the first writes. None by
+        default."""
+        return {}
+
     def diagnostics(self) -> dict[str, float]:
         """Scalars recorded at every output (energies, mass, extremes)."""
         return {}

@@ -35,6 +35,7 @@ from warpfree.space import Space
 
 from .conservative import ConservativePair, energy_conserving_pair, pattern_reach
 from .layouts import StaggeredLayout
+from .materials import EMObject, check_objects, effective_materials
 
 __all__ = ["EPS0", "MU0", "C0", "PML", "PMLSide", "Scheme", "SPEMModel", "support_for_jitter"]
 
@@ -139,7 +140,10 @@ class SPEMModel:
     layout: a :class:`~.layouts.StaggeredLayout`.
     scheme: a :class:`Scheme`: FPM (default), CSPM (eq. 3.6) or SPH (uncorrected).
     support: support radius in units of each particle's spacing (default 1.1, module docstring).
-    eps_r, mu_r: relative permittivity / permeability: a number or f(points (N, 3)) -> (N,).
+    eps_r, mu_r: the background's relative permittivity / permeability: a number or f(points (N, 3)) -> (N,) (read at
+        each particle: an interface between values of a function is staircased).
+    objects: :class:`~.materials.EMObject` s (shapes with materials) layered over the background in order; each
+        particle takes the effective material of its cell (:mod:`.materials`: second order at the interfaces).
     pml: a :class:`PML` or None; ``interior``: (lower, upper) of the interior box the PML surrounds.
     pec: hold the layout's wall E particles at Ez = 0 (explicit perfect-conductor particles; default). False
         leaves them free: the wall is then only the absence of particles beyond it (the thesis's natural
@@ -156,7 +160,8 @@ class SPEMModel:
                f"{group_digits(layout.n_h)} H particles)")
     def __init__(self, layout: StaggeredLayout, scheme: Scheme = Scheme.FPM, support: float = 1.1, eps_r: Material = 1.0,
                  mu_r: Material = 1.0, pml: PML | None = None, interior=None, pec: bool = True,
-                 conservative: bool | None = None, pair_order: int = 1, launcher: Launcher | None = None):
+                 conservative: bool | None = None, pair_order: int = 1, objects: list[EMObject] | None = None,
+                 launcher: Launcher | None = None):
         launcher = launcher or current_launcher()
         scheme = Scheme.of("scheme", scheme)
         self.support = require_positive("support", support)
@@ -170,6 +175,13 @@ class SPEMModel:
         self.magnetic = ParticleSet("magnetic", layout.h_position, layout.dim, dev)
         self.eps_r = _material("eps_r", eps_r, layout.e_position)
         self.mu_r = _material("mu_r", mu_r, layout.h_position)
+        self.objects = check_objects(objects, layout)
+        self.conductivity = np.zeros(layout.n_e)
+        self.materials = None
+        if self.objects:
+            self.materials = effective_materials(self.objects, layout, self.eps_r, self.mu_r)
+            self.eps_r, self.mu_r = self.materials.eps_r, self.materials.mu_r
+            self.conductivity = self.materials.conductivity
         self.pml = pml
         loss_e, loss_h = np.zeros((layout.n_e, 2)), np.zeros((layout.n_h, 2))
         if pml is not None:
@@ -180,6 +192,7 @@ class SPEMModel:
             eps_h = _material("eps_r", eps_r, layout.h_position)
             loss_e = pml.sigma(layout.e_position, lo, hi) / (EPS0 * self.eps_r[:, None])
             loss_h = pml.sigma(layout.h_position, lo, hi) / (EPS0 * eps_h[:, None])  # σ*/μ = σ/ε (3.21)
+        loss_e += (self.conductivity / (EPS0 * self.eps_r))[:, None]  # σ/ε on both parts of the split field
         self.interior = interior
         self.pec = require_bool("pec", pec)
         e, h = self.electric, self.magnetic
@@ -477,6 +490,10 @@ class SPEMModel:
              # eq. 3.16 with the thesis's h = d_W/α, α = 2 (its Fig. 2.3): Δt <= h_min/(√2 c)
              "eq_3_16_dt": float(0.5 * self.support * min(lay.e_spacing.min(), lay.h_spacing.min())
                                  / (math.sqrt(2.0) * C0))}
+        if self.objects:
+            d["objects"] = [o.describe() for o in self.objects]
+            d["particles_on_interfaces"] = {"electric": self.materials.e_on_interface,
+                                            "magnetic": self.materials.h_on_interface}
         if self.pml is not None:
             d["pml"] = {"thickness": self.pml.thickness, "sides": list(self.pml.sides), "order": self.pml.order,
                         "reflection": self.pml.reflection, "sigma_max": self.pml.sigma_max()}

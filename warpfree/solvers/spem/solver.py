@@ -34,6 +34,7 @@ from warpfree.solver import OutputSet, State, StepRule, TimeDependentSolver
 from .layouts import HX, HY
 from .kronecker import NodalValues
 from .model import Scheme, SPEMModel
+from .monitors import FIELD_UNITS, DFTMonitor, field_particles, interpolation_rows, window_amplitude
 from .plane_wave import DevicePlaneWave, PlaneWave
 
 __all__ = ["Waveform", "GaussianPulse", "Source", "SourceKind", "SPEMState", "SPEMSolver"]
@@ -130,6 +131,35 @@ class _DeviceSource:
         self.signal = source_signal(source.waveform)
 
 
+class _DeviceTransform:
+    """One field of a :class:`~.monitors.DFTMonitor` on the device: the particles its points read (``ids``: their
+    indices in the whole set, those this process owns), their transforms' sums (``real``, ``imag``: (particles,
+    frequencies), float64) and the interpolation from the particles to the points (``weights``: points × ``stencil``,
+    the global indices of every particle read)."""
+
+    def __init__(self, monitor: DFTMonitor, field: str, model: SPEMModel, spread, frequencies: wp.array, device: str):
+        lay = model.layout
+        carriers = field_particles(lay, field)
+        positions = lay.e_position if field == "ez" else lay.h_position
+        weights = interpolation_rows(positions[carriers], monitor.points, lay.dim, lay.spacing).tocsc()
+        used = np.flatnonzero(np.diff(weights.indptr) > 0)
+        self.field, self.monitor = field, monitor
+        self.weights = weights[:, used].tocsr()
+        self.stencil = carriers[used].astype(np.int64)
+        part = spread.electric if field == "ez" else spread.magnetic
+        here, mine = spread.owned(part, self.stencil)
+        self.ids = self.stencil[mine]
+        self.count = int(mine.size)
+        n, nf = max(self.count, 1), frequencies.shape[0]
+        self.particles = wp.array(here.astype(np.int32) if self.count else np.zeros(1, np.int32), dtype=wp.int32,
+                                  device=device)
+        self.real = wp.zeros((n, nf), dtype=wp.float64, device=device)
+        self.imag = wp.zeros((n, nf), dtype=wp.float64, device=device)
+        self.frequencies = frequencies
+        self.offset = 0.5 if field == "ez" else 1.0  # the field's time in the step: Ez at t + Δt/2, H at t + Δt
+        self.key = f"dft_{monitor.name}_{field}"
+
+
 def source_signal(waveform) -> K.SourceSignal:
     """The device form (``kernels/spem.py: SourceSignal``) of a :class:`Waveform` or :class:`GaussianPulse`."""
     signal = K.SourceSignal()
@@ -149,6 +179,8 @@ class SPEMSolver(TimeDependentSolver):
     ``kronecker``: the initial fields are field values, converted once to the nodal values whose SPH interpolant
     takes them at the particles (Mendes 2010, §3.1.5, :mod:`.kronecker`; for the "sph" and "cspm" schemes, whose values
     are read through that interpolant; FPM's values already are point values). PEC particles keep 0.
+    ``monitors``: :class:`~.monitors.DFTMonitor` s, running DFTs of fields at points accumulated every step (their sums
+    are state: a checkpoint holds them), written at every output as ``monitors/<name>.csv`` (:meth:`output_tables`).
     ``distribution``: which particles each thread updates (``warpfree/distribution.py``: "blocks",
     "alternating", "random", "neighbours"); the results are bitwise the same for all.
 
@@ -164,7 +196,7 @@ class SPEMSolver(TimeDependentSolver):
     def __init__(self, model: SPEMModel, sources: list[Source] | None = None, ez=None, hx=None, hy=None,
                  launcher: Launcher | None = None, kronecker: bool = False,
                  distribution: Distribution = Distribution.BLOCKS,
-                 courant: float = 0.95):
+                 courant: float = 0.95, monitors: list[DFTMonitor] | None = None):
         super().__init__(model, launcher or model.launcher or current_launcher())
         if not 0.0 < require_finite("courant", courant) <= 1.0:
             raise ParameterError("courant", f"must be in (0, 1] (a fraction of the stable step), got {courant}")
@@ -228,6 +260,7 @@ class SPEMSolver(TimeDependentSolver):
                         for s in sources if isinstance(s, Source)]
         self.plane_waves = [spread.plane_wave(DevicePlaneWave(s, model, dev)) for s in sources
                             if isinstance(s, PlaneWave)]
+        self.monitors = self._monitors(monitors, model, dev)
         # each thread's particles (``distribution``) among this rank's own; a held particle returns at once
         e_cost = np.where(held, 0, model.e_rows.rows.count.numpy()[:e.n])
         h_cost = model.h_rows.rows.count.numpy()[:h.n]
@@ -235,6 +268,24 @@ class SPEMSolver(TimeDependentSolver):
             wp.array(part.owned_index[launch_order(distribution, part.n_owned, self.launcher.threads,
                                                    cost=cost[part.ids[part.owned_index]])].astype(np.int32),
                      dtype=wp.int32, device=dev) for part, cost in ((ep, e_cost), (hp, h_cost)))
+
+    def _monitors(self, monitors, model: SPEMModel, device: str) -> dict[str, list[_DeviceTransform]]:
+        """Each monitor checked and its fields' transforms on the device, their sums and owned ids in the state."""
+        out: dict[str, list[_DeviceTransform]] = {}
+        slowest = float(np.sqrt(np.max(model.eps_r)) * np.sqrt(np.max(model.mu_r)))
+        for m in monitors or []:
+            if not isinstance(m, DFTMonitor):
+                raise ParameterError("monitor", f"each monitor is a DFTMonitor, got {type(m).__name__}")
+            m = m.checked(model.layout, slowest)
+            if m.name in out:
+                raise ParameterError("monitor", f"two monitors are named {m.name!r}")
+            frequencies = wp.array(np.asarray(m.frequencies, np.float64), dtype=wp.float64, device=device)
+            out[m.name] = [_DeviceTransform(m, f, model, self.spread, frequencies, device) for f in m.fields]
+            for t in out[m.name]:
+                setattr(self.state, f"{t.key}_real", t.real)
+                setattr(self.state, f"{t.key}_imag", t.imag)
+                setattr(self.state, f"{t.key}_id", t.ids)
+        return out
 
     @staticmethod
     def _nodal_values(model: SPEMModel, ez0, hx0, hy0):
@@ -279,6 +330,7 @@ class SPEMSolver(TimeDependentSolver):
             for s in self.sources:
                 L.launch(K.set_source, s.count, [s.particles, s.amplitude, s.signal, clock, s.additive, st.ez,
                                                  st.ezx])
+            self._launch_transforms(("ez",))
         with self.phases("exchange"):
             self.spread.electric.refresh(st.ez)
         with self.phases("magnetic"):
@@ -287,8 +339,69 @@ class SPEMSolver(TimeDependentSolver):
             for w in self.plane_waves:  # TF/SF: the incident Ez^{n+1/2}
                 L.launch(K.plane_wave_magnetic, w.n_h, [clock, w.struct, w.h_targets, w.h_rows, w.h_coefficient,
                                                         e.position, h["inv_permeability"], h["loss"], st.hx, st.hy])
+            self._launch_transforms(("hx", "hy"))
         with self.phases("exchange"):
             self.spread.magnetic.refresh(st.hx, st.hy)
+
+    def _launch_transforms(self, fields: tuple[str, ...]) -> None:
+        """The monitors' running DFTs of ``fields`` at the time those fields have reached in the step."""
+        for transforms in self.monitors.values():
+            for t in transforms:
+                if t.field in fields and t.count:
+                    values = getattr(self.state, t.field)
+                    self.launcher.launch(K.accumulate_dft, t.count * t.frequencies.shape[0],
+                                         [t.particles, values, self.clock.values, wp.float64(t.offset),
+                                          wp.float64(t.monitor.start), t.frequencies, t.real, t.imag])
+
+    def dft(self, name: str) -> dict[str, np.ndarray]:
+        """Monitor ``name``'s transforms at its points: field -> complex (points, frequencies), V·s/m or A·s/m (every
+        rank gets them: a collective call in a distributed run)."""
+        if name not in self.monitors:
+            raise ParameterError("monitor", f"no monitor is named {name!r} (there are {sorted(self.monitors)})")
+        out = {}
+        for t in self.monitors[name]:
+            n = t.count
+            rows = np.column_stack([t.ids.astype(np.float64), t.real.numpy()[:n], t.imag.numpy()[:n]])
+            every = np.vstack(self.world.allgather(rows)) if self.world.distributed else rows
+            nf = t.frequencies.shape[0]
+            value = np.zeros((t.stencil.size, nf), complex)
+            at = np.searchsorted(t.stencil, every[:, 0].astype(np.int64))
+            value[at] = every[:, 1:1 + nf] + 1j * every[:, 1 + nf:]
+            out[t.field] = t.weights @ value
+        return out
+
+    def dft_window(self, name: str, field: str) -> float:
+        """The time (s) monitor ``name``'s transform of ``field`` has summed: its samples since ``start`` times Δt."""
+        t = next(t for t in self.monitors[name] if t.field == field)
+        dt = self.run_step
+        if dt <= 0:
+            return 0.0
+        steps = int(round(self.t / dt))
+        first = max(0, math.ceil((t.monitor.start - t.offset * dt) / dt - 1e-9))
+        return max(0, steps - first) * dt
+
+    def output_tables(self) -> dict[str, tuple[list[tuple[str, str]], np.ndarray]]:
+        """Each monitor's table: a row per point and frequency (point index, position, frequency) with, per field, the
+        transform's real and imaginary parts and the amplitude and phase of the steady sine over the window summed
+        (:func:`~.monitors.window_amplitude`)."""
+        tables = {}
+        for name, transforms in self.monitors.items():
+            m = transforms[0].monitor
+            values = self.dft(name)
+            npts, nf = m.points.shape[0], len(m.frequencies)
+            point = np.repeat(np.arange(npts), nf)
+            columns = [np.asarray(point, float)] + [np.repeat(m.points[:, a], nf) for a in range(self.dim)]
+            columns.append(np.tile(np.asarray(m.frequencies), npts))
+            header = [("point", ""), *[("xyz"[a], "m") for a in range(self.dim)], ("frequency", "Hz")]
+            for t in transforms:
+                unit, transform_unit = FIELD_UNITS[t.field]
+                f = values[t.field].ravel()
+                amplitude, phase = window_amplitude(f, self.dft_window(name, t.field))
+                columns += [f.real, f.imag, amplitude, phase]
+                header += [(f"{t.field}_real", transform_unit), (f"{t.field}_imag", transform_unit),
+                           (f"{t.field}_amplitude", unit), (f"{t.field}_phase", "rad")]
+            tables[f"monitors/{name}"] = (header, np.column_stack(columns))
+        return tables
 
     def stable_dt(self) -> float:
         """The stable step of the operators' spectral radius, fixed at set-up (s)."""
@@ -342,6 +455,15 @@ class SPEMSolver(TimeDependentSolver):
             part = getattr(self.spread, name)
             for k in keys:
                 getattr(self.state, k).assign(part.take(whole[k]))
+        for transforms in self.monitors.values():
+            for t in transforms:
+                names = (f"{t.key}_real", f"{t.key}_imag")
+                whole = whole_from_pieces(pieces, names, f"{t.key}_id", None)
+                at = np.searchsorted(whole[f"{t.key}_id"], t.ids)
+                for k, arr in zip(names, (t.real, t.imag)):
+                    values = np.zeros(arr.shape)
+                    values[:t.count] = whole[k][at]
+                    arr.assign(values)
         self.clock.values.assign(pieces[0]["clock"])
         self.clock.invalidate()
         self.after_load()

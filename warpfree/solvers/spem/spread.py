@@ -89,7 +89,12 @@ class FieldSpread:
 
     def owned_electric(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Of E particles ``ids`` (global), those this rank owns: (their held indices, their positions in ``ids``)."""
-        part = self.electric
+        return self.owned(self.electric, ids)
+
+    @staticmethod
+    def owned(part, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Of the particles ``ids`` (global) of the set ``part`` spreads, those this rank owns: (their held indices,
+        their positions in ``ids``)."""
         if part.whole:
             return ids, np.arange(ids.size)
         at = np.searchsorted(part.ids, ids)

@@ -1,0 +1,112 @@
+"""Field monitors of SPEM (``warpfree.solvers.spem.monitors``): the running DFT against NumPy's sum of the recorded
+fields, the interpolation exact for quadratic fields, the transforms restored on resume bitwise, bad monitors refused
+by name."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from warpfree.cli import main
+from warpfree.errors import ParameterError
+from warpfree.solvers.spem import PlaneWave, SPEMModel, SPEMSolver, Waveform, staggered_box, staggered_line
+from warpfree.solvers.spem.monitors import DFTMonitor, interpolation_rows
+
+
+def test_the_running_dft_is_the_sum_of_the_fields_at_their_own_times():
+    """A plane wave crossing a box: the monitor's transforms of Ez, Hx and Hy at particles equal Σ u(t) e^{-2πift} Δt
+    of the fields read after every step (Ez at t + Δt/2, H at t + Δt), to float64 rounding of float32 values."""
+    layout = staggered_box((0.0, 0.0), (0.3, 0.3), 0.01)
+    model = SPEMModel(layout)
+    f = 2.0e9
+    wave = PlaneWave(Waveform(f, ramp=1.0), lower=(0.05, 0.05), upper=(0.25, 0.25), direction=(0.6, 0.8))
+    e_at = np.flatnonzero(np.all(np.abs(layout.e_position[:, :2] - 0.15) < 0.03, axis=1))
+    h_at = np.flatnonzero(np.all(np.abs(layout.h_position[:, :2] - 0.15) < 0.03, axis=1))
+    hx_at = h_at[layout.h_carries[h_at] == 0]
+    points = np.vstack([layout.e_position[e_at, :2], layout.h_position[hx_at, :2]])
+    frequencies = (f, 1.3 * f)
+    start = 0.2e-9
+    solver = SPEMSolver(model, [wave], monitors=[DFTMonitor("probe", points, frequencies, ("ez", "hx"), start=start)])
+    dt = 0.9 * solver.stable_dt()
+    solver.use_step(dt)
+    steps = 120
+    expect_e = np.zeros((points.shape[0], 2), complex)
+    expect_h = np.zeros((points.shape[0], 2), complex)
+    w = 2.0 * math.pi * np.asarray(frequencies)
+    for n in range(steps):
+        solver.step(dt)
+        te, th = (n + 0.5) * dt, (n + 1) * dt
+        if te >= start:
+            expect_e[:e_at.size] += np.outer(solver.electric.numpy("ez")[e_at], np.exp(-1j * w * te)) * dt
+        if th >= start:
+            expect_h[e_at.size:] += np.outer(solver.magnetic.numpy("hx")[hx_at], np.exp(-1j * w * th)) * dt
+    got = solver.dft("probe")
+    scale = np.abs(expect_e).max()
+    assert scale > 1e-11
+    assert np.abs(got["ez"][:e_at.size] - expect_e[:e_at.size]).max() < 1e-9 * scale
+    assert np.abs(got["hx"][e_at.size:] - expect_h[e_at.size:]).max() < 1e-9 * np.abs(expect_h).max()
+    first = math.ceil(start / dt - 0.5)
+    assert solver.dft_window("probe", "ez") == pytest.approx((steps - first) * dt)
+
+
+@pytest.mark.parametrize("dim", [1, 2])
+def test_interpolation_is_exact_for_quadratic_fields(dim):
+    rng = np.random.default_rng(4)
+    spacing = 0.1
+    if dim == 1:
+        particles = np.arange(0.0, 2.0 + 1e-9, spacing)[:, None] + rng.uniform(-0.03, 0.03, (21, 1))
+        field = lambda p: 1.0 + 2.0 * p[:, 0] - 3.0 * p[:, 0] ** 2  # noqa: E731
+        points = rng.uniform(0.3, 1.7, (50, 1))
+    else:
+        g = np.arange(0.0, 1.0 + 1e-9, spacing)
+        particles = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2) + rng.uniform(-0.03, 0.03, (121, 2))
+        field = lambda p: 1.0 + p[:, 0] - 2.0 * p[:, 1] + 3.0 * p[:, 0] * p[:, 1] - p[:, 1] ** 2  # noqa: E731
+        points = rng.uniform(0.2, 0.8, (50, 2))
+    rows = interpolation_rows(particles, points, dim, spacing)
+    assert rows @ field(particles) == pytest.approx(field(points), abs=1e-10)
+    on = interpolation_rows(particles, particles[:3], dim, spacing)
+    assert np.array_equal(on.toarray()[:, :3], np.eye(3)) and on.nnz == 3
+
+
+def test_monitors_continue_bitwise_after_a_resume(tmp_path):
+    """The scatterer's smallest run, uninterrupted and resumed from the older of its two last checkpoints (inside the
+    DFT's window): the DFT file is the same."""
+    whole, resumed = tmp_path / "whole", tmp_path / "resumed"
+    args = ["run", "em_scatterer_2d", "--no-frames", "--set", "vtk=false", "--set", "particles_per_wavelength=8",
+            "--set", "periods=6", "--set", "window=2"]
+    assert main(args + ["--out", str(whole)]) == 0
+    assert main(args + ["--out", str(resumed), "--checkpoint-every", "55"]) == 0  # 144 steps, the window from 96 on
+    checkpoints = sorted((resumed / "checkpoints").glob("step_*"), key=lambda p: int(p.stem.split("_")[1]))
+    inside = [p for p in checkpoints if 96 < int(p.stem.split("_")[1]) < 144]
+    assert len(inside) == 1
+    with np.load(inside[0]) as saved:
+        assert np.abs(saved["state__dft_near_field_ez_real"]).max() > 0  # the sums a resume must restore
+    for later in checkpoints[checkpoints.index(inside[0]) + 1:]:
+        later.unlink()
+    (resumed / "monitors" / "near_field.csv").unlink()
+    assert main(["run", "--resume", str(resumed), "--no-frames"]) == 0
+    a = (whole / "monitors" / "near_field.csv").read_text()
+    b = (resumed / "monitors" / "near_field.csv").read_text()
+    assert a == b and len(a.splitlines()) > 100
+    assert json.loads((resumed / "summary.json").read_text())["steps_this_run"] < \
+        json.loads((whole / "summary.json").read_text())["steps"]
+
+
+@pytest.mark.parametrize("monitor,reason", [
+    (DFTMonitor("m", [[0.5, 0.5]], (1e9,)), "outside the domain"),
+    (DFTMonitor("m", [[0.1, 0.1]], (1e12,)), "above the resolved band"),
+    (DFTMonitor("m", [[0.1, 0.1]], (-1.0,)), "frequencies must be finite and > 0"),
+    (DFTMonitor("m", [[0.1, 0.1]], (1e9,), ("ex",)), "fields are of"),
+    (DFTMonitor("a b", [[0.1, 0.1]], (1e9,)), "a monitor's name"),
+])
+def test_bad_monitors_are_refused_by_name(monitor, reason):
+    layout = staggered_box((0.0, 0.0), (0.3, 0.3), 0.01)
+    with pytest.raises(ParameterError, match="monitor") as info:
+        SPEMSolver(SPEMModel(layout), monitors=[monitor])
+    assert reason in str(info.value)
+    with pytest.raises(ParameterError, match="fields are of"):
+        SPEMSolver(SPEMModel(staggered_line(0.0, 1.0, 0.05)), monitors=[DFTMonitor("m", [[0.5]], (1e8,), ("hx",))])
+

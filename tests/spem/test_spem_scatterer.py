@@ -1,0 +1,56 @@
+"""A plane wave on a circular cylinder: the exact Bessel series (``warpfree.validation.em_scatterer_2d``) checked
+against its own boundary conditions and the optical theorem, and the scene ``em_scatterer_2d`` against it: second
+order with the averaged interface."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from warpfree.scene_loader import load_scene
+from warpfree.validation.em_scatterer_2d import extinction_width, scattering_width, total_field
+
+
+@pytest.mark.parametrize("eps_r,k0a", [(4.0, 2.5), (2.25, 6.0), (10.0, 0.7)])
+def test_the_series_is_continuous_at_the_surface_with_its_normal_derivative(eps_r, k0a):
+    """Ez and ∂Ez/∂r (μr = 1) on both sides of r = a agree to 1e-6 of the field (one-sided differences of 1e-6 a)."""
+    angle = np.linspace(0.0, 2.0 * math.pi, 13)
+    k0, a = 1.0, k0a
+
+    def at(r):
+        return total_field(np.stack([r * np.cos(angle), r * np.sin(angle)], axis=1), (0.0, 0.0), a, k0, eps_r)
+
+    h = 1e-6 * a
+    scale = np.abs(at(a * (1 + 1e-9))).max()
+    assert np.abs(at(a * (1 - 1e-12)) - at(a * (1 + 1e-12))).max() < 1e-6 * scale
+    inner, outer = (at(a - h) - at(a - 2 * h)) / h, (at(a + 2 * h) - at(a + h)) / h
+    assert np.abs(inner - outer).max() < 1e-4 * np.abs(inner).max() + 1e-5 * scale
+
+
+@pytest.mark.parametrize("eps_r", [4.0, 2.25, None])
+def test_the_optical_theorem_holds(eps_r):
+    """A lossless cylinder's scattering width equals its extinction width (the forward amplitude's), to 1e-12."""
+    assert scattering_width(1.0, 2.5, eps_r) == pytest.approx(extinction_width(1.0, 2.5, eps_r), rel=1e-12)
+
+
+def test_a_conductor_carries_no_field_on_its_surface():
+    angle = np.linspace(0.0, 2.0 * math.pi, 17)
+    surface = np.stack([np.cos(angle), np.sin(angle)], axis=1) * 1.7
+    assert np.abs(total_field(surface, (0.0, 0.0), 1.7, 2.0, None)).max() < 1e-9
+
+
+def test_the_dielectric_cylinder_converges_at_second_order_with_the_averaged_interface():
+    """εr = 4, k0 a = 2.5 at 10 and 20 particles per wavelength in the dielectric: the near field's error against the
+    Bessel series falls by 3.5x or more (order >= 1.8; measured 10.5 % -> 2.6 %), the ring and the lines alike."""
+    errors = {}
+    for n in (10, 20):
+        run = load_scene("em_scatterer_2d").build(particles_per_wavelength=n, frames=False, vtk=False)
+        result = run.run(None)["analysis"]["scatterer"]
+        errors[n] = result
+        assert result["particles_on_interface"] > 0
+    for key in ("ring_error", "line_error"):
+        order = math.log2(errors[10][key] / errors[20][key])
+        assert order >= 1.8, (key, errors[10][key], errors[20][key])
+        assert errors[20][key] < 0.03
