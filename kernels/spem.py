@@ -510,14 +510,16 @@ def accumulate_dft(
 ):
     """Running DFT F(f) += u(t) e^{-2πi f t} Δt of ``field`` at monitored particles (item ``first + tid`` = particle s ×
     frequency q), the sample's time t = t^n + ``offset`` Δt (Ez after the E phase: offset ½; H after the H phase: 1),
-    from ``start`` on (s). float64 sums (thousands of steps), race-free: each item its own slot."""
+    each sample standing for the step [t - Δt/2, t + Δt/2] (the midpoint rule), counted once that interval starts at
+    ``start`` (s) or later: over whole periods the samples of both fields then cover exactly the window. float64 sums
+    (thousands of steps), race-free: each item its own slot."""
     item = first + wp.tid()
     count = frequencies.shape[0]
     s = item / count
     q = item - s * count
     dt = clock[STEP]
     t = clock[TIME] + offset * dt
-    if t < start:
+    if t - wp.float64(0.5) * dt < start - wp.float64(1.0e-6) * dt:
         return
     v = wp.float64(field[particles[s]]) * dt
     phase = wp.float64(6.283185307179586) * frequencies[q] * t

@@ -55,6 +55,11 @@ class Shape(ABC):
         """(N,) bool: ``points`` strictly inside."""
         return self.signed_distance(points) < 0.0
 
+    def boundary_points(self, spacing: float) -> np.ndarray:
+        """(M, dim) points on the boundary about ``spacing`` apart (m): its corners among them, the rest spread evenly
+        along each piece between corners."""
+        raise ParameterError("shape", f"a {type(self).__name__} cannot place points on its boundary")
+
     def normal(self, points: np.ndarray, step) -> np.ndarray:
         """(N, dim) outward unit normal: the distance's gradient by central differences of ``step`` (m, one or one per
         point)."""
@@ -94,6 +99,9 @@ class Interval(Shape):
     def bounds(self):
         return np.array([self.lower]), np.array([self.upper])
 
+    def boundary_points(self, spacing):
+        return np.array([[self.lower], [self.upper]])
+
 
 class Disc(Shape):
     """A disc of ``radius`` (m) about ``centre``: signed distance |x - c| - r, exact."""
@@ -108,6 +116,12 @@ class Disc(Shape):
 
     def bounds(self):
         return self.centre - self.radius, self.centre + self.radius
+
+    def boundary_points(self, spacing):
+        count = max(8, int(round(2.0 * math.pi * self.radius / require_positive("spacing", spacing))))
+        require_memory("spacing", count, 64.0, "boundary points")
+        angle = 2.0 * math.pi * np.arange(count) / count
+        return self.centre + self.radius * np.stack([np.cos(angle), np.sin(angle)], axis=1)
 
     def describe(self):
         return {"kind": "disc", "centre": self.centre.tolist(), "radius": self.radius}
@@ -135,6 +149,17 @@ class Ellipse(Shape):
         with np.errstate(divide="ignore", invalid="ignore"):
             d = np.where(grad > 0, (r - 1.0) * r / grad, -min(a, b))
         return d
+
+    def boundary_points(self, spacing):
+        spacing = require_positive("spacing", spacing)
+        a, b = self.semi_axes
+        fine = np.linspace(0.0, 2.0 * math.pi, 4097)
+        arc = np.concatenate([[0.0], np.cumsum(np.hypot(a * np.diff(np.cos(fine)), b * np.diff(np.sin(fine))))])
+        count = max(8, int(round(arc[-1] / spacing)))
+        require_memory("spacing", count, 64.0, "boundary points")
+        t = np.interp(arc[-1] * np.arange(count) / count, arc, fine)  # even in arc length
+        local = np.stack([a * np.cos(t), b * np.sin(t)], axis=1)
+        return self.centre + local @ self._axes
 
     def bounds(self):
         a, b = self.semi_axes
@@ -207,6 +232,31 @@ class Polygon(Shape):
 
     def bounds(self):
         return self._a.min(axis=0), self._a.max(axis=0)
+
+    def boundary_points(self, spacing):
+        """Each loop's corners (vertices turning by more than 1°) and points spread evenly between them about
+        ``spacing`` apart (a curve's many vertices then give way to points at the spacing)."""
+        spacing = require_positive("spacing", spacing)
+        out = []
+        for loop in self.loops:
+            prev, nxt = loop - np.roll(loop, 1, axis=0), np.roll(loop, -1, axis=0) - loop
+            cos = np.einsum("ij,ij->i", prev, nxt) / np.maximum(np.linalg.norm(prev, axis=1) *
+                                                                np.linalg.norm(nxt, axis=1), 1e-300)
+            corners = np.flatnonzero(cos < math.cos(math.radians(1.0)))
+            if corners.size == 0:
+                corners = np.array([0])
+            closed = np.vstack([loop, loop[:1]])
+            length = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(closed, axis=0), axis=1))])
+            # arc length at each corner, the first again one perimeter on
+            at = np.r_[length[corners], length[corners[0]] + length[-1]]
+            for k in range(corners.size):
+                s0, s1 = at[k], at[k + 1]
+                count = max(1, int(round((s1 - s0) / spacing)))
+                require_memory("spacing", count, 64.0, "boundary points")
+                arc = (s0 + (s1 - s0) * np.arange(count) / count) % length[-1]
+                out.append(np.stack([np.interp(arc, length, closed[:, 0]), np.interp(arc, length, closed[:, 1])],
+                                    axis=1))
+        return np.vstack(out)
 
     def describe(self):
         lo, hi = self.bounds()

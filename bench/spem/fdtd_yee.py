@@ -213,3 +213,155 @@ class YeeCavity:
         L.launch(update_e_medium, m, [n, n, inv, self.step_over_eps, self.hx, self.hy, self.ez])
         L.launch(update_h, m, [n, n, float(dt), inv, self.ez, self.loss_hx, self.hx, self.hy])
         self.t += dt
+
+
+@wp.kernel
+def update_e_pml(first: int, nx: int, ny: int, dt: float, inv_dx: float, hx: wp.array(dtype=float),
+                 hy: wp.array(dtype=float), inv_eps: wp.array(dtype=float), loss: wp.array(dtype=wp.vec2),
+                 ez: wp.array(dtype=float), ezx: wp.array(dtype=float)):
+    """Interior Ez in a medium (1/ε per node) with the split-field PML on every side: Ezx ← a_x Ezx + b_x ∂Hy/∂x,
+    Ezy ← a_y Ezy - b_y ∂Hx/∂y, Ez = Ezx + Ezy; the border stays 0."""
+    k = first + wp.tid()
+    i = k // (ny + 1)
+    j = k - i * (ny + 1)
+    if i == 0 or i == nx or j == 0 or j == ny:
+        return
+    c = loss[k]
+    px = exponential_step(c[0], dt, inv_eps[k])
+    py = exponential_step(c[1], dt, inv_eps[k])
+    e_x = ezx[k]
+    e_y = ez[k] - e_x
+    e_x = px[0] * e_x + px[1] * (hy[k] - hy[k - ny - 1]) * inv_dx
+    e_y = py[0] * e_y - py[1] * (hx[k] - hx[k - 1]) * inv_dx
+    ezx[k] = e_x
+    ez[k] = e_x + e_y
+
+
+@wp.kernel
+def update_h_pml(first: int, nx: int, ny: int, dt: float, inv_dx: float, ez: wp.array(dtype=float),
+                 loss_hx: wp.array(dtype=float), loss_hy: wp.array(dtype=float), hx: wp.array(dtype=float),
+                 hy: wp.array(dtype=float)):
+    """Hx(i, j+½) ← a Hx - b ∂Ez/∂y (σy*), Hy(i+½, j) ← a Hy + b ∂Ez/∂x (σx*), vacuum μ0."""
+    k = first + wp.tid()
+    i = k // (ny + 1)
+    j = k - i * (ny + 1)
+    e = ez[k]
+    if j < ny:
+        p = exponential_step(loss_hx[k], dt, 1.0 / MU0)
+        hx[k] = p[0] * hx[k] - p[1] * (ez[k + 1] - e) * inv_dx
+    if i < nx:
+        q = exponential_step(loss_hy[k], dt, 1.0 / MU0)
+        hy[k] = q[0] * hy[k] + q[1] * (ez[k + ny + 1] - e) * inv_dx
+
+
+@wp.kernel
+def tfsf_correct(first: int, targets: wp.array(dtype=wp.int32), x: wp.array(dtype=float),
+                 scale: wp.array(dtype=float), t: wp.float64, frequency: wp.float64, ramp: wp.float64,
+                 start: wp.float64, field: wp.array(dtype=float)):
+    """TF/SF on Yee's grid (Taflove & Hagness §5.9): field[target] += scale × f(t - (x - start)/c), f the sin²-ramped
+    sine of the incident wave along +x (scale carries ±Δt/(μΔ) for H targets, ±Δt/(εΔ)/η for E targets)."""
+    s = first + wp.tid()
+    tau = t - (wp.float64(x[s]) - start) / wp.float64(299792458.0)
+    value = wp.float64(0.0)
+    if tau > wp.float64(0.0):
+        u = wp.min(wp.float64(1.0), tau * frequency / ramp)
+        r = wp.sin(wp.float64(1.5707963267948966) * u)
+        value = r * r * wp.sin(wp.float64(6.283185307179586) * frequency * tau)
+    field[targets[s]] = field[targets[s]] + scale[s] * float(value)
+
+
+@wp.kernel
+def dft_nodes(first: int, nodes: wp.array(dtype=wp.int32), ez: wp.array(dtype=float), t: wp.float64,
+              dt: wp.float64, frequency: wp.float64, real: wp.array(dtype=wp.float64),
+              imag: wp.array(dtype=wp.float64)):
+    """F += Ez(t) e^{-2πift} Δt at the monitored nodes."""
+    s = first + wp.tid()
+    v = wp.float64(ez[nodes[s]]) * dt
+    phase = wp.float64(6.283185307179586) * frequency * t
+    real[s] = real[s] + v * wp.cos(phase)
+    imag[s] = imag[s] - v * wp.sin(phase)
+
+
+class YeeScatterer:
+    """The plane wave on a cylinder of ``scenes/em_scatterer_2d.py`` on Yee's grid: Ez nodes at the scene's E particles
+    (the same lattice), 1/ε per node the scene's (``eps_r``, its averaged interface), the same split-field PML on every
+    side, the incident wave along +x by TF/SF at the same box, and a DFT of Ez at ``nodes`` from ``dft_start`` on."""
+
+    def __init__(self, launcher, positions: np.ndarray, eps_r: np.ndarray, spacing: float, pml: PML, interior: float,
+                 box: float, frequency: float, ramp: float, nodes: np.ndarray, dft_start: float):
+        self.launcher = launcher
+        lo = positions[:, :2].min(axis=0)
+        self.nx = self.ny = int(round((positions[:, 0].max() - lo[0]) / spacing))
+        n = (self.nx + 1) * (self.ny + 1)
+        if positions.shape[0] != n:
+            raise ValueError("the positions are not the scene's lattice")
+        self.dx = spacing
+        dev = launcher.device
+        i, j = np.divmod(np.arange(n), self.ny + 1)
+        x, y = lo[0] + i * spacing, lo[1] + j * spacing
+        inner = ((-interior, -interior), (interior, interior))
+        sig_e = pml.sigma(np.stack([x, y], 1), *inner)
+        self.inv_eps = wp.array((1.0 / (EPS0 * eps_r)).astype(np.float32), dtype=float, device=dev)
+        self.loss = wp.array((sig_e / (EPS0 * eps_r[:, None])).astype(np.float32), dtype=wp.vec2, device=dev)
+        self.loss_hx = wp.array((pml.sigma(np.stack([x, y + 0.5 * spacing], 1), *inner)[:, 1] / EPS0)
+                                .astype(np.float32), dtype=float, device=dev)
+        self.loss_hy = wp.array((pml.sigma(np.stack([x + 0.5 * spacing, y], 1), *inner)[:, 0] / EPS0)
+                                .astype(np.float32), dtype=float, device=dev)
+        self.ez, self.ezx, self.hx, self.hy = (wp.zeros(n, dtype=float, device=dev) for _ in range(4))
+        # the TF/SF box: the nodes with |x|, |y| <= box (i0..i1, j0..j1)
+        i0, i1 = int(np.ceil((-box - lo[0]) / spacing - 1e-9)), int(np.floor((box - lo[0]) / spacing + 1e-9))
+        j0, j1 = int(np.ceil((-box - lo[1]) / spacing - 1e-9)), int(np.floor((box - lo[1]) / spacing + 1e-9))
+        k = lambda a, b: a * (self.ny + 1) + b  # noqa: E731
+        eta = math.sqrt(MU0 / EPS0)
+        js, is_ = np.arange(j0, j1 + 1), np.arange(i0, i1 + 1)
+        # H targets: Hy(i0-½, j) -= c Ez_inc(i0, j), Hy(i1+½, j) += c Ez_inc(i1, j); Hx(i, j0-½) += c Ez_inc(i, j0),
+        # Hx(i, j1+½) -= c Ez_inc(i, j1), c = Δt/(μ0 Δ) (times the step, given per step as a factor)
+        h_hy = [(k(i0 - 1, j), -1.0, x[k(i0, j)]) for j in js] + [(k(i1, j), 1.0, x[k(i1, j)]) for j in js]
+        h_hx = [(k(i, j0 - 1), 1.0, x[k(i, j0)]) for i in is_] + [(k(i, j1), -1.0, x[k(i, j1)]) for i in is_]
+        # E targets: Ez(i0, j) -= (Δt/(εΔ)) Hy_inc(i0-½, j), Ez(i1, j) += (Δt/(εΔ)) Hy_inc(i1+½, j), Hy_inc = -Ez_inc/η;
+        # Hx_inc = 0 for a wave along +x
+        e_ez = [(k(i0, j), 1.0 / eta, x[k(i0, j)] - 0.5 * spacing) for j in js] + \
+               [(k(i1, j), -1.0 / eta, x[k(i1, j)] + 0.5 * spacing) for j in js]
+        self._targets = {}
+        for name, rows in (("hy", h_hy), ("hx", h_hx), ("ez", e_ez)):
+            idx, sign, px = (np.array(c) for c in zip(*rows))
+            self._targets[name] = (wp.array(idx.astype(np.int32), dtype=wp.int32, device=dev), sign, px,
+                                   wp.array(px.astype(np.float32), dtype=float, device=dev))
+        self.inv_eps_host = 1.0 / (EPS0 * eps_r)
+        self.frequency, self.ramp, self.start = frequency, ramp, -box  # the front reaches x = -box at t = 0, as the scene's
+        self.nodes = wp.array(nodes.astype(np.int32), dtype=wp.int32, device=dev)
+        self.real = wp.zeros(nodes.size, dtype=wp.float64, device=dev)
+        self.imag = wp.zeros(nodes.size, dtype=wp.float64, device=dev)
+        self.dft_start = dft_start
+        self._scale = None
+        self.t = 0.0
+
+    def stable_dt(self) -> float:
+        return self.dx / (C0 * math.sqrt(2.0))
+
+    def _scales(self, dt: float) -> None:
+        dev, c = self.launcher.device, dt / (MU0 * self.dx)
+        self._scale = {}
+        for name, (idx, sign, px, xs) in self._targets.items():
+            factor = sign * c if name != "ez" else sign * dt / self.dx * self.inv_eps_host[idx.numpy()]
+            self._scale[name] = wp.array(np.asarray(factor, np.float32), dtype=float, device=dev)
+
+    def step(self, dt: float) -> None:
+        if self._scale is None:
+            self._scales(dt)
+        L, nx, ny, inv = self.launcher, self.nx, self.ny, 1.0 / self.dx
+        n = (nx + 1) * (ny + 1)
+        t_h, t_e = wp.float64(self.t), wp.float64(self.t + 0.5 * dt)
+        f, ramp, s0 = wp.float64(self.frequency), wp.float64(self.ramp), wp.float64(self.start)
+        L.launch(update_e_pml, n, [nx, ny, float(dt), inv, self.hx, self.hy, self.inv_eps, self.loss, self.ez, self.ezx])
+        idx, _, _, xs = self._targets["ez"]
+        L.launch(tfsf_correct, idx.shape[0], [idx, xs, self._scale["ez"], t_h, f, ramp, s0, self.ez])
+        L.launch(tfsf_correct, idx.shape[0], [idx, xs, self._scale["ez"], t_h, f, ramp, s0, self.ezx])
+        if self.t + 0.5 * dt - 0.5 * dt >= self.dft_start - 1e-6 * dt:
+            L.launch(dft_nodes, self.nodes.shape[0], [self.nodes, self.ez, t_e, wp.float64(dt), f, self.real,
+                                                     self.imag])
+        L.launch(update_h_pml, n, [nx, ny, float(dt), inv, self.ez, self.loss_hx, self.loss_hy, self.hx, self.hy])
+        for name, field in (("hy", self.hy), ("hx", self.hx)):
+            idx, _, _, xs = self._targets[name]
+            L.launch(tfsf_correct, idx.shape[0], [idx, xs, self._scale[name], t_e, f, ramp, s0, field])
+        self.t += dt

@@ -1,16 +1,19 @@
-"""The dielectric cylinder's near field against the Bessel series by resolution: the averaged interface against the
-staircase.
+"""The cylinder's near field and scattering width against the Bessel series by resolution: a dielectric with the
+averaged interface and with the staircase, a perfect conductor cut out and as a staircase, and free space (the
+incident wave's own error).
 
 What it measures
-    ``scenes/em_scatterer_2d.py`` (εr = 4, k0 a = 2.5, 30 periods, DFT over the last 4) at 10 to 80 particles per
-    wavelength in the dielectric, each with ``interface=average`` (each particle's cell mean) and ``interface=centre``
-    (the permittivity at the particle: a staircase): the relative L2 error of the complex amplitude on the ring r = 1.5 a
-    and on the two lines through the centre, the order between successive resolutions, and the wall time of each run
-    (set-up and stepping, one thread).
+    ``scenes/em_scatterer_2d.py`` (k0 a = 2.5, 30 periods, DFT over the last 4) by resolution (particles per
+    wavelength in the densest medium): a dielectric (εr = 4) with ``interface=average`` (each particle's cell mean) and
+    ``interface=centre`` (the permittivity at the particle: a staircase); a perfect conductor cut out with a held row
+    on its surface (``average``) and as the lattice's particles inside held (``centre``); and εr = 1 (no scatterer:
+    the error of the incident wave alone). Per run: the relative L2 error of the complex amplitude on the ring
+    r = 1.5 a and on the two lines through the centre, the order of the ring error from the previous resolution, the
+    scattering width's error and the wall time (set-up and stepping, one thread).
 
 Usage
-    python bench/spem/scatterer_convergence.py            # about 10 minutes on one core
-    python bench/spem/scatterer_convergence.py --quick    # 10 to 40 only
+    python bench/spem/scatterer_convergence.py            # about 8 minutes on one core
+    python bench/spem/scatterer_convergence.py --quick    # up to 40 particles per wavelength
 Writes bench/results/scatterer_convergence[_quick].{json,md}.
 """
 
@@ -29,53 +32,60 @@ import common  # noqa: E402
 #: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run).
 RUN_ALL = [[]]
 
-RESOLUTIONS = (10, 20, 25, 40, 80)
+#: (label, scene settings, resolutions)
+CASES = [("dielectric, averaged", {}, (10, 20, 25, 40, 80)),
+         ("dielectric, staircase", {"interface": "centre"}, (10, 20, 25, 40, 80)),
+         ("conductor, surface row", {"cylinder": "conductor"}, (20, 24, 28, 32, 40, 48, 56, 64, 80)),
+         ("conductor, staircase", {"cylinder": "conductor", "interface": "centre"}, (20, 40)),
+         ("free space (εr = 1)", {"eps_r": 1.0}, (20, 28, 40, 56))]
 
 
-def one(resolution: float, interface: str) -> dict:
+def one(resolution: float, settings: dict) -> dict:
     from warpfree import device
     from warpfree.scene_loader import load_scene
 
     device.use("cpu", 1)
     start = time.perf_counter()
-    run = load_scene("em_scatterer_2d").build(particles_per_wavelength=resolution, interface=interface, frames=False,
-                                              vtk=False)
+    run = load_scene("em_scatterer_2d").build(particles_per_wavelength=resolution, frames=False, vtk=False, **settings)
     summary = run.run(None, progress=False)
     result = summary["analysis"]["scatterer"]
-    return {"particles_per_wavelength": resolution, "interface": interface, "ring_error": result["ring_error"],
+    return {"particles_per_wavelength": resolution, "settings": settings, "ring_error": result["ring_error"],
             "line_error": result["line_error"], "ring_phase_error": result["ring_phase_error"],
-            "particles": run.solver.work_items, "wall_s": time.perf_counter() - start}
+            "scattering_width_error": result["scattering_width_error"], "particles": run.solver.work_items,
+            "wall_s": time.perf_counter() - start}
 
 
 def markdown(result: dict) -> str:
     rows = []
-    for interface in ("average", "centre"):
-        runs = [r for r in result["runs"] if r["interface"] == interface]
+    for label, runs in result["cases"].items():
         for k, r in enumerate(runs):
             order = ""
             if k:
                 p = runs[k - 1]
-                order = f"{math.log(p['ring_error'] / r['ring_error']) / math.log(r['particles_per_wavelength'] / p['particles_per_wavelength']):.2f}"
-            rows.append([interface, f"{r['particles_per_wavelength']:g}", f"{r['particles']:,}",
+                order = (f"{math.log(p['ring_error'] / r['ring_error']) / math.log(r['particles_per_wavelength'] / p['particles_per_wavelength']):.2f}")
+            free = label.startswith("free")
+            rows.append([label, f"{r['particles_per_wavelength']:g}", f"{r['particles']:,}",
                          f"{100 * r['ring_error']:.3f} %", f"{100 * r['line_error']:.3f} %", order,
-                         f"{r['ring_phase_error']:.4f}", f"{r['wall_s']:.1f}"])
+                         "" if free else f"{100 * r['scattering_width_error']:+.2f} %", f"{r['ring_phase_error']:.4f}",
+                         f"{r['wall_s']:.1f}"])
     return "\n".join([
-        "# Dielectric cylinder (εr = 4, k0 a = 2.5): near field against the Bessel series by resolution", "",
+        "# Cylinder (k0 a = 2.5) in a plane wave: near field and scattering width against the Bessel series", "",
         f"Machine: {result['machine'].get('cpu')}, one thread. `scenes/em_scatterer_2d.py` at its defaults but the "
-        "resolution (λ/Δ in the dielectric) and the interface; errors: relative L2 of the complex amplitude (amplitude "
-        "and phase) on the ring r = 1.5 a and on the lines through the centre; order: of the ring error between this "
-        "resolution and the previous; phase: the ring's largest phase error (rad) where |Ez| is at least half its mean.",
-        "", common.md_table(["interface", "λ/Δ", "E and H particles", "ring", "lines", "order", "phase (rad)",
-                             "wall (s)"], rows), ""]) + "\n"
+        "cylinder, the interface and the resolution (λ/Δ in the densest medium); errors: relative L2 of the complex "
+        "amplitude (amplitude and phase) on the ring r = 1.5 a and on the lines through the centre; order: of the ring "
+        "error from the previous resolution; width: the scattering width's relative error; phase: the ring's largest "
+        "phase error (rad) where |Ez| is at least half its mean.", "",
+        common.md_table(["case", "λ/Δ", "E and H particles", "ring", "lines", "order", "width", "phase (rad)",
+                         "wall (s)"], rows), ""]) + "\n"
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--quick", action="store_true", help="10 to 40 particles per wavelength only")
+    p.add_argument("--quick", action="store_true", help="up to 40 particles per wavelength")
     args = p.parse_args(argv)
-    resolutions = [r for r in RESOLUTIONS if not args.quick or r <= 40]
-    runs = [one(r, interface) for interface in ("average", "centre") for r in resolutions]
-    result = {"runs": runs, "machine": common.machine_info()}
+    cases = {label: [one(r, settings) for r in resolutions if not args.quick or r <= 40]
+             for label, settings, resolutions in CASES}
+    result = {"cases": cases, "machine": common.machine_info()}
     common.write_results("scatterer_convergence", result, markdown(result), quick=args.quick)
     return 0
 

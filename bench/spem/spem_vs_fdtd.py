@@ -19,14 +19,21 @@ What it measures
     circle) against ``fdtd_yee.YeeCavity`` (the wall staircased: nodes at r >= r0 held at 0), both at 0.9 of their
     stable step; error: mean |Ez - exact| over the E points in the disk against the Bessel series (4.5).
 
+    ``--case scatterer``: the dielectric cylinder of ``scenes/em_scatterer_2d.py`` (εr = 4, k0 a = 2.5, 30 periods,
+    DFT over the last 4) at 10 to 56 particles per wavelength in the dielectric, SPEM against
+    ``fdtd_yee.YeeScatterer`` on the same lattice with the same averaged permittivity, PML and TF/SF box (both
+    second order at the interface, so the errors agree and the ratio is the cost of a step); error: the relative L2
+    error of Ez's complex amplitude on the ring r = 1.5 a against the Bessel series, as the scene computes it.
+
 Usage
     python bench/spem/spem_vs_fdtd.py                 # waveguide, 1 thread, ppw 20 40 80 160 320, 3 repeats
     python bench/spem/spem_vs_fdtd.py --case line     # the 1D line, ppw 10 20 40 80 160 320
     python bench/spem/spem_vs_fdtd.py --case cavity   # the circular cavity, 10 20 40 80 cells per radius
+    python bench/spem/spem_vs_fdtd.py --case scatterer  # the dielectric cylinder, 10 to 56 per wavelength
     python bench/spem/spem_vs_fdtd.py --threads 2
     python bench/spem/spem_vs_fdtd.py --quick         # smoke run: ppw 20 40 (line: 10 20), 1 repeat
 Writes bench/results/spem_vs_fdtd[_quick].{json,md,png} (the line: spem_vs_fdtd_line[_quick].*, the cavity:
-spem_vs_fdtd_cavity[_quick].*).
+spem_vs_fdtd_cavity[_quick].*, the cylinder: spem_vs_fdtd_scatterer[_quick].*).
 """
 
 from __future__ import annotations
@@ -45,7 +52,7 @@ sys.path[:0] = [str(_HERE.parent), str(_HERE)]  # bench/ (common.py) and this fa
 import common  # noqa: E402
 
 #: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run, RUN_ALL_SKIPPED says why).
-RUN_ALL = [[], ["--case", "line"], ["--case", "cavity"]]
+RUN_ALL = [[], ["--case", "line"], ["--case", "cavity"], ["--case", "scatterer"]]
 
 
 def timed_spem_run(s, t_end: float) -> tuple[float, float, int]:
@@ -188,8 +195,75 @@ def run_fdtd_cavity(cells: float, t_end: float, threads: int) -> tuple[float, fl
     return wall, cavity_error(g.r[inside], g.ez.numpy()[inside], t_end - 0.5 * dt), steps
 
 
+def _scatterer_scene(ppw: float, threads: int):
+    """The dielectric cylinder of ``scenes/em_scatterer_2d.py`` at ``ppw`` per wavelength in the dielectric, its kernels
+    loaded by one step of its smallest run; and the step: whole steps per period at 0.95 of the stable limit."""
+    common.build_scene("em_scatterer_2d", threads, particles_per_wavelength=8, periods=2, window=1).solver.step(1e-12)
+    loop = common.build_scene("em_scatterer_2d", threads, particles_per_wavelength=ppw)
+    period = 1.0 / loop.params["frequency"]
+    return loop, period / math.ceil(period / (0.95 * loop.solver.stable_dt())), period
+
+
+def run_spem_scatterer(ppw: float, t_end: float, threads: int) -> tuple[float, float, int]:
+    loop, dt, period = _scatterer_scene(ppw, threads)
+    s = loop.solver
+    steps = int(round(loop.params["periods"] * period / dt))
+    s.use_step(dt)
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        s.step(dt)
+    wall = time.perf_counter() - t0
+    result = loop.analyses[0](loop, None)["scatterer"]
+    return wall, result["ring_error"], steps
+
+
+def run_fdtd_scatterer(ppw: float, t_end: float, threads: int) -> tuple[float, float, int]:
+    """Yee's grid on the scene's lattice, permittivity (averaged) and PML, the DFT at the nodes the scene's ring
+    points read (its interpolation), the ring error as the scene computes it."""
+    import warpfree.device
+    from fdtd_yee import YeeScatterer
+    from warpfree.solvers.spem.monitors import interpolation_rows
+    from warpfree.validation.em_scatterer_2d import total_field
+
+    loop, _, period = _scatterer_scene(ppw, threads)
+    p = loop.params
+    model, wave = loop.solver.model, loop.solver.plane_waves[0].wave
+    monitor = loop.solver.monitors["near_field"][0].monitor
+    lay = model.layout
+    ring = monitor.points[:p["ring_points"]]
+    rows = interpolation_rows(lay.e_position, ring, 2, lay.spacing).tocsc()
+    nodes = np.flatnonzero(np.diff(rows.indptr) > 0)
+    launcher = warpfree.device.use("cpu", threads)
+    half = model.interior[1][0]
+    g = YeeScatterer(launcher, lay.e_position, model.eps_r, lay.spacing, model.pml, half, wave.upper[0],
+                     p["frequency"], p["ramp"], nodes, (p["periods"] - p["window"]) * period)
+    dt = period / math.ceil(period / (0.95 * g.stable_dt()))
+    steps = int(round(p["periods"] * period / dt))
+    g.step(dt)  # kernel loading, then from rest
+    g.__init__(launcher, lay.e_position, model.eps_r, lay.spacing, model.pml, half, wave.upper[0], p["frequency"],
+               p["ramp"], nodes, (p["periods"] - p["window"]) * period)
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        g.step(dt)
+    wall = time.perf_counter() - t0
+    transform = np.zeros(lay.n_e, complex)
+    transform[nodes] = g.real.numpy() + 1j * g.imag.numpy()
+    window = p["window"] * period
+    k0 = 2.0 * math.pi * p["frequency"] / common_c0()
+    field = (rows.tocsr() @ transform) * 2.0j / window * np.exp(-1j * k0 * wave.front_start(2))
+    radius = p["k0a"] / k0
+    exact = total_field(ring, (0.0, 0.0), radius, k0, p["eps_r"])
+    return wall, float(np.linalg.norm(field - exact) / np.linalg.norm(exact)), steps
+
+
+def common_c0() -> float:
+    from warpfree.solvers.spem import C0
+
+    return C0
+
+
 RUNNERS = {"waveguide": (run_spem, run_fdtd), "line": (run_spem_line, run_fdtd_line),
-           "cavity": (run_spem_cavity, run_fdtd_cavity)}
+           "cavity": (run_spem_cavity, run_fdtd_cavity), "scatterer": (run_spem_scatterer, run_fdtd_scatterer)}
 
 
 def main() -> None:
@@ -203,10 +277,11 @@ def main() -> None:
     ap.add_argument("--t-end", type=float, default=None, help="default: 4.1e-9 s (line: 4.75e-9 s)")
     ap.add_argument("--worker", default=None)
     args = ap.parse_args()
-    default_ppw = {"line": [10, 20, 40, 80, 160, 320], "cavity": [10, 20, 40, 80]}.get(args.case, [20, 40, 80, 160, 320])
+    default_ppw = {"line": [10, 20, 40, 80, 160, 320], "cavity": [10, 20, 40, 80],
+                   "scatterer": [10, 14, 20, 28, 40, 56]}.get(args.case, [20, 40, 80, 160, 320])
     args.ppw = args.ppw or default_ppw[:2 if args.quick else None]
     args.repeats = args.repeats or (1 if args.quick else 3)
-    args.t_end = args.t_end or {"line": 4.75e-9, "cavity": 5.5e-9}.get(args.case, 4.1e-9)
+    args.t_end = args.t_end or {"line": 4.75e-9, "cavity": 5.5e-9, "scatterer": 30e-9}.get(args.case, 4.1e-9)
     if args.worker:
         cfg = json.loads(args.worker)
         spem, fdtd = RUNNERS[cfg["case"]]
@@ -239,11 +314,13 @@ def main() -> None:
         ax.loglog([r["wall_s"] for r in rows[code]], [r["error"] for r in rows[code]], mark, label=code.upper())
     ax.set_xlabel("wall s (steps only)")
     ax.set_ylabel("mean |Ez - exact| / amplitude")
-    title = {"line": "1D line", "cavity": "Cavity, FDTD wall staircased,"}.get(args.case, "Waveguide")
+    title = {"line": "1D line", "cavity": "Cavity, FDTD wall staircased,",
+             "scatterer": "Dielectric cylinder, both averaged,"}.get(args.case, "Waveguide")
     ax.set_title(f"{title} to {args.t_end * 1e9:.3g} ns: error vs wall time")
     ax.legend()
     fig.tight_layout()
-    common.write_results({"line": "spem_vs_fdtd_line", "cavity": "spem_vs_fdtd_cavity"}.get(args.case, "spem_vs_fdtd"),
+    common.write_results({"line": "spem_vs_fdtd_line", "cavity": "spem_vs_fdtd_cavity",
+                          "scatterer": "spem_vs_fdtd_scatterer"}.get(args.case, "spem_vs_fdtd"),
                          {"case": args.case, "rows": rows, "ratios": ratios, "threads": args.threads}, "\n".join(md),
                          fig, quick=args.quick)
 

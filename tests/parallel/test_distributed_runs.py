@@ -21,16 +21,19 @@ needs_mpi = pytest.mark.skipif(find_mpiexec() is None, reason=f"no MPI here: {MP
 
 #: (scene, ranks): walls and a rebalancing cut (2D dam break), a rank that starts with no fluid (3D), periodic
 #: axes cut across (Taylor-Green, Poiseuille), a wall moving along its surface (the cavity's lid), a settled tank given its wave (standing wave); SPEM in 1D, with a PML
-#: and a point source (waveguide), with a total-field box (plane wave); the example solver in a doubly periodic box
+#: and a point source (waveguide), with a total-field box (plane wave), with an object and DFT and flux monitors
+#: (scatterer, slab); the example solver in a doubly periodic box
 #: (heat conduction: its 16 × 16 particles cut in 2 and in 3)
 CASES = [("dam_break_2d", 2), ("dam_break_2d", 3), ("dam_break_3d", 3), ("taylor_green_2d", 3),
          ("poiseuille_2d", 2), ("lid_driven_cavity_2d", 3), ("standing_wave_2d", 2), ("em_line_1d", 3), ("em_waveguide_2d", 3),
-         ("em_plane_wave_2d", 2), ("em_cavity_2d", 2), ("heat_conduction_2d", 2), ("heat_conduction_2d", 3)]
+         ("em_plane_wave_2d", 2), ("em_cavity_2d", 2), ("em_scatterer_2d", 3), ("em_slab_1d", 2),
+         ("heat_conduction_2d", 2), ("heat_conduction_2d", 3)]
 
-#: (scene, ranks, settings): model options with a halo exchange of their own (the renormalised density gradient) or
-#: held per rank (the walls' velocity factor)
+#: (scene, ranks, settings): model options with a halo exchange of their own (the renormalised density gradient),
+#: held per rank (the walls' velocity factor) or reshaping the layout (a conductor cut out of it)
 OPTION_CASES = [("dam_break_2d", 3, ["--set", "delta_gradient=true"]),
-                ("lid_driven_cavity_2d", 3, ["--set", "lid_ramp=0.4"])]
+                ("lid_driven_cavity_2d", 3, ["--set", "lid_ramp=0.4"]),
+                ("em_scatterer_2d", 2, ["--set", "cylinder=conductor"])]
 
 #: the model's count of each scene family's main set, and the set's name in the distributed layout and the outputs
 MAIN_SETS = {"n_fluid": "fluid", "n_electric": "electric", "n_particles": "particles"}
@@ -52,6 +55,8 @@ def test_a_distributed_run_gives_the_one_process_outputs_bitwise(scene, ranks, s
     assert done.returncode == 0, done.stderr[-3000:]
     assert done.stdout.count(f"{scene}:") == 1                      # rank 0 alone reports
     assert snapshot_differences(one, many) == []
+    for table in (one / "monitors").glob("*.csv"):  # the monitors' transforms: every rank's particles, one file
+        assert (many / "monitors" / table.name).read_bytes() == table.read_bytes(), table.name
     a, b = summary(one), summary(many)
     for key in ("probes", "steps", "time"):
         assert a[key] == b[key], key
@@ -84,6 +89,8 @@ def test_a_rigid_body_moves_across_the_ranks_bitwise(scene, settings, tmp_path):
     done = run_distributed(3, ["run", scene, *settings, "--out", str(many), "--no-progress", "--no-frames"])
     assert done.returncode == 0, done.stderr[-3000:]
     assert snapshot_differences(one, many) == []
+    for table in (one / "monitors").glob("*.csv"):  # the monitors' transforms: every rank's particles, one file
+        assert (many / "monitors" / table.name).read_bytes() == table.read_bytes(), table.name
     a, b = summary(one), summary(many)
     assert a["steps"] == b["steps"] and relative_differences(a["diagnostics"], b["diagnostics"]) == {}
     assert sum(b["model"]["distributed"]["fluid_owned"]) == a["model"]["n_fluid"]
@@ -113,6 +120,8 @@ def test_water_entering_and_leaving_across_the_ranks_keeps_the_one_process_ids_b
     done = run_distributed(3, ["run", scene, *sets, "--out", str(many), "--no-progress", "--no-frames"])
     assert done.returncode == 0, done.stderr[-3000:]
     assert snapshot_differences(one, many) == []
+    for table in (one / "monitors").glob("*.csv"):  # the monitors' transforms: every rank's particles, one file
+        assert (many / "monitors" / table.name).read_bytes() == table.read_bytes(), table.name
     a, b = summary(one), summary(many)
     assert a["steps"] == b["steps"] and a["probes"] == b["probes"]
     assert a["probes"][made][-1] > 0 and a["probes"][taken_out][-1] > 0
@@ -135,6 +144,8 @@ def test_a_distributed_plasma_moves_its_particles_bitwise_and_sums_them_to_round
     done = run_distributed(ranks, ["run", scene, *sets, "--out", str(many), "--no-progress", "--no-frames"])
     assert done.returncode == 0, done.stderr[-3000:]
     assert snapshot_differences(one, many) == []
+    for table in (one / "monitors").glob("*.csv"):  # the monitors' transforms: every rank's particles, one file
+        assert (many / "monitors" / table.name).read_bytes() == table.read_bytes(), table.name
     a, b = summary(one), summary(many)
     for section in ("analysis", "diagnostics"):
         for key, rel in relative_differences(a[section], b[section]).items():

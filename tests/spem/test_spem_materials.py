@@ -94,3 +94,35 @@ def test_bad_objects_are_refused_by_name(objects, name):
     layout = staggered_box((0.0, 0.0), (1.0, 1.0), 0.1)
     with pytest.raises(ParameterError, match=name.replace("[", r"\[").replace("]", r"\]")):
         SPEMModel(layout, objects=objects)
+
+
+def test_a_perfect_conductor_is_cut_out_with_its_surface_held():
+    """A conducting disc in a box: no E particle inside or nearer the surface than half a spacing but a held row on the
+    surface (on the circle to rounding, about a spacing apart), no H particle inside or within 0.1 spacings, and the
+    quadrature volumes summing to the box less the disc (within 1e-3 of it)."""
+    from warpfree.solvers.spem.materials import PEC
+
+    spacing = 0.05
+    layout = staggered_box((0.0, 0.0), (2.0, 2.0), spacing)
+    disc = Disc((0.93, 1.07), 0.41)
+    model = SPEMModel(layout, objects=[EMObject(disc, PEC, name="rod"), EMObject(Disc((0.3, 0.3), 0.1),
+                                                                                 Material(eps_r=2.0))])
+    carved = model.layout
+    e_distance = disc.signed_distance(carved.e_position)
+    surface = carved.on_wall & (np.abs(e_distance) < 1e-9)
+    assert surface.sum() == round(2 * math.pi * 0.41 / spacing)
+    assert np.all(model.held[surface])
+    assert np.all(e_distance[~surface] > 0.5 * spacing * (1 - 1e-9))
+    assert np.all(disc.signed_distance(carved.h_position) > 0.1 * spacing)
+    ve, vh = model.quadrature
+    assert ve.sum() == pytest.approx(4.0 - math.pi * 0.41 ** 2, rel=1e-3)
+    assert model.describe()["objects"][0]["material"] == "perfect conductor"
+    assert model.eps_r.max() > 1.5  # the dielectric disc beside it is still averaged in
+
+
+def test_perfect_conductors_need_held_walls():
+    from warpfree.solvers.spem.materials import PEC
+
+    with pytest.raises(ParameterError, match="pec"):
+        SPEMModel(staggered_box((0.0, 0.0), (1.0, 1.0), 0.1), pec=False,
+                  objects=[EMObject(Disc((0.5, 0.5), 0.2), PEC)])

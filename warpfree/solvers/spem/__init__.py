@@ -6,11 +6,11 @@ sources (:mod:`.solver`, plane waves :mod:`.plane_wave`), the energy-conserving 
 
 from .layouts import HStaggering, StaggeredLayout, staggered_box, staggered_disk, staggered_line
 from .model import C0, EPS0, MU0, PML, PMLSide, Scheme, SPEMModel, support_for_jitter
-from .materials import EMObject, Material
-from .monitors import DFTMonitor
+from .materials import PEC, EMObject, Material
+from .monitors import DFTMonitor, FluxMonitor
 from .plane_wave import PlaneWave
 from .solver import GaussianPulse, Source, SourceKind, SPEMSolver, SPEMState, Waveform
 
-__all__ = ["C0", "EPS0", "MU0", "PML", "PMLSide", "Scheme", "HStaggering", "DFTMonitor", "EMObject", "Material", "GaussianPulse", "PlaneWave", "SPEMModel",
+__all__ = ["C0", "EPS0", "MU0", "PML", "PMLSide", "Scheme", "HStaggering", "DFTMonitor", "EMObject", "FluxMonitor", "Material", "PEC", "GaussianPulse", "PlaneWave", "SPEMModel",
            "SPEMSolver", "SPEMState", "Source", "SourceKind", "StaggeredLayout", "Waveform", "staggered_box",
            "staggered_disk", "staggered_line", "support_for_jitter"]

@@ -43,7 +43,8 @@ class HStaggering(Choice):
 #: scenes grows by 2.4-3.4 kB per particle, rounded up
 BYTES_PER_PARTICLE = 4096.0
 
-__all__ = ["HX", "HY", "HStaggering", "StaggeredLayout", "staggered_line", "staggered_box", "staggered_disk"]
+__all__ = ["HX", "HY", "HStaggering", "StaggeredLayout", "staggered_line", "staggered_box", "staggered_disk",
+           "carve_conductors"]
 
 
 @dataclass
@@ -345,3 +346,48 @@ def staggered_disk(centre, radius: float, spacing: float, jitter: float = 0.0, s
     return StaggeredLayout(2, e, h, np.full(e.shape[0], spacing), np.full(h.shape[0], spacing), on_wall, spacing,
                            c - radius, c + radius, lambda p: np.hypot(p[:, 0] - c[0], p[:, 1] - c[1]) <= radius,
                            carries)
+
+
+#: the nearest an H particle may sit to a conductor's surface, in spacings: Yee's side midpoints, cell centres (as
+#: :func:`staggered_disk` measured them on the cavity)
+H_GAP = {"edges": 0.1, "centres": 0.2}
+
+
+def carve_conductors(layout: StaggeredLayout, shapes) -> StaggeredLayout:
+    """``layout`` with perfect conductors cut out of it: the E particles inside ``shapes`` or nearer their surface than
+    half their spacing removed, a row of E particles placed on each surface about a spacing apart (``on_wall``: held at
+    Ez = 0, the wall where the geometry puts it, as :func:`staggered_disk`'s ring), the H particles inside or nearer
+    than ``H_GAP`` spacings removed; the region (for the volumes) then excludes the conductors. Set-up, NumPy."""
+    if not shapes:
+        return layout
+    dim = layout.dim
+
+    def distance(points):
+        return np.min([s.signed_distance(points[:, :dim]) for s in shapes], axis=0)
+
+    keep_e = distance(layout.e_position) > 0.5 * layout.e_spacing * (1.0 - 1e-9)
+    gap = H_GAP["edges" if layout.h_carries is not None or dim == 1 else "centres"]
+    keep_h = distance(layout.h_position) > gap * layout.h_spacing
+    surface = []
+    for k, shape in enumerate(shapes):
+        points = _pad3(shape.boundary_points(layout.spacing))
+        others = [s for j, s in enumerate(shapes) if j != k]
+        if others:  # a surface inside another conductor is no surface
+            points = points[np.min([s.signed_distance(points[:, :dim]) for s in others], axis=0) >= 0.0]
+        if layout.inside is not None:
+            points = points[layout.inside(points)]
+        surface.append(points)
+    ring = np.vstack(surface)
+    if not np.any(keep_e) or not np.any(keep_h):
+        raise ParameterError("objects", "the perfect conductors cover the whole domain")
+    region = layout.inside
+
+    def inside(p):
+        out = distance(p) >= -1e-9 * layout.spacing
+        return out & region(p) if region is not None else out
+
+    return StaggeredLayout(dim, np.vstack([layout.e_position[keep_e], ring]), layout.h_position[keep_h],
+                           np.r_[layout.e_spacing[keep_e], np.full(ring.shape[0], layout.spacing)],
+                           layout.h_spacing[keep_h], np.r_[layout.on_wall[keep_e], np.ones(ring.shape[0], bool)],
+                           layout.spacing, layout.lower, layout.upper, inside,
+                           None if layout.h_carries is None else layout.h_carries[keep_h])

@@ -5,6 +5,10 @@ interval in 1D) filled with a :class:`Material` (relative permittivity εr, rela
 S/m). Objects are layered in the order given: a later one covers an earlier one where they overlap; outside every
 object the model's background (``eps_r``, ``mu_r``) holds.
 
+Perfect conductors (:data:`PEC`) cover every other object: the model cuts them out of the layout and holds a row of E
+particles on their surface at Ez = 0 (:func:`~.layouts.carve_conductors`), so the wall sits where the geometry puts
+it.
+
 A particle set on a material interface reads the material of its cell, not of its centre (which staircases the
 interface: first order, and erratic with resolution). Its effective values are averages over its cell (a square of
 its spacing about it; :func:`warpfree.shapes.cell_means`), the subpixel averaging of Farjadpour et al. (2006, Meep's
@@ -32,7 +36,7 @@ from warpfree.shapes import Shape, cell_means
 
 from .layouts import HX, StaggeredLayout
 
-__all__ = ["Material", "EMObject", "EffectiveMaterials", "effective_materials"]
+__all__ = ["Material", "PEC", "EMObject", "EffectiveMaterials", "effective_materials"]
 
 #: times each cell is split where a boundary crosses it (pieces of 1/16 of the spacing: the fraction's error from a
 #: curved boundary then ~ (Δ/16)² κ per piece, far below the field's own)
@@ -42,14 +46,18 @@ DEPTH = 4
 @dataclass(frozen=True)
 class Material:
     """Relative permittivity ``eps_r`` (> 0), relative permeability ``mu_r`` (> 0) and conductivity ``conductivity``
-    (S/m, >= 0)."""
+    (S/m, >= 0); or a perfect conductor (``perfect_conductor``: :data:`PEC`), which the model cuts out of the layout
+    with its surface held at Ez = 0 (:func:`~.layouts.carve_conductors`)."""
 
     eps_r: float = 1.0
     mu_r: float = 1.0
     conductivity: float = 0.0
+    perfect_conductor: bool = False
 
     def check(self, name: str) -> "Material":
         """Refuse, naming ``name.eps_r`` (and so on), a value out of its range."""
+        if self.perfect_conductor:
+            return self
         for attr in ("eps_r", "mu_r"):
             v = require_finite(f"{name}.{attr}", getattr(self, attr))
             if v <= 0.0:
@@ -57,6 +65,10 @@ class Material:
         if require_finite(f"{name}.conductivity", self.conductivity) < 0.0:
             raise ParameterError(f"{name}.conductivity", f"must be >= 0 S/m, got {self.conductivity}")
         return self
+
+
+#: a perfect electric conductor
+PEC = Material(perfect_conductor=True)
 
 
 @dataclass(frozen=True)
@@ -69,9 +81,10 @@ class EMObject:
 
     def describe(self) -> dict:
         """The object for ``summary.json``."""
-        d = {"name": self.name, "shape": self.shape.describe(), "eps_r": self.material.eps_r,
-             "mu_r": self.material.mu_r, "conductivity": self.material.conductivity}
-        return d
+        if self.material.perfect_conductor:
+            return {"name": self.name, "shape": self.shape.describe(), "material": "perfect conductor"}
+        return {"name": self.name, "shape": self.shape.describe(), "eps_r": self.material.eps_r,
+                "mu_r": self.material.mu_r, "conductivity": self.material.conductivity}
 
 
 @dataclass

@@ -34,7 +34,7 @@ from warpfree.progress import announced, group_digits
 from warpfree.space import Space
 
 from .conservative import ConservativePair, energy_conserving_pair, pattern_reach
-from .layouts import StaggeredLayout
+from .layouts import StaggeredLayout, carve_conductors
 from .materials import EMObject, check_objects, effective_materials
 
 __all__ = ["EPS0", "MU0", "C0", "PML", "PMLSide", "Scheme", "SPEMModel", "support_for_jitter"]
@@ -164,6 +164,12 @@ class SPEMModel:
                  launcher: Launcher | None = None):
         launcher = launcher or current_launcher()
         scheme = Scheme.of("scheme", scheme)
+        objects = check_objects(objects, layout)
+        conductors = [o.shape for o in objects if o.material.perfect_conductor]
+        if conductors:  # cut out, their surfaces held (the model's layout is the carved one)
+            if not require_bool("pec", pec):
+                raise ParameterError("pec", "perfect-conductor objects hold their surfaces at Ez = 0: leave pec on")
+            layout = carve_conductors(layout, conductors)
         self.support = require_positive("support", support)
         if not 0.75 <= self.support <= 4.0:
             raise ParameterError("support", f"must be in [0.75, 4] spacings (the nearest particles of the other set "
@@ -175,7 +181,8 @@ class SPEMModel:
         self.magnetic = ParticleSet("magnetic", layout.h_position, layout.dim, dev)
         self.eps_r = _material("eps_r", eps_r, layout.e_position)
         self.mu_r = _material("mu_r", mu_r, layout.h_position)
-        self.objects = check_objects(objects, layout)
+        self.objects = [o for o in objects if not o.material.perfect_conductor]
+        self.conductors = [o for o in objects if o.material.perfect_conductor]
         self.conductivity = np.zeros(layout.n_e)
         self.materials = None
         if self.objects:
@@ -490,8 +497,9 @@ class SPEMModel:
              # eq. 3.16 with the thesis's h = d_W/α, α = 2 (its Fig. 2.3): Δt <= h_min/(√2 c)
              "eq_3_16_dt": float(0.5 * self.support * min(lay.e_spacing.min(), lay.h_spacing.min())
                                  / (math.sqrt(2.0) * C0))}
-        if self.objects:
-            d["objects"] = [o.describe() for o in self.objects]
+        if self.objects or self.conductors:
+            d["objects"] = [o.describe() for o in self.conductors + self.objects]
+        if self.materials is not None:
             d["particles_on_interfaces"] = {"electric": self.materials.e_on_interface,
                                             "magnetic": self.materials.h_on_interface}
         if self.pml is not None:

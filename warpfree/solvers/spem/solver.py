@@ -34,7 +34,7 @@ from warpfree.solver import OutputSet, State, StepRule, TimeDependentSolver
 from .layouts import HX, HY
 from .kronecker import NodalValues
 from .model import Scheme, SPEMModel
-from .monitors import FIELD_UNITS, DFTMonitor, field_particles, interpolation_rows, window_amplitude
+from .monitors import FIELD_UNITS, DFTMonitor, FluxMonitor, field_particles, interpolation_rows, window_amplitude
 from .plane_wave import DevicePlaneWave, PlaneWave
 
 __all__ = ["Waveform", "GaussianPulse", "Source", "SourceKind", "SPEMState", "SPEMSolver"]
@@ -370,14 +370,23 @@ class SPEMSolver(TimeDependentSolver):
             out[t.field] = t.weights @ value
         return out
 
+    def flux(self, name: str) -> dict[str, np.ndarray]:
+        """Flux monitor ``name``'s ``spectrum`` (W s²/m in 2D) and ``power`` (W/m) per frequency
+        (:class:`~.monitors.FluxMonitor`; collective in a distributed run)."""
+        monitor = self.monitors[name][0].monitor if name in self.monitors else None
+        if not isinstance(monitor, FluxMonitor):
+            raise ParameterError("monitor", f"no flux monitor is named {name!r}")
+        return monitor.flux(self.dft(name), {f: self.dft_window(name, f) for f in monitor.fields})
+
     def dft_window(self, name: str, field: str) -> float:
-        """The time (s) monitor ``name``'s transform of ``field`` has summed: its samples since ``start`` times Δt."""
+        """The time (s) monitor ``name``'s transform of ``field`` has summed: its samples times Δt (each sample's step
+        [t - Δt/2, t + Δt/2] starting at ``start`` or later, ``kernels/spem.py: accumulate_dft``)."""
         t = next(t for t in self.monitors[name] if t.field == field)
         dt = self.run_step
         if dt <= 0:
             return 0.0
         steps = int(round(self.t / dt))
-        first = max(0, math.ceil((t.monitor.start - t.offset * dt) / dt - 1e-9))
+        first = max(0, math.ceil(t.monitor.start / dt + 0.5 - t.offset - 1e-6))
         return max(0, steps - first) * dt
 
     def output_tables(self) -> dict[str, tuple[list[tuple[str, str]], np.ndarray]]:
@@ -387,6 +396,13 @@ class SPEMSolver(TimeDependentSolver):
         tables = {}
         for name, transforms in self.monitors.items():
             m = transforms[0].monitor
+            if isinstance(m, FluxMonitor):  # the flux per frequency
+                flux = self.flux(name)
+                tables[f"monitors/{name}"] = ([("frequency", "Hz"), ("spectrum", "W s2/m" if self.dim == 2 else "W s2/m2"),
+                                               ("power", "W/m" if self.dim == 2 else "W/m2")],
+                                              np.column_stack([np.asarray(m.frequencies), flux["spectrum"],
+                                                               flux["power"]]))
+                continue
             values = self.dft(name)
             npts, nf = m.points.shape[0], len(m.frequencies)
             point = np.repeat(np.arange(npts), nf)
