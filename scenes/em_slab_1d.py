@@ -12,6 +12,8 @@ Writes ``monitors/reflected.csv`` and ``monitors/transmitted.csv`` (the transfor
 Airy formulas, with the differences) and into ``summary.json`` the largest |R - R_exact| and |T - T_exact| over the
 band and the largest |R + T - 1| (the slab is lossless), checked (:func:`slab_checks`).
 
+Model: the interior difference of ``order`` 4 (Fang's (2,4), ``warpfree/solvers/spem/fourth_order.py``) or 2 (Yee's).
+
 Reference (``warpfree/validation/em_slab_1d``): a slab of index n = √εr, thickness d, normal incidence from vacuum,
 r12 = (1 - n)/(1 + n), δ = 2π n d f/c: R = 4 r12² sin²δ / ((1 - r12²)² + 4 r12² sin²δ), T = 1 - R (Born & Wolf,
 Principles of Optics, §7.6.1).
@@ -29,7 +31,7 @@ from warpfree.run import OutputOptions
 from warpfree.shapes import Interval
 from warpfree.solvers.spem import (C0, PML, DFTMonitor, EMObject, GaussianPulse, Material, PlaneWave, SPEMModel,
                                    SPEMSolver, staggered_line)
-from warpfree.solvers.spem.parameters import Courant, Frequency
+from warpfree.solvers.spem.parameters import Courant, DifferenceOrder, Frequency
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import tolerance_check
 from warpfree.validation.em_slab_1d import gaussian_pulse_spectrum, slab_reflectance
@@ -61,6 +63,7 @@ def build(eps_r: Annotated[float, Param("", "relative permittivity of the slab",
           band: Annotated[float, Param("", "half-width of the band, a fraction of f0: f0 (1 ± band)", "(0, 1)")] = 0.5,
           particles_per_wavelength: Annotated[float, Param("", "resolution: the shortest wavelength of the band in "
                                                                "the slab, in particle spacings", "[4, inf)")] = 40.0,
+          order: DifferenceOrder = 4,
           frequencies: Annotated[int, Param("", "frequencies across the band the DFT monitors record",
                                             "[2, inf)")] = 101,
           pml_cells: Annotated[int, Param("Δ", "thickness of each PML, in particle spacings", "[2, inf)")] = 20,
@@ -83,7 +86,8 @@ def build(eps_r: Annotated[float, Param("", "relative permittivity of the slab",
     with reported_as(spacing="particles_per_wavelength, frequency, band, eps_r, thickness, pml_cells"):
         layout = staggered_line(lower - pml, upper + pml, spacing)
     slab = EMObject(Interval(0.0, width), Material(eps_r=eps_r), name="slab")
-    model = SPEMModel(layout, pml=PML(pml, sides=("x-", "x+")), interior=((lower,), (upper,)), objects=[slab])
+    model = SPEMModel(layout, pml=PML(pml, sides=("x-", "x+")), interior=((lower,), (upper,)), objects=[slab],
+                      order=order)
     # the pulse: its spectrum e^{-(πτ(f - f0))²} falls to 1e-3 at the band's edges
     tau = math.sqrt(math.log(1e3)) / (math.pi * band * frequency)
     pulse = GaussianPulse(frequency, tau, 4.0 * tau)
@@ -109,7 +113,7 @@ def build(eps_r: Annotated[float, Param("", "relative permittivity of the slab",
                   "transmittance_error": float(np.max(np.abs(t_power - (1.0 - exact)))),
                   "energy_error": float(np.max(np.abs(r_power + t_power - 1.0))),
                   "band_hz": [float(f[0]), float(f[-1])], "frequencies": int(f.size), "spacing": layout.spacing,
-                  "particles_per_wavelength": particles_per_wavelength, "dt": s.run_step}
+                  "particles_per_wavelength": particles_per_wavelength, "order": order, "dt": s.run_step}
         result["checks"] = slab_checks(result)
         if out_dir is not None:
             _plot(os.path.join(out_dir, "slab.png"), f, r_power, t_power, exact, result)

@@ -4,15 +4,16 @@ incident wave's own error).
 
 What it measures
     ``scenes/em_scatterer_2d.py`` (k0 a = 2.5, 30 periods, DFT over the last 4) by resolution (particles per
-    wavelength in the densest medium): a dielectric (εr = 4) with ``interface=average`` (each particle's cell mean) and
-    ``interface=centre`` (the permittivity at the particle: a staircase); a perfect conductor cut out with a held row
+    wavelength in the densest medium): a dielectric (εr = 4) with ``interface=average`` (each particle's cell mean),
+    with Fang's fourth-order difference (``order=4``) and Yee's (``order=2``), and ``interface=centre`` (the
+    permittivity at the particle: a staircase); a perfect conductor cut out with a held row
     on its surface (``average``) and as the lattice's particles inside held (``centre``); and εr = 1 (no scatterer:
     the error of the incident wave alone). Per run: the relative L2 error of the complex amplitude on the ring
     r = 1.5 a and on the two lines through the centre, the order of the ring error from the previous resolution, the
     scattering width's error and the wall time (set-up and stepping, one thread).
 
 Usage
-    python bench/spem/scatterer_convergence.py            # about 8 minutes on one core
+    python bench/spem/scatterer_convergence.py            # about 9 minutes on one core
     python bench/spem/scatterer_convergence.py --quick    # up to 40 particles per wavelength
 Writes bench/results/scatterer_convergence[_quick].{json,md}.
 """
@@ -33,11 +34,13 @@ import common  # noqa: E402
 RUN_ALL = [[]]
 
 #: (label, scene settings, resolutions)
-CASES = [("dielectric, averaged", {}, (10, 20, 25, 40, 80)),
-         ("dielectric, staircase", {"interface": "centre"}, (10, 20, 25, 40, 80)),
+CASES = [("dielectric, averaged, order 4", {"order": 4}, (10, 14, 20, 28, 40, 56)),
+         ("dielectric, averaged, order 2", {"order": 2}, (10, 20, 25, 40, 80)),
+         ("dielectric, staircase, order 2", {"interface": "centre", "order": 2}, (10, 20, 25, 40, 80)),
          ("conductor, surface row", {"cylinder": "conductor"}, (20, 24, 28, 32, 40, 48, 56, 64, 80)),
          ("conductor, staircase", {"cylinder": "conductor", "interface": "centre"}, (20, 40)),
-         ("free space (εr = 1)", {"eps_r": 1.0}, (20, 28, 40, 56))]
+         ("free space (εr = 1), order 4", {"eps_r": 1.0, "order": 4}, (20, 28, 40)),
+         ("free space (εr = 1), order 2", {"eps_r": 1.0, "order": 2}, (20, 28, 40, 56))]
 
 
 def one(resolution: float, settings: dict) -> dict:

@@ -22,8 +22,9 @@ What it measures
     ``--case scatterer``: the dielectric cylinder of ``scenes/em_scatterer_2d.py`` (εr = 4, k0 a = 2.5, 30 periods,
     DFT over the last 4) at 10 to 56 particles per wavelength in the dielectric, SPEM against
     ``fdtd_yee.YeeScatterer`` on the same lattice with the same averaged permittivity, PML and TF/SF box (both
-    second order at the interface, so the errors agree and the ratio is the cost of a step); error: the relative L2
-    error of Ez's complex amplitude on the ring r = 1.5 a against the Bessel series, as the scene computes it.
+    second order at the interface, so the errors agree and the ratio is the cost of a step), and SPEM with Fang's
+    fourth-order difference (``order=4``, the scene's default) beside them; error: the relative L2 error of Ez's
+    complex amplitude on the ring r = 1.5 a against the Bessel series, as the scene computes it.
 
 Usage
     python bench/spem/spem_vs_fdtd.py                 # waveguide, 1 thread, ppw 20 40 80 160 320, 3 repeats
@@ -195,17 +196,17 @@ def run_fdtd_cavity(cells: float, t_end: float, threads: int) -> tuple[float, fl
     return wall, cavity_error(g.r[inside], g.ez.numpy()[inside], t_end - 0.5 * dt), steps
 
 
-def _scatterer_scene(ppw: float, threads: int):
+def _scatterer_scene(ppw: float, threads: int, order: int = 2):
     """The dielectric cylinder of ``scenes/em_scatterer_2d.py`` at ``ppw`` per wavelength in the dielectric, its kernels
     loaded by one step of its smallest run; and the step: whole steps per period at 0.95 of the stable limit."""
     common.build_scene("em_scatterer_2d", threads, particles_per_wavelength=8, periods=2, window=1).solver.step(1e-12)
-    loop = common.build_scene("em_scatterer_2d", threads, particles_per_wavelength=ppw)
+    loop = common.build_scene("em_scatterer_2d", threads, particles_per_wavelength=ppw, order=order)
     period = 1.0 / loop.params["frequency"]
     return loop, period / math.ceil(period / (0.95 * loop.solver.stable_dt())), period
 
 
-def run_spem_scatterer(ppw: float, t_end: float, threads: int) -> tuple[float, float, int]:
-    loop, dt, period = _scatterer_scene(ppw, threads)
+def run_spem_scatterer(ppw: float, t_end: float, threads: int, order: int = 2) -> tuple[float, float, int]:
+    loop, dt, period = _scatterer_scene(ppw, threads, order)
     s = loop.solver
     steps = int(round(loop.params["periods"] * period / dt))
     s.use_step(dt)
@@ -285,12 +286,16 @@ def main() -> None:
     if args.worker:
         cfg = json.loads(args.worker)
         spem, fdtd = RUNNERS[cfg["case"]]
-        wall, err, steps = (spem if cfg["code"] == "spem" else fdtd)(cfg["ppw"], cfg["t_end"], cfg["threads"])
+        if cfg["code"] == "spem4":  # the scatterer's fourth-order difference
+            wall, err, steps = run_spem_scatterer(cfg["ppw"], cfg["t_end"], cfg["threads"], order=4)
+        else:
+            wall, err, steps = (spem if cfg["code"] == "spem" else fdtd)(cfg["ppw"], cfg["t_end"], cfg["threads"])
         common.emit_worker_result({"wall_s": wall, "error": err, "steps": steps})
         return
-    rows = {"spem": [], "fdtd": []}
+    codes = ("spem", "fdtd", "spem4") if args.case == "scatterer" else ("spem", "fdtd")
+    rows = {code: [] for code in codes}
     for ppw in args.ppw:
-        for code in ("spem", "fdtd"):
+        for code in codes:
             walls, res = [], None
             for r in range(args.repeats):
                 res = common.run_worker(__file__, ["--worker", json.dumps(dict(case=args.case, code=code, ppw=ppw,
@@ -309,9 +314,21 @@ def main() -> None:
         md.append(f"| {a['ppw']:g} | {a['error']:.3e} | {a['wall_s']:.3f} | {b['error']:.3e} | {b['wall_s']:.3f} |")
     md += ["", "SPEM time / FDTD time at SPEM's error (FDTD interpolated log-log): " +
            (", ".join(f"{r['ratio']:.2f} (error {r['error']:.2e})" for r in ratios) or "no overlap of the error ranges")]
+    ratios4 = []
+    if "spem4" in rows:
+        ratios4 = common.equal_error_ratio(rows["spem4"], rows["fdtd"])
+        md += ["", "SPEM with the fourth-order difference (`order=4`):", "",
+               "| particles per λ | SPEM (order 4) error | SPEM (order 4) s |", "| --: | --: | --: |"]
+        md += [f"| {a['ppw']:g} | {a['error']:.3e} | {a['wall_s']:.3f} |" for a in rows["spem4"]]
+        md += ["", "SPEM (order 4) time / FDTD time at SPEM's error (FDTD interpolated log-log): " +
+               (", ".join(f"{r['ratio']:.2f} (error {r['error']:.2e})" for r in ratios4) or
+                "no overlap of the error ranges")]
     fig, ax = common.new_figure(figsize=(6, 4.2))
-    for code, mark in (("spem", "o-"), ("fdtd", "s--")):
-        ax.loglog([r["wall_s"] for r in rows[code]], [r["error"] for r in rows[code]], mark, label=code.upper())
+    for code, mark in (("spem", "o-"), ("fdtd", "s--"), ("spem4", "^-")):
+        if code not in rows:
+            continue
+        ax.loglog([r["wall_s"] for r in rows[code]], [r["error"] for r in rows[code]], mark,
+                  label={"spem4": "SPEM, order 4"}.get(code, code.upper()))
     ax.set_xlabel("wall s (steps only)")
     ax.set_ylabel("mean |Ez - exact| / amplitude")
     title = {"line": "1D line", "cavity": "Cavity, FDTD wall staircased,",
@@ -321,7 +338,8 @@ def main() -> None:
     fig.tight_layout()
     common.write_results({"line": "spem_vs_fdtd_line", "cavity": "spem_vs_fdtd_cavity",
                           "scatterer": "spem_vs_fdtd_scatterer"}.get(args.case, "spem_vs_fdtd"),
-                         {"case": args.case, "rows": rows, "ratios": ratios, "threads": args.threads}, "\n".join(md),
+                         {"case": args.case, "rows": rows, "ratios": ratios, "ratios_order_4": ratios4,
+                          "threads": args.threads}, "\n".join(md),
                          fig, quick=args.quick)
 
 if __name__ == "__main__":

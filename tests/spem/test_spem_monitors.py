@@ -73,15 +73,17 @@ def test_interpolation_is_exact_for_quadratic_fields(dim):
 
 
 def test_monitors_continue_bitwise_after_a_resume(tmp_path):
-    """The scatterer's smallest run, uninterrupted and resumed from the older of its two last checkpoints (inside the
-    DFT's window): the DFT file is the same."""
+    """The scatterer's smallest run, uninterrupted and resumed from a checkpoint inside the DFT's window (its last 2 of
+    6 periods): the DFT file is the same."""
     whole, resumed = tmp_path / "whole", tmp_path / "resumed"
     args = ["run", "em_scatterer_2d", "--no-frames", "--set", "vtk=false", "--set", "particles_per_wavelength=8",
             "--set", "periods=6", "--set", "window=2"]
     assert main(args + ["--out", str(whole)]) == 0
-    assert main(args + ["--out", str(resumed), "--checkpoint-every", "55"]) == 0  # 144 steps, the window from 96 on
+    steps = json.loads((whole / "summary.json").read_text())["steps"]
+    every = (5 * steps) // 6  # one checkpoint in the window (from step 4/6 on), the next would be past the end
+    assert main(args + ["--out", str(resumed), "--checkpoint-every", str(every)]) == 0
     checkpoints = sorted((resumed / "checkpoints").glob("step_*"), key=lambda p: int(p.stem.split("_")[1]))
-    inside = [p for p in checkpoints if 96 < int(p.stem.split("_")[1]) < 144]
+    inside = [p for p in checkpoints if 4 * steps / 6 < int(p.stem.split("_")[1]) < steps]
     assert len(inside) == 1
     with np.load(inside[0]) as saved:
         assert np.abs(saved["state__dft_near_field_ez_real"]).max() > 0  # the sums a resume must restore

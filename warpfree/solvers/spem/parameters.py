@@ -12,7 +12,7 @@ from warpfree.parameters import Param
 from .layouts import HStaggering
 from .model import Scheme
 
-__all__ = ["Courant", "EndTime", "OutputInterval", "Frequency", "ParticlesPerWavelength", "DerivativeScheme",
+__all__ = ["DifferenceOrder", "Courant", "EndTime", "OutputInterval", "Frequency", "ParticlesPerWavelength", "DerivativeScheme",
            "Jitter", "HLayout", "LoadDistribution", "Ramp"]
 
 Courant = Annotated[float, Param("", "the time step as a fraction of the stable limit (computed for the layout)",
@@ -30,3 +30,5 @@ LoadDistribution = Annotated[Distribution, Param("", "which particles each threa
                                                      "the same for all)")]
 Ramp = Annotated[float, Param("periods", "sin² switch-on of the source over this many periods (0: at once)",
                               "[0, inf)")]
+DifferenceOrder = Annotated[int, Param("", "order of the interior difference: 2 (Yee's, on any layout) or 4 (Fang's "
+                                            "(2,4), on a uniform lattice whose only conductors are its faces)", "[2, 4]")]

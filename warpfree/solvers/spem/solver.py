@@ -24,6 +24,7 @@ from warpfree.device import Launcher, current_launcher
 from warpfree.distribution import Distribution, launch_order
 from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.kernels import spem as K
+from warpfree.kernels import spem_monitors as KM
 from warpfree.graph import StepGraph
 from warpfree.parallel import world as ranks_of_run
 from warpfree.parallel.halo import whole_from_pieces
@@ -349,7 +350,7 @@ class SPEMSolver(TimeDependentSolver):
             for t in transforms:
                 if t.field in fields and t.count:
                     values = getattr(self.state, t.field)
-                    self.launcher.launch(K.accumulate_dft, t.count * t.frequencies.shape[0],
+                    self.launcher.launch(KM.accumulate_dft, t.count * t.frequencies.shape[0],
                                          [t.particles, values, self.clock.values, wp.float64(t.offset),
                                           wp.float64(t.monitor.start), t.frequencies, t.real, t.imag])
 
@@ -380,7 +381,7 @@ class SPEMSolver(TimeDependentSolver):
 
     def dft_window(self, name: str, field: str) -> float:
         """The time (s) monitor ``name``'s transform of ``field`` has summed: its samples times Δt (each sample's step
-        [t - Δt/2, t + Δt/2] starting at ``start`` or later, ``kernels/spem.py: accumulate_dft``)."""
+        [t - Δt/2, t + Δt/2] starting at ``start`` or later, ``kernels/spem_monitors.py: accumulate_dft``)."""
         t = next(t for t in self.monitors[name] if t.field == field)
         dt = self.run_step
         if dt <= 0:
