@@ -33,7 +33,8 @@ CASES = [("dam_break_2d", 2), ("dam_break_2d", 3), ("dam_break_3d", 3), ("taylor
 #: held per rank (the walls' velocity factor) or reshaping the layout (a conductor cut out of it)
 OPTION_CASES = [("dam_break_2d", 3, ["--set", "delta_gradient=true"]),
                 ("lid_driven_cavity_2d", 3, ["--set", "lid_ramp=0.4"]),
-                ("em_scatterer_2d", 2, ["--set", "cylinder=conductor"])]
+                ("em_scatterer_2d", 2, ["--set", "cylinder=conductor"]),
+                ("em_slab_1d", 3, ["--set", "plasma_frequency=1e9", "--set", "collision_rate=6.283e8"])]
 
 #: the model's count of each scene family's main set, and the set's name in the distributed layout and the outputs
 MAIN_SETS = {"n_fluid": "fluid", "n_electric": "electric", "n_particles": "particles"}

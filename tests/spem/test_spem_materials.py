@@ -86,6 +86,8 @@ def test_a_conductor_decays_as_exp_minus_sigma_t_over_eps():
     ([EMObject(Disc((0.5, 0.5), 0.2)), EMObject(Disc((0.5, 0.5), 0.1), Material(mu_r=-1.0))],
      "objects[1].material.mu_r"),
     ([EMObject(Disc((0.5, 0.5), 0.2), Material(conductivity=-1.0))], "objects[0].material.conductivity"),
+    ([EMObject(Disc((0.5, 0.5), 0.2), Material(plasma_frequency=-1.0))], "objects[0].material.plasma_frequency"),
+    ([EMObject(Disc((0.5, 0.5), 0.2), Material(collision_rate=float("nan")))], "objects[0].material.collision_rate"),
     ([EMObject(Disc((5.0, 5.0), 0.2), Material(eps_r=2.0))], "objects[0].shape"),
     ([EMObject(Interval(0.1, 0.2), Material(eps_r=2.0))], "objects[0].shape"),
     (["disc"], "objects[0]"),

@@ -21,7 +21,8 @@ default), exact to second order for a field's component:
   inverse tensor; H particles carrying both components take ⟨μ⟩).
 
 The conductivity enters the E update as a loss rate σ_eff/ε_eff on both parts of the split field (the exponential
-step of ``kernels/spem.py``, unconditionally stable for any σ).
+step of ``kernels/spem.py``, unconditionally stable for any σ). A Drude material's susceptibility is averaged as the
+permittivity is (⟨ωp²⟩, Ez along the interface), its collision rate weighted by it.
 """
 
 from __future__ import annotations
@@ -45,14 +46,25 @@ DEPTH = 4
 
 @dataclass(frozen=True)
 class Material:
-    """Relative permittivity ``eps_r`` (> 0), relative permeability ``mu_r`` (> 0) and conductivity ``conductivity``
-    (S/m, >= 0); or a perfect conductor (``perfect_conductor``: :data:`PEC`), which the model cuts out of the layout
-    with its surface held at Ez = 0 (:func:`~.layouts.carve_conductors`)."""
+    """Relative permittivity ``eps_r`` (> 0; the high-frequency ε∞ of a dispersive material), relative permeability
+    ``mu_r`` (> 0) and conductivity ``conductivity`` (S/m, >= 0); a Drude dispersion, ε(ω) = εr - ωp²/(ω² - iγω)
+    (time dependence e^{iωt}), of ``plasma_frequency`` ωp (rad/s, >= 0) and ``collision_rate`` γ (1/s, >= 0), by an
+    auxiliary current (``kernels/spem_dispersive.py``); or a perfect conductor (``perfect_conductor``: :data:`PEC`),
+    which the model cuts out of the layout with its surface held at Ez = 0 (:func:`~.layouts.carve_conductors`)."""
 
     eps_r: float = 1.0
     mu_r: float = 1.0
     conductivity: float = 0.0
+    plasma_frequency: float = 0.0
+    collision_rate: float = 0.0
     perfect_conductor: bool = False
+
+    def permittivity(self, frequency) -> np.ndarray:
+        """ε(ω)/ε0 at ``frequency`` (Hz), e^{iωt}: εr - ωp²/(ω² - iγω) - iσ/(ωε0)."""
+        w = 2.0 * math.pi * np.asarray(frequency, dtype=np.float64)
+        eps0 = 1.0 / (4e-7 * math.pi * 299_792_458.0 ** 2)
+        return (self.eps_r - self.plasma_frequency ** 2 / (w * w - 1j * self.collision_rate * w)
+                - 1j * self.conductivity / (w * eps0))
 
     def check(self, name: str) -> "Material":
         """Refuse, naming ``name.eps_r`` (and so on), a value out of its range."""
@@ -62,8 +74,9 @@ class Material:
             v = require_finite(f"{name}.{attr}", getattr(self, attr))
             if v <= 0.0:
                 raise ParameterError(f"{name}.{attr}", f"must be > 0 (a passive, non-dispersive medium), got {v}")
-        if require_finite(f"{name}.conductivity", self.conductivity) < 0.0:
-            raise ParameterError(f"{name}.conductivity", f"must be >= 0 S/m, got {self.conductivity}")
+        for attr, unit in (("conductivity", "S/m"), ("plasma_frequency", "rad/s"), ("collision_rate", "1/s")):
+            if require_finite(f"{name}.{attr}", getattr(self, attr)) < 0.0:
+                raise ParameterError(f"{name}.{attr}", f"must be >= 0 {unit}, got {getattr(self, attr)}")
         return self
 
 
@@ -97,6 +110,9 @@ class EffectiveMaterials:
     mu_r: np.ndarray
     e_on_interface: int
     h_on_interface: int
+    #: per E particle, ⟨ωp²⟩ over its cell (rad²/s²) and the collision rate weighted by it, ⟨ωp² γ⟩/⟨ωp²⟩ (1/s)
+    plasma_frequency_squared: np.ndarray | None = None
+    collision_rate: np.ndarray | None = None
 
 
 def check_objects(objects, layout: StaggeredLayout) -> list[EMObject]:
@@ -131,9 +147,12 @@ def effective_materials(objects: list[EMObject], layout: StaggeredLayout, eps_ba
     shapes = [o.shape for o in objects]
     dim = layout.dim
     # E: ⟨εr⟩ and ⟨σ⟩ over the cell (Ez along every interface in TMz and in 1D)
-    e_values = np.array([[o.material.eps_r, o.material.conductivity] for o in objects])
-    e_back = np.stack([eps_background, np.zeros(layout.n_e)], axis=1)
+    e_values = np.array([[o.material.eps_r, o.material.conductivity, o.material.plasma_frequency ** 2,
+                          o.material.plasma_frequency ** 2 * o.material.collision_rate] for o in objects])
+    e_back = np.column_stack([eps_background, np.zeros((layout.n_e, 3))])
     e_mean, _ = cell_means(shapes, e_values, layout.e_position, layout.e_spacing, e_back, depth=DEPTH)
+    plasma = e_mean[:, 2]
+    rate = np.divide(e_mean[:, 3], plasma, out=np.zeros(layout.n_e), where=plasma > 0)
     e_mixed = _mixed(shapes, layout.e_position, layout.e_spacing)
     # H: ⟨μr⟩ and ⟨1/μr⟩, and the interface's normal for the direction of the component each carries
     h_values = np.array([[o.material.mu_r, 1.0 / o.material.mu_r] for o in objects])
@@ -147,7 +166,8 @@ def effective_materials(objects: list[EMObject], layout: StaggeredLayout, eps_ba
     else:
         mu_r = mean_mu
     h_mixed = _mixed(shapes, layout.h_position, layout.h_spacing)
-    return EffectiveMaterials(e_mean[:, 0], e_mean[:, 1], mu_r, int(e_mixed.sum()), int(h_mixed.sum()))
+    return EffectiveMaterials(e_mean[:, 0], e_mean[:, 1], mu_r, int(e_mixed.sum()), int(h_mixed.sum()),
+                              plasma if np.any(plasma > 0) else None, rate if np.any(plasma > 0) else None)
 
 
 def _mixed(shapes, points: np.ndarray, spacing: np.ndarray) -> np.ndarray:

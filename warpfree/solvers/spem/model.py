@@ -188,10 +188,15 @@ class SPEMModel:
         self.conductors = [o for o in objects if o.material.perfect_conductor]
         self.conductivity = np.zeros(layout.n_e)
         self.materials = None
+        #: the Drude particles: (indices, ε0 ωp² (F/(m s²)), γ (1/s)), or None (:mod:`.materials`)
+        self.drude = None
         if self.objects:
             self.materials = effective_materials(self.objects, layout, self.eps_r, self.mu_r)
             self.eps_r, self.mu_r = self.materials.eps_r, self.materials.mu_r
             self.conductivity = self.materials.conductivity
+            if self.materials.plasma_frequency_squared is not None:
+                at = np.flatnonzero(self.materials.plasma_frequency_squared > 0)
+                self.drude = (at, EPS0 * self.materials.plasma_frequency_squared[at], self.materials.collision_rate[at])
         self.pml = pml
         loss_e, loss_h = np.zeros((layout.n_e, 2)), np.zeros((layout.n_h, 2))
         if pml is not None:
@@ -202,6 +207,8 @@ class SPEMModel:
             eps_h = _material("eps_r", eps_r, layout.h_position)
             loss_e = pml.sigma(layout.e_position, lo, hi) / (EPS0 * self.eps_r[:, None])
             loss_h = pml.sigma(layout.h_position, lo, hi) / (EPS0 * eps_h[:, None])  # σ*/μ = σ/ε (3.21)
+        if self.drude is not None and np.any(loss_e[self.drude[0]] != 0.0):
+            raise ParameterError("objects", "a dispersive (Drude) object reaches into the PML: keep it in the interior")
         loss_e += (self.conductivity / (EPS0 * self.eps_r))[:, None]  # σ/ε on both parts of the split field
         self.interior = interior
         self.pec = require_bool("pec", pec)
@@ -490,7 +497,7 @@ class SPEMModel:
         (both), in 2D Δ/c computed (the nearest-shell stencil is Yee's rotated by 45°, √2 above Yee's limit) and
         Δ/(c√2) from the Gershgorin bound; eq. 3.16's √2 c Δt/h_min <= 1 is reported beside it (``describe``)."""
         if self.conservative:
-            return 2.0 / math.sqrt(self._spectral_radius())
+            return 2.0 / math.sqrt(self._spectral_radius() + self._drude_rate())
         L = self.launcher
         row = []
         for s, rows, coef, material, electric in ((self.electric, self.e_rows, self.e_coefficient, "inv_permittivity", 1),
@@ -501,7 +508,15 @@ class SPEMModel:
             if electric:
                 values = values[~self.held]  # held particles are not updated (set once: a host read is fine)
             row.append(float(values.max()))
-        return 2.0 / math.sqrt(row[0] * row[1])
+        return 2.0 / math.sqrt(row[0] * row[1] + self._drude_rate())
+
+    def _drude_rate(self) -> float:
+        """max ωp²/ε∞ over the Drude particles (1/s²; 0 without): the E-J oscillation's share of the step limit, the
+        spectral radii of the curl and of the current adding (:mod:`warpfree.kernels.spem_dispersive`)."""
+        if self.drude is None:
+            return 0.0
+        at, weight, _ = self.drude
+        return float(np.max(weight / (EPS0 * self.eps_r[at])))
 
     def _spectral_radius(self) -> float:
         """Largest eigenvalue of Σ_a B_a B_aᵀ (1/s², ``stable_dt``), by Lanczos (SciPy), 1e-6 relative, from a

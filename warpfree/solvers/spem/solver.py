@@ -18,12 +18,14 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 import warp as wp
 
 from warpfree.device import Launcher, current_launcher
 from warpfree.distribution import Distribution, launch_order
 from warpfree.errors import ParameterError, require_finite, require_positive
 from warpfree.kernels import spem as K
+from warpfree.kernels import spem_dispersive as KD
 from warpfree.kernels import spem_monitors as KM
 from warpfree.graph import StepGraph
 from warpfree.parallel import world as ranks_of_run
@@ -244,13 +246,30 @@ class SPEMSolver(TimeDependentSolver):
         ep, hp = spread.electric, spread.magnetic
         #: the E and H sets this process steps: a rank's part (its own particles and their ghosts; ``numpy`` gathers
         #: the whole set), over the model's own arrays in one process
-        self.electric = spread.held_set("electric", e, ep, {"ez": ez0.astype(np.float32),
-                                                            "ezx": (0.5 * ez0).astype(np.float32),
-                                                            "held": held.astype(np.int32)}, dev)
+        electric_state = {"ez": ez0.astype(np.float32), "ezx": (0.5 * ez0).astype(np.float32),
+                          "held": held.astype(np.int32)}
+        if model.drude is not None:  # the Drude current J (A/m², at H's times), and its medium
+            at, weight, rate = model.drude
+            for name, values in (("current", np.zeros(e.n)), ("drude_weight", np.zeros(e.n)),
+                                 ("collision_rate", np.zeros(e.n))):
+                electric_state[name] = values.astype(np.float32)
+            electric_state["drude_weight"][at] = weight
+            electric_state["collision_rate"][at] = rate
+        self.electric = spread.held_set("electric", e, ep, electric_state, dev)
         self.magnetic = spread.held_set("magnetic", h, hp, {"hx": hx0.astype(np.float32),
                                                             "hy": hy0.astype(np.float32)}, dev)
         self.state = SPEMState(self.electric["ez"], self.electric["ezx"], self.magnetic["hx"], self.magnetic["hy"],
                                self.clock.values)
+        #: the fields a checkpoint holds per set (the Drude current with E where there is one)
+        self.restored = {"electric": ("ez", "ezx") + (("current",) if model.drude is not None else ()),
+                         "magnetic": ("hx", "hy")}
+        self.drude = None
+        if model.drude is not None:
+            self.state.current = self.electric["current"]
+            here, _ = spread.owned(ep, model.drude[0].astype(np.int64))
+            self.drude = wp.array(here.astype(np.int32) if here.size else np.zeros(1, np.int32), dtype=wp.int32,
+                                  device=dev)
+            self._drude_count = int(here.size)
         for name, part in (("electric", ep), ("magnetic", hp)):  # which particles a checkpoint piece holds
             setattr(self.state, f"{name}_id", part.ids.astype(np.int64))
             setattr(self.state, f"{name}_owned", part.owned.astype(np.int8))
@@ -259,9 +278,15 @@ class SPEMSolver(TimeDependentSolver):
         self.h_rows, self.h_coefficient = spread.rows(model.h_rows.rows, model.h_coefficient, hp, ep)
         self.sources = [_DeviceSource(s, model, dev, local=spread.owned_electric)
                         for s in sources if isinstance(s, Source)]
-        self.plane_waves = [spread.plane_wave(DevicePlaneWave(s, model, dev)) for s in sources
-                            if isinstance(s, PlaneWave)]
+        waves = [DevicePlaneWave(s, model, dev) for s in sources if isinstance(s, PlaneWave)]
+        if model.drude is not None:
+            for w in waves:
+                if np.intersect1d(w.e_targets.numpy()[:w.n_e], model.drude[0]).size:
+                    raise ParameterError("plane_wave.lower", "the total-field box's boundary crosses a dispersive "
+                                                             "object: the incident wave is vacuum's there")
+        self.plane_waves = [spread.plane_wave(w) for w in waves]
         self.monitors = self._monitors(monitors, model, dev)
+        self._field_rows: dict = {}  # field_at's interpolation per set of points
         # each thread's particles (``distribution``) among this rank's own; a held particle returns at once
         e_cost = np.where(held, 0, model.e_rows.rows.count.numpy()[:e.n])
         h_cost = model.h_rows.rows.count.numpy()[:h.n]
@@ -327,6 +352,12 @@ class SPEMSolver(TimeDependentSolver):
                 L.launch(K.plane_wave_electric, w.n_e, [clock, w.struct, w.e_targets, w.e_rows, w.e_coefficient,
                                                         h.position, e["inv_permittivity"], e["loss"], self.held,
                                                         st.ez, st.ezx])
+        if self.drude is not None and self._drude_count:
+            with self.phases("electric"):
+                L.launch(KD.drude_electric, self._drude_count, [self.drude, clock, e["inv_permittivity"], st.current,
+                                                                st.ez, st.ezx])
+                L.launch(KD.drude_current, self._drude_count, [self.drude, clock, e["drude_weight"],
+                                                               e["collision_rate"], st.ez, st.current])
         with self.phases("sources"):
             for s in self.sources:
                 L.launch(K.set_source, s.count, [s.particles, s.amplitude, s.signal, clock, s.additive, st.ez,
@@ -353,6 +384,46 @@ class SPEMSolver(TimeDependentSolver):
                     self.launcher.launch(KM.accumulate_dft, t.count * t.frequencies.shape[0],
                                          [t.particles, values, self.clock.values, wp.float64(t.offset),
                                           wp.float64(t.monitor.start), t.frequencies, t.real, t.imag])
+
+    def field_at(self, points) -> dict[str, np.ndarray]:
+        """Ez (V/m), Hx and Hy (A/m; Hy alone in 1D) at ``points`` ((m, dim) or (m, 3), m): each the quadratic
+        least-squares fit of the 12 nearest particles of its set (``monitors.interpolation_rows``; exact on a particle),
+        NaN outside the domain (in a conductor). What a :class:`warpfree.sensors.FieldSensor` records. The same values
+        on every rank (collective: each particle's value comes from the rank that owns it)."""
+        pts = np.asarray(points, dtype=np.float64)
+        if pts.ndim != 2 or pts.shape[1] not in (self.dim, 3) or not np.all(np.isfinite(pts)):
+            raise ParameterError("points", f"must be finite (m, {self.dim}) or (m, 3) coordinates, got shape "
+                                           f"{pts.shape}")
+        key = pts.tobytes()
+        if key not in self._field_rows:  # set-up once per set of points: the rows and the particles they read
+            lay = self.model.layout
+            full = np.zeros((pts.shape[0], 3))
+            full[:, :pts.shape[1]] = pts
+            outside = ~lay.inside(full) if lay.inside is not None else np.zeros(pts.shape[0], bool)
+            rows = {}
+            inside = np.flatnonzero(~outside)
+            place = sp.csr_matrix((np.ones(inside.size), (inside, np.arange(inside.size))),
+                                  shape=(pts.shape[0], inside.size))  # the inside points' rows among all
+            for field in ("ez", "hy") if self.dim == 1 else ("ez", "hx", "hy"):
+                carriers = field_particles(lay, field)
+                positions = lay.e_position if field == "ez" else lay.h_position
+                weights = (place @ interpolation_rows(positions[carriers], full[inside], lay.dim, lay.spacing)).tocsc()
+                used = np.flatnonzero(np.diff(weights.indptr) > 0)
+                stencil = carriers[used].astype(np.int64)
+                part = self.spread.electric if field == "ez" else self.spread.magnetic
+                here, mine = self.spread.owned(part, stencil)
+                rows[field] = (weights[:, used].tocsr(), stencil, here, mine)
+            self._field_rows[key] = (rows, outside)
+        rows, outside = self._field_rows[key]
+        out = {}
+        for field, (weights, stencil, here, mine) in rows.items():
+            s = self.electric if field == "ez" else self.magnetic
+            local = np.column_stack([stencil[mine].astype(np.float64), s[field].numpy()[here].astype(np.float64)])
+            every = np.vstack(self.world.allgather(local)) if self.world.distributed else local
+            values = np.zeros(stencil.size)
+            values[np.searchsorted(stencil, every[:, 0].astype(np.int64))] = every[:, 1]
+            out[field] = np.where(outside, np.nan, weights @ values)
+        return out
 
     def dft(self, name: str) -> dict[str, np.ndarray]:
         """Monitor ``name``'s transforms at its points: field -> complex (points, frequencies), V·s/m or A·s/m (every
@@ -448,6 +519,23 @@ class SPEMSolver(TimeDependentSolver):
         """None: a SPEM step has nothing to refuse (the step is fixed below its limit at set-up)."""
         return None
 
+    def audit(self) -> str | None:
+        """At every output: a field that is no longer a finite number stops the run (its last good state kept), with
+        where and since when it went wrong; None when all are finite. Every rank checks its own particles."""
+        for name, fields in (("electric", ("ez",)), ("magnetic", ("hx", "hy"))):
+            s = getattr(self, name)
+            part = getattr(self.spread, name)
+            for field in fields:
+                values = part.owned_values(s[field])
+                bad = ~np.isfinite(values)
+                if np.any(bad):
+                    k = int(np.flatnonzero(bad)[0])
+                    where = part.owned_values(s.position)[k]
+                    return (f"{field} is not finite at {int(bad.sum())} particle(s), e.g. at "
+                            f"{np.round(np.asarray(where)[:self.dim], 6).tolist()} m: the run grew without bound (a "
+                            f"step above the limit of a material the model was not told of?)")
+        return None
+
     # -- outputs ---------------------------------------------------------------------------------
     @property
     def dim(self) -> int:
@@ -459,15 +547,12 @@ class SPEMSolver(TimeDependentSolver):
         """E and H particles (the unit of the throughput)."""
         return self.model.layout.n_e + self.model.layout.n_h
 
-    #: the state's fields on each set (the clock is every process's alike)
-    RESTORED = {"electric": ("ez", "ezx"), "magnetic": ("hx", "hy")}
-
     def restore_pieces(self, pieces: list[dict]) -> None:
         """The whole fields from every process's checkpoint (each its own particles, by ``electric_id`` and
         ``magnetic_id``; one process's piece holds every particle), then this rank's held rows of them: the sets are
         static, so the run continues bitwise as the uninterrupted one."""
         counts = {"electric": self.model.layout.n_e, "magnetic": self.model.layout.n_h}
-        for name, keys in self.RESTORED.items():
+        for name, keys in self.restored.items():
             whole = whole_from_pieces(pieces, keys, f"{name}_id", counts[name], owned=f"{name}_owned")
             part = getattr(self.spread, name)
             for k in keys:

@@ -1,5 +1,5 @@
-"""A lossless dielectric slab at normal incidence: Airy's reflectance, and the spectrum of the Gaussian pulse that
-measures it; no data files, see ``README.md``.
+"""A dielectric or dispersive slab at normal incidence: Airy's reflectance and transmittance, and the spectrum of the
+Gaussian pulse that measures them; no data files, see ``README.md``.
 
 Slab of index n = √εr and thickness d in vacuum, r12 = (1 - n)/(1 + n), δ = 2π n d f / c:
 
@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-__all__ = ["slab_reflectance", "gaussian_pulse_spectrum"]
+__all__ = ["slab_reflectance", "slab_coefficients", "gaussian_pulse_spectrum"]
 
 C0 = 299_792_458.0
 
@@ -27,6 +27,22 @@ def slab_reflectance(frequency, eps_r: float, thickness: float) -> np.ndarray:
     delta = 2.0 * math.pi * n * thickness * np.asarray(frequency, float) / C0
     s = 4.0 * r12 * r12 * np.sin(delta) ** 2
     return s / ((1.0 - r12 * r12) ** 2 + s)
+
+
+def slab_coefficients(frequency, permittivity, thickness: float) -> tuple[np.ndarray, np.ndarray]:
+    """(R, T) of a slab of complex relative permittivity ``permittivity`` (per frequency, e^{iωt}: Im ε <= 0 for a lossy
+    medium) and ``thickness`` (m) in vacuum at normal incidence: n = √ε with Im n <= 0, r12 = (1 - n)/(1 + n),
+    P = e^{-i n k0 d}, r = r12 (1 - P²)/(1 - r12² P²), t = (1 - r12²) P/(1 - r12² P²) (the Airy sums of the
+    multiple reflections; for a real n, R is :func:`slab_reflectance`)."""
+    f = np.asarray(frequency, float)
+    n = np.sqrt(np.asarray(permittivity, complex) * np.ones_like(f))
+    n = np.where(n.imag > 0, -n, n)  # the branch that decays along the wave
+    n = np.where(n.real < 0, -n.conj(), n)
+    r12 = (1.0 - n) / (1.0 + n)
+    p = np.exp(-1j * n * 2.0 * math.pi * f / C0 * thickness)
+    r = r12 * (1.0 - p * p) / (1.0 - r12 * r12 * p * p)
+    t = (1.0 - r12 * r12) * p / (1.0 - r12 * r12 * p * p)
+    return np.abs(r) ** 2, np.abs(t) ** 2
 
 
 def gaussian_pulse_spectrum(frequency, centre: float, width: float, delay: float | None = None) -> np.ndarray:
