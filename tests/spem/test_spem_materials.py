@@ -128,3 +128,11 @@ def test_perfect_conductors_need_held_walls():
     with pytest.raises(ParameterError, match="pec"):
         SPEMModel(staggered_box((0.0, 0.0), (1.0, 1.0), 0.1), pec=False,
                   objects=[EMObject(Disc((0.5, 0.5), 0.2), PEC)])
+
+
+def test_free_walls_with_the_energy_conserving_pair_are_refused_by_name():
+    """pec=False (the thesis's natural condition) leaves the walls to the plain FPM pair; with the default
+    energy-conserving pair it is refused in one line naming ``conservative`` (a line once crashed in a sparse product)."""
+    with pytest.raises(ParameterError, match="conservative"):
+        SPEMModel(staggered_line(0.0, 1.0, 0.05), pec=False)
+    assert SPEMModel(staggered_line(0.0, 1.0, 0.05), pec=False, conservative=False).stable_dt() > 0

@@ -243,6 +243,10 @@ class SPEMModel:
         self.order = require_integer("order", order, minimum=2, maximum=4)
         if self.order not in (2, 4):
             raise ParameterError("order", f"must be 2 or 4, got {order}")
+        if self.conservative and not self.pec and layout.on_wall.any() and self.order == 2:
+            raise ParameterError("conservative", "the energy-conserving pair closes the walls by holding them (pec=True);"
+                                                 " walls left free (the thesis's natural condition) take the plain FPM "
+                                                 "pair: give conservative=False")
         if self.order == 4:
             if scheme is not Scheme.FPM or self.conductors:
                 raise ParameterError("order", "the fourth-order difference is for the FPM scheme on a lattice without "
