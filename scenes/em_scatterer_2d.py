@@ -56,8 +56,8 @@ SMALLEST = {"particles_per_wavelength": 8, "periods": 6, "window": 2}
 QUICK = {}
 
 #: where the reference and the tolerances come from
-SOURCE = ("exact Bessel series of a dielectric cylinder in a TMz plane wave (Balanis 2012, §11.5; "
-          "warpfree/validation/em_scatterer_2d/README.md)")
+SOURCE = ("exact Bessel series of a circular cylinder, dielectric or perfectly conducting, in a TMz plane wave "
+          "(Balanis 2012, §11.5; warpfree/validation/em_scatterer_2d/README.md)")
 
 #: the accuracy required of the near field (amplitude and phase together, relative L2): 1 %, the figure a user of a
 #: photonics code reads as converged (Meep's subpixel-averaged runs reach it near 40 pixels per wavelength in the
