@@ -164,11 +164,11 @@ def build(cylinder: Annotated[Cylinder, Param("", "what the cylinder is made of"
     period = 1.0 / frequency
     t_end = periods * period
     start = t_end - window * period
-    monitor = DFTMonitor("near_field", points, (frequency,), ("ez",), start=start)
+    monitor = DFTMonitor("near_field", points, (frequency,), ("ez",), start=start, stop=t_end)
     # the scattered power through a square in the scattered-field region, midway between the total-field box and the PML
     side = 0.5 * (half_box + half)
     contour = FluxMonitor("scattered_power", [[-side, -side], [side, -side], [side, side], [-side, side]],
-                          (frequency,), start=start, closed=True)
+                          (frequency,), start=start, stop=t_end, closed=True)
     solver = SPEMSolver(model, [wave], courant=courant, monitors=[monitor, contour])
     incident_intensity = 0.5 * wave.amplitude ** 2 * math.sqrt(EPS0 / MU0)  # W/m², ½ E0²/η0
     exact_width = scattering_width(k0, radius, None if conductor else eps_r)
@@ -214,9 +214,9 @@ def build(cylinder: Annotated[Cylinder, Param("", "what the cylinder is made of"
                   field[sets["along"]], exact[sets["along"]], radius, result)
         return {"scatterer": result}
 
-    # outputs every gcd(periods, window) periods: the constant step divides them, so the DFT's window starts on a step
-    # and holds whole periods (the transform of a steady sine is then exact: no leakage from a partial period)
-    return TimeLoop(solver, t_end=t_end, output_interval=math.gcd(periods, window) * period,
+    # a frame every window: the DFT's window is whole periods whatever the step (the steps at its ends are cut), so
+    # the transform of a steady sine holds no leakage from a partial period
+    return TimeLoop(solver, t_end=t_end, output_interval=window * period,
                     name="em_scatterer_2d", params=params, analyses=[scatterer_analysis],
                     output=OutputOptions(vtk=vtk, frames=frames, frame_bounds=((-half - pml, half + pml),
                                                                                 (-half - pml, half + pml)),

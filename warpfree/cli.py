@@ -344,14 +344,18 @@ def resume_overrides(pairs: list[str], previous: dict, module, reached: float = 
 
 def time_reached(run_dir: str, output_interval: float | None = None) -> float:
     """The latest simulated time a run directory holds: its summary's time, the last snapshot of its VTU series and,
-    given the run's output interval, its last frame (frames are numbered by output)."""
+    given the run's output interval, its last frame (frames are numbered by output); less the run's constant step
+    where it has one (such a run ends at the first step at or after its end: any end within a step of the time
+    reached reaches it again)."""
     from .io.vtk import read_pvd
 
-    times = [0.0]
+    times, slack = [0.0], 0.0
     try:
         with open(os.path.join(run_dir, "summary.json")) as f:
-            times.append(float(json.load(f)["time"]))
-    except (OSError, ValueError, KeyError, TypeError):
+            summary = json.load(f)
+        times.append(float(summary["time"]))
+        slack = float(summary.get("constant_step") or 0.0)
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
         pass
     for entry in os.scandir(run_dir):
         if entry.name.endswith(".pvd"):
@@ -363,7 +367,7 @@ def time_reached(run_dir: str, output_interval: float | None = None) -> float:
     if output_interval and os.path.isdir(frames):
         numbers = [int(m.group(1)) for m in map(FRAME_NUMBER.search, os.listdir(frames)) if m]
         times += [max(numbers) * output_interval] if numbers else []
-    return max(times)
+    return max(0.0, max(times) - slack)
 
 
 #: the output number of a frame file (``frame_00012.png``, ``particles_phi_00012.png``)

@@ -192,8 +192,9 @@ class StepRule:
 
     - ``variable``: a new step every step, the solver's :meth:`~TimeDependentSolver.stable_dt` at the current state
       (WCSPH's CFL step); a run may ask for a fixed step instead, checked against the stable one every step.
-    - ``constant`` (``value``: the largest stable step): one step for the whole run, the largest that divides the output
-      interval into whole steps (a staggered leapfrog keeps its order only with a constant step: SPEM).
+    - ``constant`` (``value``: the largest stable step): that step for the whole run, never shortened (a staggered
+      leapfrog keeps its order only with a constant step: SPEM); outputs fall at the first step at or after their
+      times.
     - ``fixed`` (``value``: the step): exactly the solver's own step, set on the solver (PIC: the velocities live at
       half steps of its Δt, and ω_p Δt is physics the scene chooses); output interval and end time must be whole
       multiples of it.
@@ -222,7 +223,7 @@ class StepKind(Choice):
     """How a solver's time step is chosen (:class:`StepRule`)."""
 
     VARIABLE = "variable", "the solver's stable step at the current state, anew every step"
-    CONSTANT = "constant", "one step for the whole run, the largest stable one that divides the output interval"
+    CONSTANT = "constant", "one step for the whole run, the largest stable one; outputs at the first step at or after"
     FIXED = "fixed", "the solver's own step, set where the solver is made"
 
 

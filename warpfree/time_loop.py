@@ -2,10 +2,12 @@
 
 Time step, as the solver's :class:`~warpfree.solver.StepRule` says: ``variable``, the solver's stable step
 (``stable_dt()``; ``math.inf`` means no limit, and then a fixed ``dt`` is required) or a fixed ``dt`` the run asks for
-that must stay within it (else the run stops naming ``dt``); ``constant``, one step for the whole run, the largest
-below the solver's limit that divides the output interval (or the run's ``dt``, within the limit); ``fixed``, the
-solver's own step, the output interval and end time whole multiples of it. A variable or constant step is shortened
-only to land exactly on output times and the end; :attr:`TimeLoop.step_size` is the constant or fixed step.
+that must stay within it (else the run stops naming ``dt``), shortened only to land exactly on output times and the
+end; ``constant``, one step for the whole run, the solver's limit (or the run's ``dt``, within it), never shortened:
+each output falls at the first step at or after its time (as Meep's ``at_every``), which the output records, and the
+run ends at the first step at or after ``t_end``, so output intervals never constrain the step; ``fixed``, the
+solver's own step, the output interval and end time whole multiples of it. :attr:`TimeLoop.step_size` is the constant
+or fixed step.
 
 After every step the loop samples the sensors that are due (``warpfree.sensors``: each on its own interval, never
 shortening a step). At every output time it records the probes and the solver's diagnostics, hands the output sets
@@ -157,8 +159,8 @@ class TimeLoop(Run):
         if dt is None:
             if not math.isfinite(limit):
                 raise ParameterError("dt", "this solver has no stable-step limit: give a fixed dt")
-            if rule.kind is StepKind.CONSTANT:  # the largest step below the limit that divides the output interval
-                return self.output_interval / math.ceil(self.output_interval / limit - 1e-9)
+            if rule.kind is StepKind.CONSTANT:  # the limit itself: outputs fall at the first step at or after their time
+                return limit
             return None
         if dt > limit:
             raise ParameterError("dt", f"{dt:.4g} {unit} exceeds the stable (CFL) limit {limit:.4g} {unit}")
@@ -174,8 +176,18 @@ class TimeLoop(Run):
 
     # -- time step -------------------------------------------------------------------------------
     def _next_output_time(self) -> float:
-        """Outputs 0, 1, 2, ... fall at 0, Δ, 2Δ, ...; ``n_outputs`` have been recorded."""
-        return self.n_outputs * self.output_interval
+        """The output times are 0, Δ, 2Δ, ...: the next is the first after the last output's time (a step landed on
+        it, or, with a constant step, the first step at or after it: a step longer than Δ passes some by)."""
+        times = self.series["time"]
+        if not times:
+            return 0.0
+        return (math.floor(times[-1] / self.output_interval + 1e-9) + 1) * self.output_interval
+
+    @property
+    def _lands(self) -> bool:
+        """Whether steps are shortened to land on output times and the end (not with a constant step, which a
+        staggered leapfrog needs unbroken)."""
+        return self.rule.kind is not StepKind.CONSTANT
 
     # -- outputs and the last good state ------------------------------------------------------------
     def _record(self, directory: RunDirectory | None) -> None:
@@ -398,7 +410,8 @@ class TimeLoop(Run):
                 self._sample_sensors()
                 if self.time >= target * (1 - 1e-12) or self.time >= self.t_end * (1 - 1e-12):
                     self._record(directory)
-                    clock.set(next_output=self._next_output_time())
+                    if self._lands:
+                        clock.set(next_output=self._next_output_time())
                 if directory is not None and self.checkpoint_every and self.step_count % self.checkpoint_every == 0:
                     self.save_checkpoint(directory)
                 if bar is not None:
@@ -419,8 +432,9 @@ class TimeLoop(Run):
         """Set up the solver's clock (``warpfree.clock``): the time, the next output time, the end, the run's fixed step
         and, for a constant or fixed rule, the limit it is checked against (a variable rule's limit is the solver's,
         every step: computed on the device, or given by its ``advance``)."""
-        slots = dict(time=self.time, next_output=self._next_output_time(), end=self.t_end,
-                     fixed=self.dt_fixed or 0.0)
+        landing = dict(next_output=self._next_output_time(), end=self.t_end) if self._lands else \
+            dict(next_output=math.inf, end=math.inf)
+        slots = dict(time=self.time, fixed=self.dt_fixed or 0.0, **landing)
         if self.rule.kind is not StepKind.VARIABLE:
             slots["limit"] = self.rule.value
         clock.set(**slots)
@@ -441,6 +455,8 @@ class TimeLoop(Run):
     def _summary_fields(self, error: str | None) -> dict:
         out = {"time": self.time, "time_unit": self.solver.time_unit, "t_end": self.t_end, "steps": self.step_count,
                "steps_this_run": self.steps_this_run, "probes": self.series, "diagnostic_series": self.diag_series}
+        if not self._lands:  # the step of a constant rule: the run ends at the first step at or after t_end
+            out["constant_step"] = self.step_size
         if self.last_checkpoint:
             out["last_good_checkpoint" if error else "last_checkpoint"] = self.last_checkpoint
         if self.skipped_checkpoints:

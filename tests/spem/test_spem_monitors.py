@@ -17,8 +17,10 @@ from warpfree.solvers.spem.monitors import DFTMonitor, interpolation_rows
 
 
 def test_the_running_dft_is_the_sum_of_the_fields_at_their_own_times():
-    """A plane wave crossing a box: the monitor's transforms of Ez, Hx and Hy at particles equal Σ u(t) e^{-2πift} Δt
-    of the fields read after every step (Ez at t + Δt/2, H at t + Δt; each sample standing for its step), to float64 rounding of float32 values."""
+    """A plane wave crossing a box: the monitor's transforms of Ez, Hx and Hy at particles equal Σ u(t) e^{-2πift} w
+    of the fields read after every step (Ez at t + Δt/2, H at t + Δt; each sample standing for its step, w the part of
+    that step inside the window), to float64 rounding of float32 values; the window's ends fall between steps and
+    the windows summed are exactly stop - start."""
     layout = staggered_box((0.0, 0.0), (0.3, 0.3), 0.01)
     model = SPEMModel(layout)
     f = 2.0e9
@@ -28,8 +30,9 @@ def test_the_running_dft_is_the_sum_of_the_fields_at_their_own_times():
     hx_at = h_at[layout.h_carries[h_at] == 0]
     points = np.vstack([layout.e_position[e_at, :2], layout.h_position[hx_at, :2]])
     frequencies = (f, 1.3 * f)
-    start = 0.2e-9
-    solver = SPEMSolver(model, [wave], monitors=[DFTMonitor("probe", points, frequencies, ("ez", "hx"), start=start)])
+    start, stop = 0.2e-9, 1.7e-9
+    solver = SPEMSolver(model, [wave], monitors=[DFTMonitor("probe", points, frequencies, ("ez", "hx"), start=start,
+                                                            stop=stop)])
     dt = 0.9 * solver.stable_dt()
     solver.use_step(dt)
     steps = 120
@@ -39,18 +42,18 @@ def test_the_running_dft_is_the_sum_of_the_fields_at_their_own_times():
     for n in range(steps):
         solver.step(dt)
         te, th = (n + 0.5) * dt, (n + 1) * dt
-        if te - 0.5 * dt >= start:  # each sample stands for its step [t - Δt/2, t + Δt/2]
-            expect_e[:e_at.size] += np.outer(solver.electric.numpy("ez")[e_at], np.exp(-1j * w * te)) * dt
-        if th - 0.5 * dt >= start:
-            expect_h[e_at.size:] += np.outer(solver.magnetic.numpy("hx")[hx_at], np.exp(-1j * w * th)) * dt
+        part_e = max(0.0, min(te + 0.5 * dt, stop) - max(te - 0.5 * dt, start))  # of its step [t - Δt/2, t + Δt/2]
+        part_h = max(0.0, min(th + 0.5 * dt, stop) - max(th - 0.5 * dt, start))
+        expect_e[:e_at.size] += np.outer(solver.electric.numpy("ez")[e_at], np.exp(-1j * w * te)) * part_e
+        expect_h[e_at.size:] += np.outer(solver.magnetic.numpy("hx")[hx_at], np.exp(-1j * w * th)) * part_h
     got = solver.dft("probe")
     scale = np.abs(expect_e).max()
     assert scale > 1e-11
     assert np.abs(got["ez"][:e_at.size] - expect_e[:e_at.size]).max() < 1e-9 * scale
     assert np.abs(got["hx"][e_at.size:] - expect_h[e_at.size:]).max() < 1e-9 * np.abs(expect_h).max()
-    first_e, first_h = math.ceil(start / dt), math.ceil(start / dt - 0.5)
-    assert solver.dft_window("probe", "ez") == pytest.approx((steps - first_e) * dt)
-    assert solver.dft_window("probe", "hx") == pytest.approx((steps - first_h) * dt)
+    assert steps * dt > stop + dt and abs(start / dt - round(start / dt)) > 0.1  # the ends cut steps
+    assert solver.dft_window("probe", "ez") == pytest.approx(stop - start, rel=1e-9)
+    assert solver.dft_window("probe", "hx") == pytest.approx(stop - start, rel=1e-9)
 
 
 @pytest.mark.parametrize("dim", [1, 2])
@@ -104,6 +107,7 @@ def test_monitors_continue_bitwise_after_a_resume(tmp_path):
     (DFTMonitor("m", [[0.1, 0.1]], (-1.0,)), "frequencies must be finite and > 0"),
     (DFTMonitor("m", [[0.1, 0.1]], (1e9,), ("ex",)), "fields are of"),
     (DFTMonitor("a b", [[0.1, 0.1]], (1e9,)), "a monitor's name"),
+    (DFTMonitor("m", [[0.1, 0.1]], (1e9,), start=2e-9, stop=1e-9), "must come after its start"),
 ])
 def test_bad_monitors_are_refused_by_name(monitor, reason):
     layout = staggered_box((0.0, 0.0), (0.3, 0.3), 0.01)

@@ -27,6 +27,7 @@ order).
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 
@@ -38,7 +39,7 @@ from warpfree.errors import ParameterError, require_finite
 from .layouts import HX, HY, StaggeredLayout
 from .model import C0
 
-__all__ = ["DFTMonitor", "FluxMonitor", "interpolation_rows", "FIELD_UNITS"]
+__all__ = ["DFTMonitor", "FluxMonitor", "interpolation_rows", "window_weights", "FIELD_UNITS"]
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
@@ -53,13 +54,14 @@ RESOLVED_PER_WAVELENGTH = 4.0
 @dataclass
 class DFTMonitor:
     """Running DFTs named ``name`` of ``fields`` (of "ez", "hx", "hy") at ``points`` (M, dim) (m), at ``frequencies`` (Hz),
-    accumulated from ``start`` (s) on."""
+    accumulated over the window from ``start`` to ``stop`` (s; its ends anywhere, the steps at them cut)."""
 
     name: str
     points: np.ndarray
     frequencies: tuple
     fields: tuple = ("ez",)
     start: float = 0.0
+    stop: float = math.inf
 
     def checked(self, layout: StaggeredLayout, slowest: float) -> "DFTMonitor":
         """This monitor checked against ``layout`` (points inside it, ``slowest`` the largest √(εr μr)): refusals name
@@ -96,7 +98,10 @@ class DFTMonitor:
         if len(set(fields)) != len(fields) or not fields:
             raise ParameterError("monitor", f"{self.name}: name each field once")
         require_finite("monitor", self.start)
-        return DFTMonitor(self.name, full, tuple(float(f) for f in freq), fields, float(self.start))
+        if not float(self.stop) > float(self.start):  # NaN included
+            raise ParameterError("monitor", f"{self.name}: the window's stop ({self.stop!r} s) must come after its start "
+                                            f"({self.start!r} s)")
+        return DFTMonitor(self.name, full, tuple(float(f) for f in freq), fields, float(self.start), float(self.stop))
 
 
 def interpolation_rows(particles: np.ndarray, points: np.ndarray, dim: int, spacing: float) -> sp.csr_matrix:
@@ -140,6 +145,14 @@ def field_particles(layout: StaggeredLayout, field: str) -> np.ndarray:
     return np.flatnonzero(layout.h_carries == (HX if field == "hx" else HY))
 
 
+def window_weights(times: np.ndarray, dt: float, start: float, stop: float) -> np.ndarray:
+    """The part (s) of each sample's step [t - Δt/2, t + Δt/2] inside the window [start, stop]: Δt when the step lies
+    inside to 1e-6 Δt, else the overlap (``kernels/spem_monitors.py: window_weight``, the same rule)."""
+    low, high = times - 0.5 * dt, times + 0.5 * dt
+    inside = (low >= start - 1e-6 * dt) & (high <= stop + 1e-6 * dt)
+    return np.where(inside, dt, np.maximum(0.0, np.minimum(high, stop) - np.maximum(low, start)))
+
+
 def window_amplitude(transform: np.ndarray, window: float) -> tuple[np.ndarray, np.ndarray]:
     """(amplitude, phase) of the steady sine a transform over ``window`` seconds of whole periods holds: 2F/T =
     A e^{iφ}/i, so A = 2|F|/T and φ = arg(2iF/T)."""
@@ -152,11 +165,13 @@ def window_amplitude(transform: np.ndarray, window: float) -> tuple[np.ndarray, 
 
 class FluxMonitor(DFTMonitor):
     """The Poynting flux through ``path`` ((K, dim) vertices, m; ``closed``: back to the first) at ``frequencies`` (Hz),
-    from ``start`` (s) on (module docstring). ``points`` are made from the path when the monitor is checked."""
+    over the window from ``start`` to ``stop`` (s) (module docstring). ``points`` are made from the path when the
+    monitor is checked."""
 
-    def __init__(self, name: str, path, frequencies, start: float = 0.0, closed: bool = False):
+    def __init__(self, name: str, path, frequencies, start: float = 0.0, closed: bool = False,
+                 stop: float = math.inf):
         self.name, self.path, self.closed = name, path, bool(closed)
-        self.frequencies, self.start, self.fields = frequencies, start, ("ez", "hx", "hy")
+        self.frequencies, self.start, self.stop, self.fields = frequencies, start, stop, ("ez", "hx", "hy")
         self.points, self.weights, self.normals = None, None, None
 
     def checked(self, layout: StaggeredLayout, slowest: float) -> "FluxMonitor":
@@ -191,8 +206,8 @@ class FluxMonitor(DFTMonitor):
                 raise ParameterError("monitor", f"{self.name}: the path has no length")
             points, weights, normals = np.vstack(points), np.concatenate(weights), np.vstack(normals)
         fields = ("ez", "hy") if dim == 1 else ("ez", "hx", "hy")
-        base = DFTMonitor(self.name, points, self.frequencies, fields, self.start).checked(layout, slowest)
-        out = FluxMonitor(self.name, path, base.frequencies, base.start, self.closed)
+        base = DFTMonitor(self.name, points, self.frequencies, fields, self.start, self.stop).checked(layout, slowest)
+        out = FluxMonitor(self.name, path, base.frequencies, base.start, self.closed, base.stop)
         out.points, out.fields, out.weights, out.normals = base.points, fields, weights, normals
         return out
 

@@ -37,7 +37,8 @@ from warpfree.solver import OutputSet, State, StepRule, TimeDependentSolver
 from .layouts import HX, HY
 from .kronecker import NodalValues
 from .model import Scheme, SPEMModel
-from .monitors import FIELD_UNITS, DFTMonitor, FluxMonitor, field_particles, interpolation_rows, window_amplitude
+from .monitors import (FIELD_UNITS, DFTMonitor, FluxMonitor, field_particles, interpolation_rows, window_amplitude,
+                       window_weights)
 from .plane_wave import DevicePlaneWave, PlaneWave
 
 __all__ = ["Waveform", "GaussianPulse", "Source", "SourceKind", "SPEMState", "SPEMSolver"]
@@ -188,8 +189,8 @@ class SPEMSolver(TimeDependentSolver):
     "alternating", "random", "neighbours"); the results are bitwise the same for all.
 
     Time step: constant over a run (the staggered leapfrog keeps its second order only so), at most ``courant`` × the
-    stable limit (:meth:`stable_dt`, eq. 3.21): the time loop takes the largest such step that divides its output
-    interval (:class:`~warpfree.solver.StepRule`)."""
+    stable limit (:meth:`stable_dt`, eq. 3.21), whatever the output interval: outputs fall at the first step at or
+    after their times (:class:`~warpfree.solver.StepRule`)."""
 
     name = "spem"
     distributes = True
@@ -383,7 +384,8 @@ class SPEMSolver(TimeDependentSolver):
                     values = getattr(self.state, t.field)
                     self.launcher.launch(KM.accumulate_dft, t.count * t.frequencies.shape[0],
                                          [t.particles, values, self.clock.values, wp.float64(t.offset),
-                                          wp.float64(t.monitor.start), t.frequencies, t.real, t.imag])
+                                          wp.float64(t.monitor.start), wp.float64(t.monitor.stop), t.frequencies,
+                                          t.real, t.imag])
 
     def field_at(self, points) -> dict[str, np.ndarray]:
         """Ez (V/m), Hx and Hy (A/m; Hy alone in 1D) at ``points`` ((m, dim) or (m, 3), m): each the quadratic
@@ -451,15 +453,15 @@ class SPEMSolver(TimeDependentSolver):
         return monitor.flux(self.dft(name), {f: self.dft_window(name, f) for f in monitor.fields})
 
     def dft_window(self, name: str, field: str) -> float:
-        """The time (s) monitor ``name``'s transform of ``field`` has summed: its samples times Δt (each sample's step
-        [t - Δt/2, t + Δt/2] starting at ``start`` or later, ``kernels/spem_monitors.py: accumulate_dft``)."""
+        """The time (s) monitor ``name``'s transform of ``field`` has summed: the parts of its samples' steps
+        [t - Δt/2, t + Δt/2] inside its window (:func:`~.monitors.window_weights`, the kernel's rule)."""
         t = next(t for t in self.monitors[name] if t.field == field)
         dt = self.run_step
         if dt <= 0:
             return 0.0
         steps = int(round(self.t / dt))
-        first = max(0, math.ceil(t.monitor.start / dt + 0.5 - t.offset - 1e-6))
-        return max(0, steps - first) * dt
+        times = (np.arange(steps) + t.offset) * dt
+        return float(window_weights(times, dt, t.monitor.start, t.monitor.stop).sum())
 
     def output_tables(self) -> dict[str, tuple[list[tuple[str, str]], np.ndarray]]:
         """Each monitor's table: a row per point and frequency (point index, position, frequency) with, per field, the
