@@ -117,20 +117,24 @@ def fill_rows(
     radius: float,
     exclude_self: int,
     capacity: int,
+    room: wp.array(dtype=wp.int32),
     start: wp.array(dtype=wp.int32),
     count: wp.array(dtype=wp.int32),
     index: wp.array(dtype=wp.int32),
 ):
     """Row i: the sources within ``radius`` of query i (strictly closer), in HashGrid order.
 
-    Writes the first ``capacity`` of them at ``index[start[i]:]`` and the true number to
-    ``count[i]`` (capacity 0: count only, the first pass of a CSR build; a count above the capacity
-    tells a table to grow). ``exclude_self`` drops source i from row i (query set = source set).
+    Writes the first ``capacity`` of them (``room[i]`` when ``room`` is not empty: a compact table's rows) at
+    ``index[start[i]:]`` and the true number to ``count[i]`` (capacity 0: count only, the first pass of a CSR build;
+    a count above the room tells a table to lay its rows out again). ``exclude_self`` drops source i from row i
+    (query set = source set).
     """
     i = first + wp.tid()
     x = query_points[i]
     r2 = radius * radius
     base = start[i]
+    if room.shape[0] > 0:
+        capacity = room[i]
     n = int(0)
     for k in wp.hash_grid_query(grid, x, radius):
         j = source_id[k]
@@ -177,15 +181,18 @@ def fill_gather_rows(
     fixed_points: wp.array(dtype=wp.vec3),
     moving_points: wp.array(dtype=wp.vec3),
     capacity: int,
+    room: wp.array(dtype=wp.int32),
     start: wp.array(dtype=wp.int32),
     count: wp.array(dtype=wp.int32),
     index: wp.array(dtype=wp.int32),
 ):
     """Row i: the moving points strictly within ``copies.radius`` of fixed point i (of one of its periodic copies), in
-    copy then HashGrid order; ``capacity`` and ``count`` as in :func:`fill_rows`."""
+    copy then HashGrid order; ``capacity``, ``room`` and ``count`` as in :func:`fill_rows`."""
     i = first + wp.tid()
     r2 = copies.radius * copies.radius
     base = start[i]
+    if room.shape[0] > 0:
+        capacity = room[i]
     n = int(0)
     for s in range(copies.start[i], copies.start[i + 1]):
         at = fixed_points[i] + copies.shift[s]
@@ -199,10 +206,19 @@ def fill_gather_rows(
 
 
 @wp.kernel
-def table_starts(first: int, capacity: int, start: wp.array(dtype=wp.int32)):
-    """start[i] = i · capacity: rows of a fixed-capacity table."""
+def table_rooms(first: int, count: wp.array(dtype=wp.int32), room: wp.array(dtype=wp.int32)):
+    """room[i] = count[i] + count[i]/10 + 2: a compact table's row, laid out for the count it had at the last fill
+    and the change the skin allows before the next."""
     i = first + wp.tid()
-    start[i] = i * capacity
+    room[i] = count[i] + count[i] / 10 + 2
+
+
+@wp.kernel
+def table_overflow(first: int, count: wp.array(dtype=wp.int32), room: wp.array(dtype=wp.int32),
+                   worst: wp.array(dtype=wp.int32)):
+    """worst[0] = max over rows of count[i] - room[i] (> 0: a row did not fit; ``worst`` zeroed before)."""
+    i = first + wp.tid()
+    wp.atomic_max(worst, 0, count[i] - room[i])
 
 
 @wp.kernel

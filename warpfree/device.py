@@ -17,6 +17,7 @@ import importlib
 import os
 import sys
 import tempfile
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
@@ -151,6 +152,9 @@ class Launcher:
     #: a launch this many times the pool's hand-over is always split: it can lose at most one hand-over
     #: (5 % of it) where the memory bus is already saturated, and gains up to the thread count where it is not
     ALWAYS_SPLIT = 20.0
+    #: recorded commands kept per kernel (the chunks of its last few launch sizes; a command holds its arguments,
+    #: so with no bound a count that keeps changing would keep every array it was ever given alive)
+    RECORDED_PER_KERNEL = 16
 
     def __init__(self, device: str | None = None, threads: int | None = None, min_items_per_thread: int | None = None):
         self.device = resolve_device(device)
@@ -163,8 +167,12 @@ class Launcher:
         self._pool = ThreadPoolExecutor(self.threads - 1) if self.threads > 1 else None
         self._loaded: set = set()
         self._timings: dict = {}  # launch site -> _Timing: measured wall of whole and split launches
-        # (kernel, first, count) -> (recorded command, the arguments it holds: one set per key stays alive)
+        # kernel -> {(first, count): (recorded command, the arguments it holds)}, oldest first, at most
+        # RECORDED_PER_KERNEL a kernel
         self._recorded: dict = {}
+        self._recording = threading.Lock()  # the chunks of one launch record on several threads
+        # (kernel, first, count) -> the identities of the last plain launch's arguments (no reference held)
+        self._seen: dict = {}
         self._capture = None  # the Warp capture under way (:meth:`capturing`)
         self.handover_s = self._measure_handover() if self._pool is not None else 0.0
 
@@ -281,7 +289,9 @@ class Launcher:
         """One launch of ``count`` items from ``first``, replayed from a recorded command when it can be.
 
         ``wp.launch`` packs every argument in Python (15-20 µs a launch, a few % of a small step); a recorded
-        command (``record_cmd=True``) is replayed with only the changed scalars re-packed. Reuse is safe: an
+        command (``record_cmd=True``) is replayed with only the changed scalars re-packed. A command is recorded at
+        the second launch with the same arrays (a set-up launch, made once, would otherwise keep its arrays alive in
+        the command), and at most ``RECORDED_PER_KERNEL`` are kept a kernel. Reuse is safe: an
         argument that is the same object as at recording is passed as it is now (arrays do not move; a Warp
         struct is packed as its own ctypes object, so assigning a field after recording is seen); any other
         change (a new array, a new struct) records the command again.
@@ -290,8 +300,8 @@ class Launcher:
             wp.launch(kernel, dim=count, inputs=[first, *inputs], device=self.device)
             return
         args = list(inputs)
-        key = (kernel, first, count)
-        recorded = self._recorded.get(key)
+        key = (first, count)
+        recorded = self._recorded.get(kernel, {}).get(key)
         if recorded is not None:
             command, previous = recorded
             if len(previous) == len(args) and all(
@@ -302,8 +312,22 @@ class Launcher:
                 previous[:] = args
                 command.launch()
                 return
+        identity = tuple(type(a) if type(a) in _SCALARS else id(a) for a in args)
+        if self._seen.get((kernel, key)) != identity:
+            # first launched with these arrays (a set-up launch is never repeated): run plainly, recording nothing that
+            # would hold them; remembered by identity only, so the second such launch records
+            if len(self._seen) > self.MAX_SITES:
+                self._seen.clear()
+            self._seen[(kernel, key)] = identity
+            wp.launch(kernel, dim=count, inputs=[first, *inputs], device=self.device)
+            return
         command = wp.launch(kernel, dim=count, inputs=[first, *inputs], device=self.device, record_cmd=True)
-        self._recorded[key] = (command, args)
+        with self._recording:
+            kept = self._recorded.setdefault(kernel, {})
+            kept.pop(key, None)
+            kept[key] = (command, args)
+            while len(kept) > self.RECORDED_PER_KERNEL:  # the oldest go, and the arrays only they held
+                del kept[next(iter(kept))]
         command.launch()
 
     @contextmanager

@@ -22,6 +22,7 @@ the rows, minimum-image displacements in the kernels (``warpfree.space``). Cell 
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 import warp as wp
@@ -36,6 +37,38 @@ __all__ = ["NeighbourGrid", "NeighbourList", "NeighbourTable", "MovingNeighbours
            "neighbour_counts_brute"]
 
 _INT32_MAX = 2**31 - 1
+
+
+#: the points each hash grid has room for, as Warp reserves them (``warp/native/hashgrid.cpp``: 1.5 times the points of
+#: a build that outgrew the room): what :mod:`warpfree.memory` counts for a grid
+_GRID_ROOM: "weakref.WeakKeyDictionary[wp.HashGrid, int]" = weakref.WeakKeyDictionary()
+
+
+def build_hash_grid(grid: wp.HashGrid, points: wp.array, radius: float) -> None:
+    """``grid.build(points, radius)``, keeping the room Warp reserves for the points (:func:`grid_points_reserved`)."""
+    n = int(points.shape[0])
+    if n > _GRID_ROOM.get(grid, 0):
+        _GRID_ROOM[grid] = n * 3 // 2
+    grid.build(points, radius)
+
+
+def grid_points_reserved(grid: wp.HashGrid) -> int:
+    """The points ``grid`` holds room for (0 before its first build through :func:`build_hash_grid`)."""
+    return _GRID_ROOM.get(grid, 0)
+
+
+def _rooms(room: wp.array | None, launcher: Launcher) -> wp.array:
+    """A fill's per-row room, or the launcher's empty array (every row takes the scalar capacity)."""
+    if room is not None:
+        return room
+    empty = _NO_ROOM.get(launcher)
+    if empty is None:
+        empty = _NO_ROOM[launcher] = wp.empty(0, dtype=wp.int32, device=launcher.device)
+    return empty
+
+
+#: the empty room array per launcher (a fill without rows of their own)
+_NO_ROOM: "weakref.WeakKeyDictionary[Launcher, wp.array]" = weakref.WeakKeyDictionary()
 
 
 def _require_points(positions: wp.array) -> None:
@@ -102,7 +135,7 @@ class NeighbourGrid:
         if self.grid is None:
             size = self.points.shape[0] if self.sized_for is None else self.sized_for
             self.grid = wp.HashGrid(*_grid_dims(self.space.dim, size), device=dev)
-        self.grid.build(self.points, self.radius)
+        build_hash_grid(self.grid, self.points, self.radius)
         self.builds += 1
 
     def grid_points(self, positions: wp.array) -> int:
@@ -114,18 +147,29 @@ class NeighbourGrid:
         self.launcher.launch(nk.count_images, n, [positions, self.space.box, self.radius, counts], once=True)
         return n + int(counts.numpy().sum())
 
+    #: room kept beyond a build's sources and images in the arrays a periodic build reuses
+    HEADROOM = 1.25
+
+    def _room(self, name: str, size: int, dtype) -> wp.array:
+        """A kept array of at least ``size`` items (grown by :attr:`HEADROOM` when a build outgrows it), its first
+        ``size`` as a view: a rebuild allocates nothing while the set fits."""
+        kept = self.__dict__.setdefault("_kept", {})
+        if name not in kept or kept[name].shape[0] < size:
+            kept[name] = wp.zeros(max(1, int(math.ceil(self.HEADROOM * size))), dtype=dtype,
+                                  device=self.launcher.device)
+        return kept[name][:size]
+
     def _with_images(self, positions: wp.array) -> tuple[wp.array, wp.array]:
-        L, n, dev = self.launcher, positions.shape[0], self.launcher.device
+        L, n = self.launcher, positions.shape[0]
         box = self.space.box
-        counts = wp.zeros(n, dtype=wp.int32, device=dev)
-        # new arrays every build, so no launch timing could serve the next build: split over every thread (``once``)
-        L.launch(nk.count_images, n, [positions, box, self.radius, counts], once=True)
-        offsets = wp.zeros(n, dtype=wp.int32, device=dev)
+        counts = self._room("counts", n, wp.int32)
+        L.launch(nk.count_images, n, [positions, box, self.radius, counts])
+        offsets = self._room("offsets", n, wp.int32)
         wp.utils.array_scan(counts, offsets, inclusive=False)
         total = int(offsets.numpy()[-1] + counts.numpy()[-1]) if n else 0  # one read per build
-        extended = wp.zeros(n + total, dtype=wp.vec3, device=dev)
-        source_id = wp.zeros(n + total, dtype=wp.int32, device=dev)
-        L.launch(nk.place_images, n, [positions, box, self.radius, offsets, n, extended, source_id], once=True)
+        extended = self._room("extended", n + total, wp.vec3)
+        source_id = self._room("source_id", n + total, wp.int32)
+        L.launch(nk.place_images, n, [positions, box, self.radius, offsets, n, extended, source_id])
         return extended, source_id
 
     def copies(self) -> tuple[np.ndarray, np.ndarray]:
@@ -146,11 +190,13 @@ class NeighbourGrid:
         return 0 if self.points is None else self.points.shape[0] - self.n_sources
 
     def fill(self, query_points: wp.array, exclude_self: bool, capacity: int,
-             start: wp.array, count: wp.array, index: wp.array) -> None:
-        """Launch :func:`warpfree.kernels.neighbours.fill_rows` for every query point."""
+             start: wp.array, count: wp.array, index: wp.array, room: wp.array | None = None) -> None:
+        """Launch :func:`warpfree.kernels.neighbours.fill_rows` for every query point (``room``: each row's, else
+        ``capacity`` for all)."""
         n = query_points.shape[0]
         self.launcher.launch(nk.fill_rows, n, [self.grid.id, query_points, self.points, self.source_id, self.radius,
-                                               int(exclude_self), int(capacity), start, count, index])
+                                               int(exclude_self), int(capacity), _rooms(room, self.launcher), start,
+                                               count, index])
 
 
 
@@ -197,12 +243,12 @@ class GatherGrid:
         """(Re)build over the moving ``positions`` (``wp.vec3``; an empty set has nothing to build: no query runs)."""
         _require_points(positions)
         if positions.shape[0]:
-            self.grid.build(positions, self.radius)
+            build_hash_grid(self.grid, positions, self.radius)
         self.points = positions
         self.builds += 1
 
     def fill(self, query_points: wp.array, exclude_self: bool, capacity: int,
-             start: wp.array, count: wp.array, index: wp.array) -> None:
+             start: wp.array, count: wp.array, index: wp.array, room: wp.array | None = None) -> None:
         """Launch :func:`warpfree.kernels.neighbours.fill_gather_rows` for every fixed point (``query_points``: the
         fixed set's positions, in the order of ``fixed``): row i holds the moving points within the radius."""
         if exclude_self:
@@ -213,8 +259,8 @@ class GatherGrid:
         if self.points is None or self.points.shape[0] == 0:
             count.zero_()
             return
-        self.launcher.launch(nk.fill_gather_rows, n, [self.copies, query_points, self.points, int(capacity), start,
-                                                      count, index])
+        self.launcher.launch(nk.fill_gather_rows, n, [self.copies, query_points, self.points, int(capacity),
+                                                      _rooms(room, self.launcher), start, count, index])
 
 class NeighbourList:
     """Static CSR rows: for each query point, the grid's sources within ``grid.radius``, built once.
@@ -261,56 +307,94 @@ class NeighbourList:
 
 
 class NeighbourTable:
-    """Rows with a fixed capacity, refilled in one pass; grows and refills when a row overflows.
+    """Compact rows, laid out end to end from the last fill's counts with room to spare, refilled in one pass.
 
-    Row i is ``index[i·capacity : i·capacity + count[i]]`` (entries past ``count[i]`` are never written nor read).
-    The arrays are kept between fills while the rows fit: a set whose count changes (a rank's part of a moving set,
-    laid out anew at each rebuild) reallocates only when it outgrows them, then with :attr:`HEADROOM`. The overflow
-    check is one device max and one read per fill.
+    Row i is ``index[start[i] : start[i] + count[i]]``, with room for ``room[i]`` = count + count/10 + 2 entries from
+    the previous fill (between two rebuilds the skin lets a count change little): ``start`` is the exclusive prefix
+    sum of the rooms. A fill writes each row up to its room and counts every neighbour; if a row did not fit (one
+    device max and one read), the rows are laid out again from the true counts and filled again. The first fill
+    counts first. Memory follows the neighbours each row has: rows of one fixed capacity (the longest row's) held
+    4-26x the entries the wall rows of the 3D dam break use. The arrays are kept between fills and grow with
+    :attr:`HEADROOM` when outgrown (``grows`` counts it).
     """
 
-    #: rows allocated beyond the count when a table outgrows its arrays (a count that changed once changes again)
+    #: room allocated beyond a fill's rows or entries when it outgrows the arrays (a count that grew once grows again)
     HEADROOM = 1.1
 
     def __init__(self, launcher: Launcher, capacity: int = 32):
+        """``capacity``: no longer a bound (rows take what they need); kept so that callers may state the expected
+        neighbours per row."""
         self.launcher = launcher
-        self.capacity = max(1, int(capacity))
+        self.per_row = max(1, int(capacity))
         self.rows = nk.NeighbourRows()
+        self.room: wp.array | None = None
         self.n = -1
-        self._rows_allocated = -1             # rows the arrays have room for (>= n)
-        self._starts_for: int | None = None   # the capacity the row starts were laid out for
+        self.n_pairs = 0              # entries the rows' rooms take (the index's used part)
+        self._rows_allocated = -1     # rows the arrays have room for (>= n)
+        self._entries_allocated = 0   # entries the index has room for (>= n_pairs)
+        self._counted = False         # the counts hold a fill's (of these rows)
+        self._worst = wp.zeros(1, dtype=wp.int32, device=launcher.device)
         self.grows = 0
-        self._longest = Reduction(launcher, wp.int32, "max")
+        self.refills = 0
 
-    def _allocate(self, n: int) -> None:
+    @property
+    def capacity(self) -> int:
+        """Entries the index has room for."""
+        return self._entries_allocated
+
+    def _allocate_rows(self, n: int) -> None:
         dev = self.launcher.device
         if n > self._rows_allocated:
             rows = max(n, 1) if self._rows_allocated < 0 else int(math.ceil(self.HEADROOM * n))
             self.rows.count = wp.zeros(rows, dtype=wp.int32, device=dev)
             self.rows.start = wp.zeros(rows, dtype=wp.int32, device=dev)
+            self.room = wp.zeros(rows, dtype=wp.int32, device=dev)
+            if self._rows_allocated >= 0:
+                self.grows += 1
             self._rows_allocated = rows
-            self._starts_for = None
+            self._counted = False
+            if self._entries_allocated == 0:  # a placeholder until the first fill has counted its rows
+                self.rows.index = wp.empty(1, dtype=wp.int32, device=dev)
+        elif n != self.n:
+            self._counted = False  # other rows (a set laid out again): their counts are not these rows'
         self.n = n
-        if self._starts_for != self.capacity:
-            rows = self._rows_allocated
-            self.launcher.launch(nk.table_starts, rows, [self.capacity, self.rows.start])
-            self.rows.index = wp.empty(rows * self.capacity, dtype=wp.int32, device=dev)
-            self._starts_for = self.capacity
+
+    def _allocate_entries(self, total: int) -> None:
+        if total > self._entries_allocated:
+            if self._entries_allocated > 0:
+                self.grows += 1
+            total = int(math.ceil(self.HEADROOM * total))
+            self.rows.index = wp.empty(max(total, 1), dtype=wp.int32, device=self.launcher.device)
+            self._entries_allocated = max(total, 1)
+
+    def _lay_out(self, n: int) -> None:
+        """Rooms from the counts, starts from the rooms, and an index that holds them (one read: the total)."""
+        L = self.launcher
+        L.launch(nk.table_rooms, n, [self.rows.count, self.room])
+        wp.utils.array_scan(self.room[:n], self.rows.start[:n], inclusive=False)
+        last = int(self.rows.start[n - 1:n].numpy()[0])
+        self.n_pairs = last + int(self.room[n - 1:n].numpy()[0])
+        self._allocate_entries(self.n_pairs)
 
     def fill(self, grid: NeighbourGrid, query_points: wp.array, exclude_self: bool = False) -> None:
         """Rows for every query point: the grid's sources within ``grid.radius``."""
         n = query_points.shape[0]
-        while True:
-            self._allocate(n)
-            if n == 0:
-                return
-            grid.fill(query_points, exclude_self, self.capacity, self.rows.start, self.rows.count, self.rows.index)
-            self._longest.launch(self.rows.count, n)
-            longest = int(self._longest.value())
-            if longest <= self.capacity:
-                return
-            self.capacity = int(math.ceil(1.25 * longest))
-            self.grows += 1
+        self._allocate_rows(n)
+        if n == 0:
+            self.n_pairs = 0
+            return
+        rows = self.rows
+        if not self._counted:  # no counts of these rows yet: count first
+            grid.fill(query_points, exclude_self, 0, rows.start, rows.count, rows.index)
+        self._lay_out(n)
+        grid.fill(query_points, exclude_self, 0, rows.start, rows.count, rows.index, room=self.room)
+        self._counted = True
+        self._worst.zero_()
+        self.launcher.launch(nk.table_overflow, n, [rows.count, self.room, self._worst])
+        if int(self._worst.numpy()[0]) > 0:  # a row outgrew its room: lay out from the true counts, fill again
+            self.refills += 1
+            self._lay_out(n)
+            grid.fill(query_points, exclude_self, 0, rows.start, rows.count, rows.index, room=self.room)
 
     def counts(self) -> np.ndarray:
         """Neighbours per row (host copy)."""
@@ -318,8 +402,8 @@ class NeighbourTable:
 
     def row(self, i: int) -> np.ndarray:
         """Source indices of row i (host copy, for tests and diagnostics)."""
-        c = int(self.rows.count.numpy()[i])
-        return self.rows.index.numpy()[i * self.capacity: i * self.capacity + c]
+        s, c = int(self.rows.start.numpy()[i]), int(self.rows.count.numpy()[i])
+        return self.rows.index.numpy()[s: s + c]
 
 
 class MovingNeighbours:

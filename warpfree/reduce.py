@@ -64,8 +64,11 @@ class Reduction:
         n = values.shape[0] if n is None else int(n)
         passes = self._passes(n)
         if n > self._levels_for:  # buffers for up to n items, kept (a recorded graph reads the same ones every replay)
-            self._levels = [wp.zeros(b, dtype=self.acc_dtype, device=self.launcher.device) for b in passes[:-1]]
-            self._levels_for = n
+            # a count that grows (particles injected) grows them by 1.5x at least, not at every step
+            room = n if self._levels_for < 0 else max(n, self._levels_for * 3 // 2)
+            self._levels = [wp.zeros(b, dtype=self.acc_dtype, device=self.launcher.device)
+                            for b in self._passes(room)[:-1]]
+            self._levels_for = room
         outputs = self._levels[: len(passes) - 1] + [self.result]
         L, source, items = self.launcher, values, n
         for k, (blocks, out) in enumerate(zip(passes, outputs)):

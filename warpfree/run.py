@@ -32,6 +32,7 @@ import numpy as np
 from .errors import ParameterError, RunError, RunInterrupted, reported_as
 from .io.frames import DIMENSIONLESS
 from .io.writer import OutputError, OutputWriter
+from .memory import solver_memory
 from .parallel import world
 from .solver import OutputSet, PhaseTimes, Solver, StaticSolver
 from .stop import StopSignals
@@ -423,6 +424,7 @@ class Run(ABC):
             "total_s": self.phases.seconds.get("setup", 0.0) + wall_s,  # set-up + run; + analysis when it is done
             "phases_s": self._phases(),
             "throughput": self._throughput(),
+            "memory": solver_memory(s),
             "diagnostics": s.diagnostics(),
             "units": self._units_summary(),
             "status": "error" if error else "interrupted" if interrupted else "ok",
@@ -432,6 +434,11 @@ class Run(ABC):
         out.update(self._summary_fields(error))
         if self.world.distributed:
             out["ranks"] = self._ranks_summary(out["phases_s"])
+            # every rank's bytes, and the whole run's per item (the work items count the whole set)
+            out["memory"]["bytes_per_rank"] = self.world.comm.allgather(out["memory"]["bytes"])
+            items = out["throughput"].get("work_items")
+            total = sum(out["memory"]["bytes_per_rank"])
+            out["memory"]["per_item"] = total / items if items else None
         if error:
             out["error"] = error
         self.last_summary = out

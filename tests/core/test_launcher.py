@@ -309,6 +309,39 @@ def test_recorded_launches_see_new_arguments(make_launcher):
     assert np.array_equal(counts.numpy(), np.arange(n))
 
 
+def test_recorded_launches_keep_only_the_latest_arrays_alive(make_launcher):
+    """A kernel launched over ever new counts and new arrays: the recorded commands (each holding its arguments) stay
+    at most ``RECORDED_PER_KERNEL`` for the kernel, so the arrays of older launches are freed (counted by Warp's
+    allocation tracker), and the newest still replays."""
+    import gc
+
+    from warp._src.context import runtime
+
+    launcher = make_launcher(threads=2)
+    core = runtime.core
+    gc.collect()
+    core.wp_alloc_tracker_enable(1)
+    core.wp_alloc_tracker_reset()
+    try:
+        kid = sm.kernel_id("cubic_spline")
+        launches = 4 * launcher.RECORDED_PER_KERNEL
+        for k in range(launches):
+            n = 100 + k  # a new count: new keys for every chunk
+            args = [kid, 2, wp.zeros(n, dtype=float, device="cpu"), 1.0, wp.zeros(n, dtype=float, device="cpu"),
+                    wp.zeros(n, dtype=float, device="cpu")]
+            launcher.launch(kt.eval_w_dwdr, n, args)
+            launcher.launch(kt.eval_w_dwdr, n, args)  # the second launch with these arrays records its commands
+            del args
+        gc.collect()
+        live = core.wp_alloc_tracker_get_current_bytes()
+        kept = len(launcher._recorded[kt.eval_w_dwdr])
+        assert kept <= launcher.RECORDED_PER_KERNEL
+        # each recorded command holds one launch's three arrays of about 4 (100 + k) bytes
+        assert live < (launcher.RECORDED_PER_KERNEL + 1) * 3 * 4 * (100 + launches) < 0.5 * 3 * 4 * 100 * launches
+    finally:
+        core.wp_alloc_tracker_enable(0)
+
+
 def test_fixed_split_rule():
     """``min_items_per_thread`` = m: at least m items per chunk, at most one chunk per thread."""
     launcher = Launcher(device="cpu", threads=2, min_items_per_thread=2048)

@@ -256,8 +256,9 @@ def test_periodic_box_too_small_is_refused(launcher, vec3):
 
 
 def test_table_rows_equal_brute_force_and_grow_when_full(make_launcher):
-    """The one-pass fixed-capacity table: same sets as brute force; a too-small capacity grows until
-    every row fits (nothing dropped), bitwise the same for 1 and 2 threads."""
+    """The compact table: rows end to end, each with room for its count + count/10 + 2, the same sets as brute
+    force; a refill of the same rows keeps the arrays and needs no second pass; points moved so that rows outgrow their
+    rooms are laid out and filled again (the index grown), nothing dropped; bitwise the same for 1 and 2 threads."""
     rng = np.random.default_rng(3)
     pts = rng.uniform(-1.0, 1.0, size=(3000, 3)).astype(np.float32)
     r = 0.2
@@ -266,12 +267,26 @@ def test_table_rows_equal_brute_force_and_grow_when_full(make_launcher):
         launcher = make_launcher(threads=threads)
         x = wp.array(pts, dtype=wp.vec3, device=launcher.device)
         table = NeighbourTable(launcher, capacity=4)
-        table.fill(NeighbourGrid(launcher, r, free(), x), x, exclude_self=True)
-        assert table.grows >= 1 and table.capacity >= table.counts().max()
-        index, c = table.rows.index.numpy(), table.counts()
-        rows = [index[i * table.capacity: i * table.capacity + c[i]] for i in range(len(c))]  # past a count: unset
-        tables.append((c.copy(), np.concatenate(rows), table.capacity))
-    counts, indices, cap = tables[0]
+        grid = NeighbourGrid(launcher, r, free(), x)
+        table.fill(grid, x, exclude_self=True)
+        c, start = table.counts().copy(), table.rows.start.numpy()[: len(pts)].copy()  # (views on the CPU)
+        room = c + c // 10 + 2
+        assert table.capacity >= table.n_pairs == room.sum() and c.sum() > 4 * len(pts)
+        assert np.array_equal(start, np.r_[0, np.cumsum(room)[:-1]])
+        index = np.concatenate([table.row(i) for i in range(len(pts))])
+        kept, grows = table.rows.index, table.grows
+        table.fill(grid, x, exclude_self=True)  # the same rows again: the arrays are kept, one pass
+        assert table.rows.index is kept and table.grows == grows and table.refills == 0
+        assert np.array_equal(np.concatenate([table.row(i) for i in range(len(pts))]), index)
+        # the points drawn together: every row outgrows its room, the table lays out and fills again
+        squeezed = wp.array(0.7 * pts, dtype=wp.vec3, device=launcher.device)
+        table.fill(NeighbourGrid(launcher, r, free(), squeezed), squeezed, exclude_self=True)
+        assert table.refills == 1 and table.grows == grows + 1
+        d = np.linalg.norm(0.7 * pts[:, None, :] - 0.7 * pts[None, :, :], axis=-1)
+        for i in range(0, len(pts), 211):
+            assert set(table.row(i).tolist()) == set(np.flatnonzero((d[i] < r) & (np.arange(len(pts)) != i)).tolist())
+        tables.append((c.copy(), index))
+    counts, indices = tables[0]
     assert np.array_equal(counts, tables[1][0]) and np.array_equal(indices, tables[1][1])
     d = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=-1)
     for i in range(0, len(pts), 97):
@@ -325,7 +340,6 @@ def test_moving_tables_with_skin_equal_rebuild_every_step(launcher, vec3, period
             ref = neighbour_counts_brute(launcher, sp, q, s, r, exclude_self=excl)
             assert np.array_equal(kept.numpy(), ref), (step, name)
     assert 3 <= rebuilt <= 12 and mov.builds == rebuilt + 1
-    assert tables["ff"].grows >= 1
 
 
 def test_node_gathers_from_moving_particles(launcher, vec3):
@@ -382,7 +396,6 @@ def test_gather_grid_rows_equal_brute_force(launcher, vec3, axes):
         gather.build(moving)
         table = NeighbourTable(launcher, capacity=4)
         table.fill(gather, fixed)
-        assert table.grows >= 1
         rows = [table.row(i).tolist() for i in range(60)]
         off = np.r_[0, np.cumsum([len(row) for row in rows])]
         flat = SimpleNamespace(offsets=lambda: off, indices=lambda: np.array(sum(rows, []), dtype=np.int64))

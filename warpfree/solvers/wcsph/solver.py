@@ -377,6 +377,19 @@ class WCSPHSolver(TimeDependentSolver):
             moment[b] = np.cross(arm[on], force[on]).sum(axis=0)
         return total, moment
 
+    def _row_scratch(self, use: str, rows: np.ndarray) -> tuple[wp.array, wp.array]:
+        """``rows`` (int) on the device and a vec3 result per row, kept for ``use`` while the rows stay the same (a
+        floating body's loads every step allocate nothing)."""
+        key = (use, rows.astype(np.int32).tobytes())
+        cache = self.__dict__.setdefault("_rows_scratch", {})
+        if key not in cache:
+            dev = self.launcher.device
+            for old in [k for k in cache if k[0] == use]:  # the rows of this use changed (a migration): drop the old
+                del cache[old]
+            cache[key] = (wp.array(rows.astype(np.int32), dtype=wp.int32, device=dev),
+                          wp.zeros(rows.size, dtype=wp.vec3, device=dev))
+        return cache[key]
+
     def _contact_forces(self, rows: np.ndarray) -> np.ndarray | None:
         """The static solids' contact force (N; per metre in 2D) on each held wall of ``rows`` of a floating body
         (``kernels/wcsph_solids.py: contact_acceleration`` times its share of the body's mass; zero for the prescribed
@@ -384,11 +397,9 @@ class WCSPHSolver(TimeDependentSolver):
         solids, bodies = self.model.solids, self.model.bodies
         if solids is None or solids.static_count == 0 or not bodies.floating or not rows.size:
             return None
-        dev = self.launcher.device
-        out = wp.zeros(rows.size, dtype=wp.vec3, device=dev)
+        on, out = self._row_scratch("contact", rows)
         self.launcher.launch(sk.contact_acceleration, rows.size, [
-            self._contact, solids.static_count, wp.array(rows.astype(np.int32), dtype=wp.int32, device=dev), self.nf,
-            self.arrays.position, self.arrays.velocity, out], once=True)
+            self._contact, solids.static_count, on, self.nf, self.arrays.position, self.arrays.velocity, out])
         body = self._wall_body_np[rows]
         share = np.zeros(len(body))
         for b in bodies.floating:
@@ -402,11 +413,9 @@ class WCSPHSolver(TimeDependentSolver):
         forces (m, 3), positions (m, 3)), float64."""
         force = np.zeros((0, 3))
         if rows.size:
-            dev = self.launcher.device
-            out = wp.zeros(rows.size, dtype=wp.vec3, device=dev)
+            on, out = self._row_scratch("wall", rows)
             self.launcher.launch(self.kernels.wall_force, rows.size, [
-                self.model.constants, self.arrays, self.wall_fluid.rows,
-                wp.array(rows.astype(np.int32), dtype=wp.int32, device=dev), out], once=True)
+                self.model.constants, self.arrays, self.wall_fluid.rows, on, out])
             force = out.numpy().astype(np.float64)
             if extra is not None:
                 force = force + extra
@@ -689,7 +698,7 @@ class WCSPHSolver(TimeDependentSolver):
         """At a rebuild with openings (``openings.py``): a buffer particle that crossed its plane into the domain since
         the last build makes a new one a buffer depth behind it (the next ids, in the crossing particles' id order over
         every rank); a particle beyond its buffer's far end is taken out; then the fluid is laid out anew (moving to
-        the ranks that hold it in a distributed run)."""
+        the ranks that hold it in a distributed run). A rebuild where nothing entered or left is a plain one."""
         openings, part = self.openings, self.spread.fluid
         values = self._held_fluid()
         x = values["position"]
@@ -704,6 +713,9 @@ class WCSPHSolver(TimeDependentSolver):
         counts = np.concatenate([np.bincount(was[parents], minlength=k),
                                  np.bincount(now[owned & leaving], minlength=k)]).astype(np.int64)
         counts = self.world.allreduce(counts, "sum")
+        if not counts.any():  # nothing entered or left (every rank agrees): a plain rebuild, the arrays kept
+            self.spread.redistribute(self._held_fluid, self._work, self._lay_out_again, self._busy_since_rebuild())
+            return
         self._issued += every.size
         self._made += counts[:k]
         self._taken_out += counts[k:]
@@ -953,11 +965,8 @@ class WCSPHSolver(TimeDependentSolver):
         mine = np.flatnonzero(self.spread.decomposition.owner(pts) == self.world.rank)
         out = np.zeros((len(pts), 7))
         if mine.size:
-            dev = self.launcher.device
             grid = self.moving_neighbours.grids[MovingNeighbours.MOVING]
-            at = wp.array(pts[mine].astype(np.float32), dtype=wp.vec3, device=dev)
-            filled, pressure, density, surface = (wp.zeros(mine.size, dtype=float, device=dev) for _ in range(4))
-            velocity = wp.zeros(mine.size, dtype=wp.vec3, device=dev)
+            at, filled, pressure, density, velocity, surface = self._sample_arrays(pts[mine])
             terms = self.model.terms
             walls = self.moving_neighbours.grids.get("walls", grid)  # none: the fluid's grid, never queried
             sample = make_sample(terms.kernel, terms.dim, terms.periodic,
@@ -971,6 +980,23 @@ class WCSPHSolver(TimeDependentSolver):
         out = self.world.allreduce(out, "sum")  # each point's values from one rank, zeros from the others: exact
         return {"filled": out[:, 0], "pressure": out[:, 1], "density": out[:, 2], "velocity": out[:, 3:6],
                 "wall_pressure": out[:, 6]}
+
+    #: point sets whose sample arrays :meth:`field_at` keeps (a scene's sensors, each sampled again and again)
+    SAMPLED_SETS = 8
+
+    def _sample_arrays(self, points: np.ndarray) -> tuple[wp.array, ...]:
+        """The device arrays :meth:`field_at` reads ``points`` (m, 3) with: their positions, then filled, pressure,
+        density, velocity and wall pressure, kept per point set (no allocation when a sensor samples again)."""
+        key = points.astype(np.float32).tobytes()
+        cache = self.__dict__.setdefault("_sampled", {})
+        if key not in cache:
+            dev, m = self.launcher.device, points.shape[0]
+            if len(cache) >= self.SAMPLED_SETS:
+                del cache[next(iter(cache))]
+            cache[key] = (wp.array(points.astype(np.float32), dtype=wp.vec3, device=dev),
+                          *(wp.zeros(m, dtype=float, device=dev) for _ in range(3)),
+                          wp.zeros(m, dtype=wp.vec3, device=dev), wp.zeros(m, dtype=float, device=dev))
+        return cache[key]
 
     def force_on(self, walls: str, about) -> tuple[np.ndarray, np.ndarray]:
         """The fluid's force on the ``walls`` ("obstacles" or "containers": their wall particles) (N; per metre of
