@@ -3,19 +3,24 @@
 What it does, in order, each part within its share of ``--budget`` seconds (a part that would pass it stops and the
 report says what was left out):
 
-1. **Tests** (``--tests``, 20 %): ``pytest -m cuda --device cuda``: every shipped scene at its smallest size through the
+1. **Tests** (``--tests``, 15 %): ``pytest -m cuda --device cuda``: every shipped scene at its smallest size through the
    command line, and the device steps' checks (one read and no write per step, replayed graphs bitwise equal to
    stepping) for WCSPH, SPEM and PIC, on the GPU.
-2. **Scenes** (45 %): every shipped scene at its default on the GPU (frames and VTU off), cheapest first (by the
+2. **Scenes** (35 %): every shipped scene at its default on the GPU (frames and VTU off), cheapest first (by the
    reference's wall times, :func:`scene_order`); each
    analysis figure (the numbers under ``summary["analysis"]``) against the CPU's from ``--reference`` (written on a
    CPU machine by ``--device cpu --write-reference``): the relative difference per figure. A scene's checks against
    its tolerances (``summary["checks"]``) are reported as they are.
-3. **Throughput** (30 %): work items per second at three sizes per family (the scene of each family whose module
+3. **Throughput** (20 %): work items per second at three sizes per family (the scene of each family whose module
    declares ``BENCHMARK``: its ``parameter``, ``values`` and ``steps``; ``common.benchmarks``), on the CPU with all
    its threads and on the GPU, measured side by side in one run (``bench/common.py``: warm-up first, median of timed
    blocks).
-4. **Choices** (5 %): the forms a GPU could run, timed side by side on it: the quadratic MLS shape functions as one
+4. **Scale** (25 %): the sizes a CPU cannot reach in a test, on the GPU (:data:`SCALE`): the 3D dam break at about
+   10^6 (on the CPU with all its threads too, for the ratio) and 10^7 particles, SPEM and PIC at about 10^7 particles,
+   the EFG beam at about 10^6 Gauss points: work items per second and the device memory per item
+   (``warpfree.memory``), largest first cut by the budget. ``--scale-dry-run`` runs the same code at small sizes (a
+   CPU's check of the part).
+5. **Choices** (5 %): the forms a GPU could run, timed side by side on it: the quadratic MLS shape functions as one
    kernel (166 registers) or four within 128 (``MLSModel.shape_at(staged=)``; a GPU's default is staged), at the
    beam's Gauss points (192 x 48 cells, d_max 2.5, 3 x 3 points).
 
@@ -47,7 +52,17 @@ RUN_ALL_SKIPPED = "needs a GPU: run it once on a machine with one (python bench/
 
 REFERENCE = common.RESULTS / "default_figures.json"
 #: the parts' shares of the budget
-SHARES = {"tests": 0.20, "scenes": 0.45, "throughput": 0.30, "choices": 0.05}
+SHARES = {"tests": 0.15, "scenes": 0.35, "throughput": 0.20, "scale": 0.25, "choices": 0.05}
+#: the sizes a CPU cannot reach in a test: (family, scene, parameter, value, small value for ``--scale-dry-run``, steps
+#: timed a block, on the CPU too). Sizes from the counts at smaller ones (``bench/results/memory.md``): the 3D dam
+#: break has 26 349 particles at dx = 0.05 m (N ~ dx^-3: 1.0e6 at 0.015, 1.0e7 at 0.007); the cavity 60 484 at 80
+#: cells per radius (N ~ c^2: 1.0e7 at 1 030); the thermal plasma 262 144 in a 64 x 128 box (N ~ area: 1.0e7 in
+#: 400 x 800); the beam 4 608 Gauss points at 96 cells (N ~ c^2: 1.0e6 at 1 400)
+SCALE = [("wcsph", "dam_break_3d", "dx", 0.015, 0.06, 20, True),
+         ("wcsph", "dam_break_3d", "dx", 0.007, 0.05, 10, False),
+         ("spem", "em_cavity_2d", "cells_per_radius", 1030, 20, 20, False),
+         ("pic", "pic_thermal_plasma", "box", (400.0, 800.0), (16.0, 32.0), 10, False),
+         ("efg", "efg_timoshenko", "cells_x", 1400, 24, 1, False)]
 #: family -> (scene, the parameter that sets the size, three values, steps timed per block): what the scene of each
 #: family declares in ``BENCHMARK`` (``common.benchmarks``)
 SIZES = {family: (b["scene"], b["parameter"], b["values"], b["steps"]) for family, b in common.benchmarks().items()}
@@ -131,19 +146,25 @@ def run_scenes(device: str, budget: float, reference: dict | None, scenes: list[
     return rows
 
 
-def measure(family: str, value, device: str, threads: int | None) -> dict:
-    """Work items per second of one size of a family on ``device`` (in this process)."""
-    scene, param, _, steps = SIZES[family]
+def measure(family: str, value, device: str, threads: int | None, scene: str | None = None,
+            param: str | None = None, steps: int | None = None) -> dict:
+    """Work items per second of one size of a family on ``device`` (in this process; the family's benchmark scene
+    unless ``scene``, ``param`` and ``steps`` are given), and the device memory per item."""
+    from warpfree.memory import solver_memory
+
+    if scene is None:
+        scene, param, _, steps = SIZES[family]
     run = common.build_scene(scene, threads or common.cpu_count(), device=device, **{param: value})
     solver = run.solver
     if hasattr(solver, "solve"):  # a static solve: the solve timed, work items = its Gauss points
         timing = common.time_steps(solver.solve, 1, warmup=1, repeats=3)
         return {"work_items": solver.work_items, "unit": f"{solver.work_unit}/s",
-                "work_per_s": solver.work_items / timing["median_s"], "s": timing["median_s"]}
+                "work_per_s": solver.work_items / timing["median_s"], "s": timing["median_s"],
+                "bytes_per_item": solver_memory(solver)["per_item"]}
     dt = run.step_size or solver.stable_dt()
     timing = common.time_solver(solver, dt, steps, warmup=3, repeats=3)
     return {"work_items": timing["work_items"], "unit": timing["unit"], "work_per_s": timing["work_per_s"],
-            "s": timing["s_per_step"]}
+            "s": timing["s_per_step"], "bytes_per_item": solver_memory(solver)["per_item"]}
 
 
 def run_throughput(device: str, budget: float) -> list[dict]:
@@ -162,6 +183,32 @@ def run_throughput(device: str, budget: float) -> list[dict]:
             rows.append(row)
             print(f"  {family} {row['size']}: " + ", ".join(
                 f"{w} {row[w].get('work_per_s', float('nan')):.3g}/s" for w in ("cpu", device) if w in row), flush=True)
+    return rows
+
+
+def run_scale(device: str, budget: float, dry_run: bool = False) -> list[dict]:
+    """:data:`SCALE` on ``device`` (and the CPU where a row says so), in order, each only if the budget left holds
+    twice what the last took (the sizes grow)."""
+    rows, start, last = [], time.perf_counter(), 0.0
+    for family, scene, param, value, small, steps, on_cpu in SCALE:
+        size = small if dry_run else value
+        row = {"family": family, "scene": scene, "size": f"{param}={size}"}
+        left = budget - (time.perf_counter() - start)
+        if left < 2.0 * last:
+            row["status"] = "not run (budget)"
+            rows.append(row)
+            continue
+        began = time.perf_counter()
+        for where in ((device, "cpu") if on_cpu and device != "cpu" else (device,)):
+            try:
+                row[where] = measure(family, size, where, None, scene, param, steps)
+            except Exception as exc:  # a size a device cannot hold: said, not fatal
+                row[where] = {"error": f"{type(exc).__name__}: {exc}"[:300]}
+        last = time.perf_counter() - began
+        rows.append(row)
+        print(f"  scale {family} {row['size']}: " + ", ".join(
+            f"{w} {row[w].get('work_per_s', float('nan')):.3g}/s, {row[w].get('bytes_per_item') or float('nan'):.0f} B"
+            for w in (device, "cpu") if w in row), flush=True)
     return rows
 
 
@@ -213,6 +260,18 @@ def markdown(result: dict) -> str:
         lines += ["## Throughput, CPU (all threads) against the GPU, same run", "",
                   common.md_table(["family", "size", "work items", "unit", "CPU", "GPU", "GPU / CPU"], rows), ""]
     rows = []
+    for r in result.get("scale", []):
+        gpu, cpu = r.get(device, {}), r.get("cpu", {}) if device != "cpu" else {}
+        ratio = (gpu["work_per_s"] / cpu["work_per_s"]) if "work_per_s" in gpu and "work_per_s" in cpu else None
+        rows.append([r["family"], f"{r['scene']} {r['size']}", gpu.get("work_items", r.get("status", "–")),
+                     gpu.get("unit", "–"), common.fmt_rate(gpu.get("work_per_s")),
+                     "–" if gpu.get("bytes_per_item") is None else f"{gpu['bytes_per_item']:.0f}",
+                     common.fmt_rate(cpu.get("work_per_s")), "–" if ratio is None else f"{ratio:.1f}"])
+    if rows:
+        lines += ["## At scale", "",
+                  common.md_table(["family", "case", "work items", "unit", "device", "bytes / item", "CPU (all threads)",
+                                   "device / CPU"], rows), ""]
+    rows = []
     for r in result.get("choices", []):
         single, staged = r.get("single", []), r.get("staged", [])
         ratio = (min(staged) / min(single)) if single and staged else None
@@ -227,11 +286,12 @@ def markdown(result: dict) -> str:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--device", default="cuda")
-    p.add_argument("--budget", type=float, default=480.0, help="seconds for the three parts together")
+    p.add_argument("--budget", type=float, default=480.0, help="seconds for the parts together")
     p.add_argument("--write-reference", action="store_true",
                    help="run the scenes' defaults on --device and write their figures to " + str(REFERENCE))
     p.add_argument("--reference", default=str(REFERENCE))
-    p.add_argument("--skip", default="", help="parts to leave out: tests,scenes,throughput,choices")
+    p.add_argument("--skip", default="", help="parts to leave out: tests,scenes,throughput,scale,choices")
+    p.add_argument("--scale-dry-run", action="store_true", help="the scale part at small sizes (a CPU's check)")
     p.add_argument("--leave-out", default="", help="scenes to leave out of the scenes' part (comma-separated)")
     args = p.parse_args(argv)
     skip = set(filter(None, args.skip.split(",")))
@@ -259,6 +319,8 @@ def main(argv=None) -> int:
         result["scenes"] = run_scenes(args.device, SHARES["scenes"] * args.budget, reference, scenes)
     if "throughput" not in skip:
         result["throughput"] = run_throughput(args.device, SHARES["throughput"] * args.budget)
+    if "scale" not in skip:
+        result["scale"] = run_scale(args.device, SHARES["scale"] * args.budget, args.scale_dry_run)
     if "choices" not in skip:
         result["choices"] = run_choices(args.device, SHARES["choices"] * args.budget)
     result["wall_s"] = time.perf_counter() - start
