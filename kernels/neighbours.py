@@ -214,11 +214,11 @@ def table_rooms(first: int, count: wp.array(dtype=wp.int32), room: wp.array(dtyp
 
 
 @wp.kernel
-def table_overflow(first: int, count: wp.array(dtype=wp.int32), room: wp.array(dtype=wp.int32),
-                   worst: wp.array(dtype=wp.int32)):
-    """worst[0] = max over rows of count[i] - room[i] (> 0: a row did not fit; ``worst`` zeroed before)."""
+def table_overflow(first: int, count: wp.array(dtype=wp.int32), room: wp.array(dtype=wp.int32)):
+    """room[i] = count[i] - room[i], in place (> 0: row i did not fit; the table reduces its max, race-free, and
+    lays its rooms out again from the counts before the next fill)."""
     i = first + wp.tid()
-    wp.atomic_max(worst, 0, count[i] - room[i])
+    room[i] = count[i] - room[i]
 
 
 @wp.kernel

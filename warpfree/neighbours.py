@@ -333,7 +333,7 @@ class NeighbourTable:
         self._rows_allocated = -1     # rows the arrays have room for (>= n)
         self._entries_allocated = 0   # entries the index has room for (>= n_pairs)
         self._counted = False         # the counts hold a fill's (of these rows)
-        self._worst = wp.zeros(1, dtype=wp.int32, device=launcher.device)
+        self._worst = Reduction(launcher, wp.int32, "max")
         self.grows = 0
         self.refills = 0
 
@@ -389,9 +389,9 @@ class NeighbourTable:
         self._lay_out(n)
         grid.fill(query_points, exclude_self, 0, rows.start, rows.count, rows.index, room=self.room)
         self._counted = True
-        self._worst.zero_()
-        self.launcher.launch(nk.table_overflow, n, [rows.count, self.room, self._worst])
-        if int(self._worst.numpy()[0]) > 0:  # a row outgrew its room: lay out from the true counts, fill again
+        self.launcher.launch(nk.table_overflow, n, [rows.count, self.room])  # the rooms, now each row's excess
+        self._worst.launch(self.room, n)
+        if int(self._worst.value()) > 0:  # a row outgrew its room: lay out from the true counts, fill again
             self.refills += 1
             self._lay_out(n)
             grid.fill(query_points, exclude_self, 0, rows.start, rows.count, rows.index, room=self.room)

@@ -6,7 +6,7 @@ report says what was left out):
 1. **Tests** (``--tests``, 15 %): ``pytest -m cuda --device cuda``: every shipped scene at its smallest size through the
    command line, and the device steps' checks (one read and no write per step, replayed graphs bitwise equal to
    stepping) for WCSPH, SPEM and PIC, on the GPU.
-2. **Scenes** (35 %): every shipped scene at its default on the GPU (frames and VTU off), cheapest first (by the
+2. **Scenes** (30 %): every shipped scene at its default on the GPU (frames and VTU off), cheapest first (by the
    reference's wall times, :func:`scene_order`); each
    analysis figure (the numbers under ``summary["analysis"]``) against the CPU's from ``--reference`` (written on a
    CPU machine by ``--device cpu --write-reference``): the relative difference per figure. A scene's checks against
@@ -17,10 +17,13 @@ report says what was left out):
    blocks).
 4. **Scale** (25 %): the sizes a CPU cannot reach in a test, on the GPU (:data:`SCALE`): the 3D dam break at about
    10^6 (on the CPU with all its threads too, for the ratio) and 10^7 particles, SPEM and PIC at about 10^7 particles,
-   the EFG beam at about 10^6 Gauss points: work items per second and the device memory per item
-   (``warpfree.memory``), largest first cut by the budget. ``--scale-dry-run`` runs the same code at small sizes (a
+   the EFG beam at about 10^6 Gauss points: work items per second, the device memory per item
+   (``warpfree.memory``) and the fraction of the bandwidth roofline (the case's compulsory bytes a step per item,
+   ``roofline.py`` at its small size, times the items per second, over the GPU's bandwidth), cut by the budget. ``--scale-dry-run`` runs the same code at small sizes (a
    CPU's check of the part).
-5. **Choices** (5 %): the forms a GPU could run, timed side by side on it: the quadratic MLS shape functions as one
+5. **Roofline** (5 %): per kernel of a step of each family's benchmark scene (``roofline.py``), the compulsory
+   bytes per work item, the kernel's measured time on the GPU and its fraction of the bandwidth floor.
+6. **Choices** (5 %): the forms a GPU could run, timed side by side on it: the quadratic MLS shape functions as one
    kernel (166 registers) or four within 128 (``MLSModel.shape_at(staged=)``; a GPU's default is staged), at the
    beam's Gauss points (192 x 48 cells, d_max 2.5, 3 x 3 points).
 
@@ -52,7 +55,7 @@ RUN_ALL_SKIPPED = "needs a GPU: run it once on a machine with one (python bench/
 
 REFERENCE = common.RESULTS / "default_figures.json"
 #: the parts' shares of the budget
-SHARES = {"tests": 0.15, "scenes": 0.35, "throughput": 0.20, "scale": 0.25, "choices": 0.05}
+SHARES = {"tests": 0.15, "scenes": 0.30, "throughput": 0.20, "scale": 0.25, "roofline": 0.05, "choices": 0.05}
 #: the sizes a CPU cannot reach in a test: (family, scene, parameter, value, small value for ``--scale-dry-run``, steps
 #: timed a block, on the CPU too). Sizes from the counts at smaller ones (``bench/results/memory.md``): the 3D dam
 #: break has 26 349 particles at dx = 0.05 m (N ~ dx^-3: 1.0e6 at 0.015, 1.0e7 at 0.007); the cavity 60 484 at 80
@@ -204,11 +207,34 @@ def run_scale(device: str, budget: float, dry_run: bool = False) -> list[dict]:
                 row[where] = measure(family, size, where, None, scene, param, steps)
             except Exception as exc:  # a size a device cannot hold: said, not fatal
                 row[where] = {"error": f"{type(exc).__name__}: {exc}"[:300]}
+        try:  # the case's own compulsory bytes per work item a step, from its small size (per item, size-free)
+            import roofline
+
+            row["traffic_bytes_per_item"] = sum(r["bytes_per_work_item"]
+                                                for r in roofline.one(family, scene, param, small, device))
+        except Exception as exc:  # said, not fatal
+            row["traffic_error"] = f"{type(exc).__name__}: {exc}"[:300]
         last = time.perf_counter() - began
         rows.append(row)
         print(f"  scale {family} {row['size']}: " + ", ".join(
             f"{w} {row[w].get('work_per_s', float('nan')):.3g}/s, {row[w].get('bytes_per_item') or float('nan'):.0f} B"
             for w in (device, "cpu") if w in row), flush=True)
+    return rows
+
+
+def run_roofline(device: str, budget: float) -> list[dict]:
+    """``roofline.py``'s rows for each family's middle benchmark size on ``device``, within the budget."""
+    import roofline
+
+    rows, start = [], time.perf_counter()
+    for family, (scene, param, values, _) in SIZES.items():
+        if time.perf_counter() - start > budget:
+            rows.append({"family": family, "status": "not run (budget)"})
+            continue
+        try:
+            rows += roofline.one(family, scene, param, values[len(values) // 2], device)
+        except Exception as exc:  # said, not fatal
+            rows.append({"family": family, "error": f"{type(exc).__name__}: {exc}"[:300]})
     return rows
 
 
@@ -259,18 +285,37 @@ def markdown(result: dict) -> str:
     if rows:
         lines += ["## Throughput, CPU (all threads) against the GPU, same run", "",
                   common.md_table(["family", "size", "work items", "unit", "CPU", "GPU", "GPU / CPU"], rows), ""]
+    import roofline
+
+    bandwidth = roofline.BANDWIDTH["H200" if "H200" in str(result.get("gpu")) else "H100 SXM"]
     rows = []
     for r in result.get("scale", []):
         gpu, cpu = r.get(device, {}), r.get("cpu", {}) if device != "cpu" else {}
         ratio = (gpu["work_per_s"] / cpu["work_per_s"]) if "work_per_s" in gpu and "work_per_s" in cpu else None
+        roof = (gpu["work_per_s"] * r["traffic_bytes_per_item"] / bandwidth
+                if "work_per_s" in gpu and "traffic_bytes_per_item" in r and device != "cpu" else None)
         rows.append([r["family"], f"{r['scene']} {r['size']}", gpu.get("work_items", r.get("status", "–")),
                      gpu.get("unit", "–"), common.fmt_rate(gpu.get("work_per_s")),
                      "–" if gpu.get("bytes_per_item") is None else f"{gpu['bytes_per_item']:.0f}",
-                     common.fmt_rate(cpu.get("work_per_s")), "–" if ratio is None else f"{ratio:.1f}"])
+                     common.fmt_rate(cpu.get("work_per_s")), "–" if ratio is None else f"{ratio:.1f}",
+                     "–" if roof is None else f"{roof:.2f}"])
     if rows:
         lines += ["## At scale", "",
                   common.md_table(["family", "case", "work items", "unit", "device", "bytes / item", "CPU (all threads)",
-                                   "device / CPU"], rows), ""]
+                                   "device / CPU", "fraction of the bandwidth roofline"], rows), ""]
+    rows = []
+    for r in result.get("roofline", []):
+        if "kernel" not in r:
+            rows.append([r["family"], r.get("status", r.get("error", "")), "–", "–", "–", "–"])
+            continue
+        floor = r["floor_s_H200"] if "H200" in str(result.get("gpu")) else r["floor_s_H100 SXM"]
+        s = r.get("s")
+        rows.append([r["family"], r["kernel"], f"{r['bytes_per_work_item']:.1f}", "–" if s is None else f"{1e6 * s:.1f}",
+                     f"{1e6 * floor:.1f}", "–" if not s else f"{floor / s:.2f}"])
+    if rows:
+        lines += ["## Roofline: each kernel's time against the least its bytes need", "",
+                  common.md_table(["family", "kernel", "bytes per work item", "measured (µs)", "floor (µs)",
+                                   "fraction of the roofline"], rows), ""]
     rows = []
     for r in result.get("choices", []):
         single, staged = r.get("single", []), r.get("staged", [])
@@ -290,7 +335,7 @@ def main(argv=None) -> int:
     p.add_argument("--write-reference", action="store_true",
                    help="run the scenes' defaults on --device and write their figures to " + str(REFERENCE))
     p.add_argument("--reference", default=str(REFERENCE))
-    p.add_argument("--skip", default="", help="parts to leave out: tests,scenes,throughput,scale,choices")
+    p.add_argument("--skip", default="", help="parts to leave out: tests,scenes,throughput,scale,roofline,choices")
     p.add_argument("--scale-dry-run", action="store_true", help="the scale part at small sizes (a CPU's check)")
     p.add_argument("--leave-out", default="", help="scenes to leave out of the scenes' part (comma-separated)")
     args = p.parse_args(argv)
@@ -321,6 +366,8 @@ def main(argv=None) -> int:
         result["throughput"] = run_throughput(args.device, SHARES["throughput"] * args.budget)
     if "scale" not in skip:
         result["scale"] = run_scale(args.device, SHARES["scale"] * args.budget, args.scale_dry_run)
+    if "roofline" not in skip:
+        result["roofline"] = run_roofline(args.device, SHARES["roofline"] * args.budget)
     if "choices" not in skip:
         result["choices"] = run_choices(args.device, SHARES["choices"] * args.budget)
     result["wall_s"] = time.perf_counter() - start
