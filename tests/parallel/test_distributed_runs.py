@@ -64,6 +64,9 @@ def test_a_distributed_run_gives_the_one_process_outputs_bitwise(scene, ranks, s
     for key in ("diagnostics", "analysis"):
         assert relative_differences(a[key], b[key]) == {}, key
     assert b["ranks"]["size"] == ranks and len(b["ranks"]["phases_s"]) == ranks
+    memory = b["memory"]  # every rank's bytes, the whole run's per item
+    assert len(memory["bytes_per_rank"]) == ranks and min(memory["bytes_per_rank"]) > 0
+    assert memory["per_item"] == sum(memory["bytes_per_rank"]) / b["throughput"]["work_items"]
     spread = b["model"]["distributed"]
     assert spread["ghost_fraction"] > 0
     count, main_set = next((k, v) for k, v in MAIN_SETS.items() if k in a["model"])
