@@ -19,7 +19,8 @@ report says what was left out):
    10^6 (on the CPU with all its threads too, for the ratio) and 10^7 particles, SPEM and PIC at about 10^7 particles,
    the EFG beam at about 10^6 Gauss points: work items per second, the device memory per item
    (``warpfree.memory``) and the fraction of the bandwidth roofline (the case's compulsory bytes a step per item,
-   ``roofline.py`` at its small size, times the items per second, over the GPU's bandwidth), cut by the budget. ``--scale-dry-run`` runs the same code at small sizes (a
+   ``roofline.py`` at its small size, times the items per second, over the GPU's bandwidth) and, for PIC, the field
+   solve's share of the step, cut by the budget. ``--scale-dry-run`` runs the same code at small sizes (a
    CPU's check of the part).
 5. **Roofline** (5 %): per kernel of a step of each family's benchmark scene (``roofline.py``), the compulsory
    bytes per work item, the kernel's measured time on the GPU and its fraction of the bandwidth floor.
@@ -166,8 +167,11 @@ def measure(family: str, value, device: str, threads: int | None, scene: str | N
                 "bytes_per_item": solver_memory(solver)["per_item"]}
     dt = run.step_size or solver.stable_dt()
     timing = common.time_solver(solver, dt, steps, warmup=3, repeats=3)
+    phases = timing.get("phase_s_per_step", {})
     return {"work_items": timing["work_items"], "unit": timing["unit"], "work_per_s": timing["work_per_s"],
-            "s": timing["s_per_step"], "bytes_per_item": solver_memory(solver)["per_item"]}
+            "s": timing["s_per_step"], "bytes_per_item": solver_memory(solver)["per_item"],
+            # each phase's share of the step (PIC's field solve: "solve")
+            "phase_share": {k: v / timing["s_per_step"] for k, v in phases.items()} if timing["s_per_step"] else {}}
 
 
 def run_throughput(device: str, budget: float) -> list[dict]:
@@ -298,11 +302,13 @@ def markdown(result: dict) -> str:
                      gpu.get("unit", "–"), common.fmt_rate(gpu.get("work_per_s")),
                      "–" if gpu.get("bytes_per_item") is None else f"{gpu['bytes_per_item']:.0f}",
                      common.fmt_rate(cpu.get("work_per_s")), "–" if ratio is None else f"{ratio:.1f}",
-                     "–" if roof is None else f"{roof:.2f}"])
+                     "–" if roof is None else f"{roof:.2f}",
+                     "–" if "solve" not in gpu.get("phase_share", {}) else f"{gpu['phase_share']['solve']:.2f}"])
     if rows:
         lines += ["## At scale", "",
                   common.md_table(["family", "case", "work items", "unit", "device", "bytes / item", "CPU (all threads)",
-                                   "device / CPU", "fraction of the bandwidth roofline"], rows), ""]
+                                   "device / CPU", "fraction of the bandwidth roofline",
+                                   "field solve's share of the step"], rows), ""]
     rows = []
     for r in result.get("roofline", []):
         if "kernel" not in r:
