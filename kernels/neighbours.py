@@ -133,8 +133,8 @@ def fill_rows(
     x = query_points[i]
     r2 = radius * radius
     base = start[i]
-    if room.shape[0] > 0:
-        capacity = room[i]
+    if room.shape[0] > 0:  # a compact table's row: its room, and never past the index's end
+        capacity = wp.max(wp.min(room[i], index.shape[0] - base), 0)
     n = int(0)
     for k in wp.hash_grid_query(grid, x, radius):
         j = source_id[k]
@@ -146,6 +146,28 @@ def fill_rows(
                 index[base + n] = j
             n += 1
     count[i] = n
+
+
+@wp.struct
+class PairGrid:
+    """A moving set's pairs read straight from its grid, with no rows stored (``warpfree.neighbours.NeighbourGrid``):
+    the HashGrid ``grid`` over ``points`` (the set's positions at the last build, then their periodic images),
+    ``source_id`` from grid point to particle, and ``reach`` (radius + skin, the grid's radius). A query at particle
+    i's position at build, kept to the copies within ``reach`` (:func:`pair_in_reach`), visits the candidates a
+    table's row i holds, in the same order."""
+
+    grid: wp.uint64
+    points: wp.array(dtype=wp.vec3)
+    source_id: wp.array(dtype=wp.int32)
+    reach: float
+
+
+@wp.func
+def pair_in_reach(pairs: PairGrid, at: wp.vec3, k: int) -> bool:
+    """Does grid point k lie strictly within ``pairs.reach`` of ``at`` (a particle's position at build)? The test a
+    table's fill makes (:func:`fill_rows`): with periodic sides >= 2 reach, one copy of a particle at most passes."""
+    d = image_displacement(at, pairs.points[k])
+    return wp.dot(d, d) < pairs.reach * pairs.reach
 
 
 @wp.struct
@@ -191,8 +213,8 @@ def fill_gather_rows(
     i = first + wp.tid()
     r2 = copies.radius * copies.radius
     base = start[i]
-    if room.shape[0] > 0:
-        capacity = room[i]
+    if room.shape[0] > 0:  # a compact table's row: its room, and never past the index's end
+        capacity = wp.max(wp.min(room[i], index.shape[0] - base), 0)
     n = int(0)
     for s in range(copies.start[i], copies.start[i + 1]):
         at = fixed_points[i] + copies.shift[s]
@@ -214,11 +236,15 @@ def table_rooms(first: int, count: wp.array(dtype=wp.int32), room: wp.array(dtyp
 
 
 @wp.kernel
-def table_overflow(first: int, count: wp.array(dtype=wp.int32), room: wp.array(dtype=wp.int32)):
-    """room[i] = count[i] - room[i], in place (> 0: row i did not fit; the table reduces its max, race-free, and
-    lays its rooms out again from the counts before the next fill)."""
+def table_overflow(first: int, start: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32),
+                   room: wp.array(dtype=wp.int32), entries: int):
+    """room[i] = count[i] - room[i] in place, or at least 1 where row i's room runs past the index's ``entries``
+    (> 0: row i did not fit; the table reduces the max, race-free, and lays its rooms out again from the counts)."""
     i = first + wp.tid()
-    room[i] = count[i] - room[i]
+    excess = count[i] - room[i]
+    if start[i] + room[i] > entries:
+        excess = wp.max(excess, 1)
+    room[i] = excess
 
 
 @wp.kernel

@@ -71,7 +71,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from .clock import LIMIT, SLOTS, STEP, TIME, advance, choose
-from .neighbours import NeighbourRows
+from .neighbours import NeighbourRows, PairGrid, pair_in_reach
 from .smoothing import kernel_grad_coef, kernel_shape, kernel_w
 from .space import Box, displacement, displacement_function, image_displacement, wrap
 
@@ -171,6 +171,7 @@ class FluidTerms:
     shifting: bool = False           # particle shifting (A > 0)
     open_boundaries: bool = False    # buffer particles (``FluidArrays.zone`` != 0) take no rates
     periodic: tuple = (False, False, False)
+    fluid_pairs: str = "rows"        # fluid pairs from a table's rows, or "grid": from the moving grid, no rows stored
 
 
 @wp.func
@@ -365,6 +366,17 @@ class ShiftingSums:
     grad_density: wp.vec3          # Σ V_j (ρ_j - ρ_i) ∇W_ij (kg/m⁴)
 
 
+@wp.struct
+class RateSums:
+    """A fluid particle's sums over its fluid neighbours in ``rates``: dv/dt (m/s²), dρ/dt (kg/m³/s), the δ-SPH
+    diffusion sum and the shifting sums."""
+
+    acceleration: wp.vec3
+    density_rate: float
+    diffusion: float
+    shifting: ShiftingSums
+
+
 @wp.func
 def shifting_velocity(c: FluidConstants, s: ShiftingSums) -> wp.vec3:
     """δu = -A h U ∇C̃, with the component along the surface normal removed where the support is truncated."""
@@ -392,6 +404,10 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
     periodic_any = any(terms.periodic)
     dynamic = terms.walls == "dynamic"
     lj_walls = terms.walls == "lennard_jones" or (dynamic and terms.wall_safety)
+    grid_pairs = terms.fluid_pairs == "grid"
+    # the fluid pairs: a table's rows, or the moving grid itself (no rows stored: the candidates found again at
+    # every sweep, the same ones in the same order)
+    FluidPairs = PairGrid if grid_pairs else NeighbourRows
 
     def make_pair(artificial: bool, laminar: bool, riemann: bool):
         @wp.func
@@ -507,8 +523,21 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
             f.density[i] = c.rho0
             f.ghost_velocity[k] = f.velocity[i]
 
+    @wp.func
+    def gradient_pair(c: FluidConstants, f: FluidArrays, j: int, xi: wp.vec3, rhoi: float, b: wp.mat33, s: wp.vec3):
+        """Fluid neighbour j's terms of the renormalised density gradient: (B - V_j ∇W_ij ⊗ r_ij,
+        s + V_j (ρ_j - ρ_i) ∇W_ij); a candidate beyond the support adds nothing."""
+        rij = disp(c.box, xi, f.position[j])
+        r2 = wp.dot(rij, rij)
+        if r2 >= c.support2:
+            return b, s
+        rhoj = f.density_eval[j]
+        vol_gw = (f.mass[j] / rhoj * c.grad_factor * kernel_grad_coef(wp.static(kind), wp.static(dim),
+                                                                      wp.sqrt(r2) * c.inv_h)) * rij
+        return b - wp.outer(vol_gw, rij), s + (rhoj - rhoi) * vol_gw
+
     @wp.kernel(module="unique")
-    def density_gradient(first: int, c: FluidConstants, f: FluidArrays, fluid_fluid: NeighbourRows,
+    def density_gradient(first: int, c: FluidConstants, f: FluidArrays, fluid_fluid: FluidPairs,
                          rows: wp.array(dtype=wp.int32)):
         """The renormalised density gradient G_i = B_i⁻¹ Σ_j V_j (ρ_j - ρ_i) ∇W_ij of fluid particle i = rows[tid]
         at the predicted state (Antuono et al. 2010; the module docstring), ρ0 g/c0² where det B_i is below
@@ -518,17 +547,15 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
         rhoi = f.density_eval[i]
         b = wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         s = wp.vec3(0.0, 0.0, 0.0)
-        for n in range(fluid_fluid.start[i], fluid_fluid.start[i] + fluid_fluid.count[i]):
-            j = fluid_fluid.index[n]
-            rij = disp(c.box, xi, f.position[j])
-            r2 = wp.dot(rij, rij)
-            if r2 >= c.support2:
-                continue
-            rhoj = f.density_eval[j]
-            vol_gw = (f.mass[j] / rhoj * c.grad_factor * kernel_grad_coef(wp.static(kind), wp.static(dim),
-                                                                          wp.sqrt(r2) * c.inv_h)) * rij
-            b -= wp.outer(vol_gw, rij)
-            s += (rhoj - rhoi) * vol_gw
+        if wp.static(grid_pairs):
+            xb = f.position_at_build[i]
+            for k in wp.hash_grid_query(fluid_fluid.grid, xb, fluid_fluid.reach):
+                j = fluid_fluid.source_id[k]
+                if j != i and pair_in_reach(fluid_fluid, xb, k):
+                    b, s = gradient_pair(c, f, j, xi, rhoi, b, s)
+        else:
+            for n in range(fluid_fluid.start[i], fluid_fluid.start[i] + fluid_fluid.count[i]):
+                b, s = gradient_pair(c, f, fluid_fluid.index[n], xi, rhoi, b, s)
         if wp.static(dim == 2):
             b[2, 2] = 1.0
         g = c.rho0 * c.inv_c2 * c.gravity
@@ -536,8 +563,37 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
             g = wp.inverse(b) * s
         f.density_gradient[i] = g
 
+    @wp.func
+    def fluid_rates_pair(c: FluidConstants, f: FluidArrays, i: int, j: int, xi: wp.vec3, vi: wp.vec3, rhoi: float,
+                         inv_rhoi: float, pi_term: float, s: RateSums) -> RateSums:
+        """Fluid neighbour j's terms of particle i's rates (continuity, momentum, δ-SPH diffusion, shifting sums)
+        added to ``s``; a candidate beyond the support adds nothing."""
+        rij = disp(c.box, xi, f.position[j])
+        r2 = wp.dot(rij, rij)
+        if r2 >= c.support2:
+            return s
+        mj = f.mass[j]
+        rhoj = f.density_eval[j]
+        vj = f.velocity_eval[j]
+        aj, gw, inv_r2e = fluid_pair(c, vi, rhoi, inv_rhoi, pi_term, rij, r2, vj, rhoj, f.pressure[j], mj)
+        out = RateSums()
+        out.acceleration = s.acceleration + aj
+        out.density_rate = s.density_rate + mj * wp.dot(vi - vj, gw)
+        out.diffusion = s.diffusion
+        if wp.static(terms.delta_sph):
+            drho_dyn = float(0.0)
+            if wp.static(terms.delta_gradient):
+                drho_dyn = (rhoj - rhoi) + 0.5 * wp.dot(f.density_gradient[i] + f.density_gradient[j], rij)
+            else:
+                drho_dyn = (rhoj - rhoi) + c.rho0 * wp.dot(c.gravity, rij) * c.inv_c2
+            out.diffusion = s.diffusion - 2.0 * drho_dyn * (mj / rhoj) * wp.dot(rij, gw) * inv_r2e
+        out.shifting = s.shifting
+        if wp.static(terms.shifting):
+            out.shifting = shifting_sums(c, s.shifting, mj / rhoj, rij, r2, gw, vj - vi, rhoj - rhoi)
+        return out
+
     @wp.kernel(module="unique")
-    def rates(first: int, c: FluidConstants, f: FluidArrays, fluid_fluid: NeighbourRows, fluid_wall: NeighbourRows,
+    def rates(first: int, c: FluidConstants, f: FluidArrays, fluid_fluid: FluidPairs, fluid_wall: NeighbourRows,
               rows: wp.array(dtype=wp.int32)):
         """dρ/dt and dv/dt of fluid particle i = rows[tid] (continuity 4-37, momentum 4-38; see the module
         docstring): one sweep over its fluid candidates, one over its wall candidates (wall j is particle nf + j).
@@ -558,30 +614,20 @@ def make_kernels(terms: FluidTerms) -> SimpleNamespace:
         rhoi = f.density_eval[i]
         inv_rhoi = 1.0 / rhoi
         pi_term = f.pressure[i] * inv_rhoi * inv_rhoi
-        dr = float(0.0)
-        diff = float(0.0)
-        a = wp.vec3(0.0, 0.0, 0.0)
-        sh = ShiftingSums()
-        for n in range(fluid_fluid.start[i], fluid_fluid.start[i] + fluid_fluid.count[i]):
-            j = fluid_fluid.index[n]
-            rij = disp(c.box, xi, f.position[j])
-            r2 = wp.dot(rij, rij)
-            if r2 >= c.support2:
-                continue
-            mj = f.mass[j]
-            rhoj = f.density_eval[j]
-            vj = f.velocity_eval[j]
-            aj, gw, inv_r2e = fluid_pair(c, vi, rhoi, inv_rhoi, pi_term, rij, r2, vj, rhoj, f.pressure[j], mj)
-            a += aj
-            dr += mj * wp.dot(vi - vj, gw)
-            if wp.static(terms.delta_sph):
-                if wp.static(terms.delta_gradient):
-                    drho_dyn = (rhoj - rhoi) + 0.5 * wp.dot(f.density_gradient[i] + f.density_gradient[j], rij)
-                else:
-                    drho_dyn = (rhoj - rhoi) + c.rho0 * wp.dot(c.gravity, rij) * c.inv_c2
-                diff -= 2.0 * drho_dyn * (mj / rhoj) * wp.dot(rij, gw) * inv_r2e
-            if wp.static(terms.shifting):
-                sh = shifting_sums(c, sh, mj / rhoj, rij, r2, gw, vj - vi, rhoj - rhoi)
+        sums = RateSums()
+        if wp.static(grid_pairs):
+            xb = f.position_at_build[i]
+            for k in wp.hash_grid_query(fluid_fluid.grid, xb, fluid_fluid.reach):
+                j = fluid_fluid.source_id[k]
+                if j != i and pair_in_reach(fluid_fluid, xb, k):
+                    sums = fluid_rates_pair(c, f, i, j, xi, vi, rhoi, inv_rhoi, pi_term, sums)
+        else:
+            for n in range(fluid_fluid.start[i], fluid_fluid.start[i] + fluid_fluid.count[i]):
+                sums = fluid_rates_pair(c, f, i, fluid_fluid.index[n], xi, vi, rhoi, inv_rhoi, pi_term, sums)
+        a = sums.acceleration
+        dr = sums.density_rate
+        diff = sums.diffusion
+        sh = sums.shifting
         if wp.static(terms.walls != "none"):
             pi_plus_term = wp.max(f.pressure[i], 0.0) * inv_rhoi * inv_rhoi  # walls push, never pull
             for n in range(fluid_wall.start[i], fluid_wall.start[i] + fluid_wall.count[i]):

@@ -35,12 +35,12 @@ from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_par
 from warpfree.smoothing import SmoothingKernel
 from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, DensityGradient,
                                                DynamicViscosity, EndTime, FixedStep, FrameField, Gravity, HFactor,
-                                               Kernel, OutputInterval, RestDensity, Riemann, Shifting, SoundSpeed,
-                                               Spacing, Tension, WallLayers, Walls, WallSafety)
+                                               Kernel, OutputInterval, Pairs, RestDensity, Riemann, Shifting,
+                                               SoundSpeed, Spacing, Tension, WallLayers, Walls, WallSafety)
 from warpfree.solvers.wcsph.scene_tools import (box_2d, box_walls_2d, front_position, hydrostatic_density,
                                                  require_wall_cover)
 from warpfree.run import OutputOptions
-from warpfree.solvers.wcsph import BoundaryModel, FluidField, FluidParams, WCSPHModel, WCSPHSolver
+from warpfree.solvers.wcsph import BoundaryModel, FluidField, FluidPairs, FluidParams, WCSPHModel, WCSPHSolver
 from warpfree.time_loop import TimeLoop
 from warpfree.validation.dam_break_2d import front_checks, front_errors
 
@@ -74,7 +74,7 @@ def build(a: Annotated[float, Param("m", "width a of the water column", "(0, inf
           wall_layers: WallLayers = 3, checkpoint_every: CheckpointEvery = 0, dt: FixedStep = None,
           frames: Frames = True, frame_field: FrameField = FluidField.SPEED, vtk: Vtk = True,
           sound_speed: SoundSpeed = 10.0, shifting: Shifting = 0.0, riemann: Riemann = 0.0,
-          tension: Tension = True) -> TimeLoop:
+          tension: Tension = True, fluid_pairs: Pairs = FluidPairs.ROWS) -> TimeLoop:
     """Build the dam break; lengths in units of a (tank_length, tank_height), SI otherwise."""
     params = dict(locals())
     if tank_height <= column_height:
@@ -89,7 +89,7 @@ def build(a: Annotated[float, Param("m", "width a of the water column", "(0, inf
         fp = FluidParams(dim=2, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
                          delta=delta, delta_gradient=delta_gradient, gravity=(0.0, -g, 0.0), boundary_model=boundary_model, cfl=cfl,
                          wall_artificial_viscosity=wall_artificial, lj_d=2.0 * g * height, shifting=shifting,
-                         riemann=riemann, tension=tension,
+                         riemann=riemann, tension=tension, fluid_pairs=fluid_pairs,
                          lj_r0=dx if boundary_model is BoundaryModel.LENNARD_JONES else wall_safety * dx,
                          container_lo=(0.0, 0.0, -1.0), container_hi=(length, top, 1.0))
         require_wall_cover(wall_layers, dx, fp.support, fp.boundary_model)

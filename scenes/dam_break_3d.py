@@ -36,11 +36,11 @@ from warpfree.parameters import CheckpointEvery, Frames, Param, Vtk, checked_par
 from warpfree.smoothing import SmoothingKernel
 from warpfree.solvers.wcsph.parameters import (ArtificialViscosity, Courant, DensityDiffusion, DensityGradient,
                                                DynamicViscosity, EndTime, FixedStep, FrameField, Gravity, HFactor,
-                                               Kernel, OutputInterval, RestDensity, Riemann, SoundSpeed, Spacing,
-                                               Tension, WallLayers, WallSafety)
+                                               Kernel, OutputInterval, Pairs, RestDensity, Riemann, SoundSpeed,
+                                               Spacing, Tension, WallLayers, WallSafety)
 from warpfree.solvers.wcsph.scene_tools import clear_of, hydrostatic_density, require_wall_cover
 from warpfree.run import OutputOptions
-from warpfree.solvers.wcsph import FluidField, FluidParams, WCSPHModel, WCSPHSolver
+from warpfree.solvers.wcsph import FluidField, FluidPairs, FluidParams, WCSPHModel, WCSPHSolver
 from warpfree.sensors import PressureSensor
 from warpfree.solvers.wcsph.sensors import WaterGauge
 from warpfree.time_loop import TimeLoop
@@ -78,7 +78,7 @@ def build(dx: Spacing = 0.05, t_end: EndTime = 1.0, output_interval: OutputInter
           frame_field: FrameField = FluidField.SPEED, vtk: Vtk = True,
           surface: Annotated[bool, Param("", "write the free surface as PLY meshes at every output")] = False,
           sound_speed: SoundSpeed = 10.0, riemann: Riemann = 0.0,
-          tension: Tension = True) -> TimeLoop:
+          tension: Tension = True, fluid_pairs: Pairs = FluidPairs.ROWS) -> TimeLoop:
     params = dict(locals())
     with reported_as(mesh="tank_mesh"):
         tank = load_mesh(tank_mesh)
@@ -100,7 +100,7 @@ def build(dx: Spacing = 0.05, t_end: EndTime = 1.0, output_interval: OutputInter
             obstacle_walls = surface_layers(obstacle, dx, wall_layers, "inside")
         c0 = sound_speed * np.sqrt(2.0 * g * column_height)
         fp = FluidParams(dim=3, dx=dx, h_factor=h_factor, kernel=kernel, rho0=rho0, c0=c0, mu=mu, alpha=alpha,
-                         riemann=riemann, tension=tension,
+                         riemann=riemann, tension=tension, fluid_pairs=fluid_pairs,
                          delta=delta, delta_gradient=delta_gradient, gravity=(0.0, 0.0, -g), cfl=cfl, lj_d=2.0 * g * column_height,
                          lj_r0=wall_safety * dx, container_lo=tuple(lo), container_hi=tuple(hi))
         require_wall_cover(wall_layers, dx, fp.support, fp.boundary_model)

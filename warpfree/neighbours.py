@@ -311,9 +311,9 @@ class NeighbourTable:
 
     Row i is ``index[start[i] : start[i] + count[i]]``, with room for ``room[i]`` = count + count/10 + 2 entries from
     the previous fill (between two rebuilds the skin lets a count change little): ``start`` is the exclusive prefix
-    sum of the rooms. A fill writes each row up to its room and counts every neighbour; if a row did not fit (one
-    device max and one read), the rows are laid out again from the true counts and filled again. The first fill
-    counts first. Memory follows the neighbours each row has: rows of one fixed capacity (the longest row's) held
+    sum of the rooms, all on the device. A fill writes each row up to its room (never past the index's end) and counts
+    every neighbour; if a row did not fit (one device max, the one value a fill reads), the rows are laid out again
+    from the true counts, the index grown to hold them, and filled again. New rows are counted first. Memory follows the neighbours each row has: rows of one fixed capacity (the longest row's) held
     4-26x the entries the wall rows of the 3D dam break use. The arrays are kept between fills and grow with
     :attr:`HEADROOM` when outgrown (``grows`` counts it).
     """
@@ -329,7 +329,6 @@ class NeighbourTable:
         self.rows = nk.NeighbourRows()
         self.room: wp.array | None = None
         self.n = -1
-        self.n_pairs = 0              # entries the rows' rooms take (the index's used part)
         self._rows_allocated = -1     # rows the arrays have room for (>= n)
         self._entries_allocated = 0   # entries the index has room for (>= n_pairs)
         self._counted = False         # the counts hold a fill's (of these rows)
@@ -352,6 +351,7 @@ class NeighbourTable:
             if self._rows_allocated >= 0:
                 self.grows += 1
             self._rows_allocated = rows
+            self._worst.reserve(rows)  # the overflow check's buffers with the rows (its first launch may be in a step)
             self._counted = False
             if self._entries_allocated == 0:  # a placeholder until the first fill has counted its rows
                 self.rows.index = wp.empty(1, dtype=wp.int32, device=dev)
@@ -368,33 +368,58 @@ class NeighbourTable:
             self._entries_allocated = max(total, 1)
 
     def _lay_out(self, n: int) -> None:
-        """Rooms from the counts, starts from the rooms, and an index that holds them (one read: the total)."""
-        L = self.launcher
-        L.launch(nk.table_rooms, n, [self.rows.count, self.room])
+        """Rooms from the counts and starts from the rooms, on the device (nothing read: a row the index cannot hold
+        is written no further than its end and reported as an overflow)."""
+        self.launcher.launch(nk.table_rooms, n, [self.rows.count, self.room])
         wp.utils.array_scan(self.room[:n], self.rows.start[:n], inclusive=False)
-        last = int(self.rows.start[n - 1:n].numpy()[0])
-        self.n_pairs = last + int(self.room[n - 1:n].numpy()[0])
-        self._allocate_entries(self.n_pairs)
+
+    def _entries_laid_out(self, n: int) -> int:
+        """Entries the rooms laid out take (two reads: the last row's start and room)."""
+        return int(self.rows.start[n - 1:n].numpy()[0]) + int(self.room[n - 1:n].numpy()[0])
+
+    @property
+    def n_pairs(self) -> int:
+        """Entries the rows' rooms take, the index's used part (read on request: diagnostics, not steps)."""
+        n = self.n
+        if n <= 0:
+            return 0
+        # after a fill ``room`` holds each row's excess (count - room, <= 0): the last row's room is count - excess
+        return (int(self.rows.start[n - 1:n].numpy()[0]) + int(self.rows.count[n - 1:n].numpy()[0])
+                - int(self.room[n - 1:n].numpy()[0]))
+
+    def _check_fit(self, n: int) -> None:
+        """``room`` := each row's excess, on the device: count - room, or at least 1 where the row runs past the
+        index's end (``table_overflow``)."""
+        rows = self.rows
+        self.launcher.launch(nk.table_overflow, n, [rows.start, rows.count, self.room, rows.index.shape[0]])
 
     def fill(self, grid: NeighbourGrid, query_points: wp.array, exclude_self: bool = False) -> None:
-        """Rows for every query point: the grid's sources within ``grid.radius``."""
+        """Rows for every query point: the grid's sources within ``grid.radius``. A refill of the same rows reads one
+        value (the worst excess), and two more when a row outgrew its room (where the rows laid out again end); new
+        rows are counted first and read where their rows end."""
         n = query_points.shape[0]
         self._allocate_rows(n)
         if n == 0:
-            self.n_pairs = 0
             return
         rows = self.rows
-        if not self._counted:  # no counts of these rows yet: count first
+        if not self._counted:  # no counts of these rows yet: count, lay out from the counts, fill (every row fits)
             grid.fill(query_points, exclude_self, 0, rows.start, rows.count, rows.index)
+            self._lay_out(n)
+            self._allocate_entries(self._entries_laid_out(n))
+            grid.fill(query_points, exclude_self, 0, rows.start, rows.count, rows.index, room=self.room)
+            self._counted = True
+            self._check_fit(n)
+            return
         self._lay_out(n)
         grid.fill(query_points, exclude_self, 0, rows.start, rows.count, rows.index, room=self.room)
-        self._counted = True
-        self.launcher.launch(nk.table_overflow, n, [rows.count, self.room])  # the rooms, now each row's excess
+        self._check_fit(n)
         self._worst.launch(self.room, n)
-        if int(self._worst.value()) > 0:  # a row outgrew its room: lay out from the true counts, fill again
+        if int(self._worst.value()) > 0:  # a row outgrew its room or the index: lay out from the true counts, again
             self.refills += 1
             self._lay_out(n)
+            self._allocate_entries(self._entries_laid_out(n))
             grid.fill(query_points, exclude_self, 0, rows.start, rows.count, rows.index, room=self.room)
+            self._check_fit(n)
 
     def counts(self) -> np.ndarray:
         """Neighbours per row (host copy)."""
@@ -404,6 +429,39 @@ class NeighbourTable:
         """Source indices of row i (host copy, for tests and diagnostics)."""
         s, c = int(self.rows.start.numpy()[i]), int(self.rows.count.numpy()[i])
         return self.rows.index.numpy()[s: s + c]
+
+
+class GridPairs:
+    """A moving set's pairs with itself read from its grid at every sweep, no rows stored: kernels take
+    :class:`~warpfree.kernels.neighbours.PairGrid` and query the grid of the last build at each particle's position
+    then (``kernels/neighbours.py``: ``pair_in_reach``), visiting the candidates a table's row would hold, in the same
+    order, so the sums are bitwise a table's. Memory: none beyond the grid (a table of the 3D dam break's fluid pairs
+    holds ~100 four-byte entries a particle); work: each sweep tests the grid's candidates (the cells' points, about
+    6.4x those within reach in 3D, 2.9x in 2D) where a table's rows hold only those within reach.
+
+    ``moving``: the :class:`MovingNeighbours` whose moving set it pairs (its grid and its positions at build)."""
+
+    def __init__(self, moving: "MovingNeighbours"):
+        self.moving = moving
+        self._struct = nk.PairGrid()
+        self._count: wp.array | None = None
+
+    def struct(self) -> nk.PairGrid:
+        """The pairs as kernels take them, from the grid of the last build (its arrays may be new at each build)."""
+        grid, s = self.moving.grids[MovingNeighbours.MOVING], self._struct
+        s.grid, s.points, s.source_id, s.reach = grid.id, grid.points, grid.source_id, grid.radius
+        return s
+
+    def counts(self) -> np.ndarray:
+        """Candidates per particle at the last build (a count-only pass over the grid; for load balance, not steps)."""
+        grid, at = self.moving.grids[MovingNeighbours.MOVING], self.moving.position_at_build
+        n = at.shape[0]
+        if self._count is None or self._count.shape[0] < n:
+            self._count = wp.zeros(max(n, 1), dtype=wp.int32, device=self.moving.launcher.device)
+        count = self._count[:n]
+        if n:
+            grid.fill(at, True, 0, count, count, count)  # capacity 0: counts only (start and index unread)
+        return count.numpy()[:n].copy()
 
 
 class MovingNeighbours:

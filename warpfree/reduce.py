@@ -57,18 +57,23 @@ class Reduction:
             counts.append(-(-counts[-1] // self.block))
         return counts
 
+    def reserve(self, n: int) -> None:
+        """Buffers for up to ``n`` items, kept (a recorded graph reads the same ones every replay); a count that grows
+        (particles injected) grows them by 1.5x at least, not at every step. :meth:`launch` reserves what it needs;
+        an owner that knows its count before its first launch reserves it then, outside a step."""
+        if n > self._levels_for:
+            room = n if self._levels_for < 0 else max(n, self._levels_for * 3 // 2)
+            self._levels = [wp.zeros(b, dtype=self.acc_dtype, device=self.launcher.device)
+                            for b in self._passes(room)[:-1]]
+            self._levels_for = room
+
     def launch(self, values: wp.array, n: int | None = None) -> wp.array:
         """Reduce the first ``n`` items of ``values`` (all by default) into :attr:`result`."""
         if values.dtype != self.dtype:
             raise ParameterError("values", f"this reduction takes {self.dtype.__name__}, got {values.dtype.__name__}")
         n = values.shape[0] if n is None else int(n)
         passes = self._passes(n)
-        if n > self._levels_for:  # buffers for up to n items, kept (a recorded graph reads the same ones every replay)
-            # a count that grows (particles injected) grows them by 1.5x at least, not at every step
-            room = n if self._levels_for < 0 else max(n, self._levels_for * 3 // 2)
-            self._levels = [wp.zeros(b, dtype=self.acc_dtype, device=self.launcher.device)
-                            for b in self._passes(room)[:-1]]
-            self._levels_for = room
+        self.reserve(n)
         outputs = self._levels[: len(passes) - 1] + [self.result]
         L, source, items = self.launcher, values, n
         for k, (blocks, out) in enumerate(zip(passes, outputs)):

@@ -16,14 +16,17 @@ report says what was left out):
    its threads and on the GPU, measured side by side in one run (``bench/common.py``: warm-up first, median of timed
    blocks).
 4. **Scale** (25 %): the sizes a CPU cannot reach in a test, on the GPU (:data:`SCALE`): the 3D dam break at about
-   10^6 (on the CPU with all its threads too, for the ratio) and 10^7 particles, SPEM and PIC at about 10^7 particles,
+   10^6 (on the CPU with all its threads too, for the ratio; and with its fluid pairs from the grid, no table) and
+   10^7 particles, SPEM and PIC at about 10^7 particles,
    the EFG beam at about 10^6 Gauss points: work items per second, the device memory per item
-   (``warpfree.memory``) and the fraction of the bandwidth roofline (the case's compulsory bytes a step per item,
-   ``roofline.py`` at its small size, times the items per second, over the GPU's bandwidth) and, for PIC, the field
+   (``warpfree.memory``) and the fraction of the roofline (the case's compulsory bytes and counted operations a step
+   per item, ``roofline.py`` at its small size: the larger of the bytes over the GPU's bandwidth and the operations
+   over its arithmetic peak, times the items per second) with the bound it meets and, for PIC, the field
    solve's share of the step, cut by the budget. ``--scale-dry-run`` runs the same code at small sizes (a
    CPU's check of the part).
 5. **Roofline** (5 %): per kernel of a step of each family's benchmark scene (``roofline.py``), the compulsory
-   bytes per work item, the kernel's measured time on the GPU and its fraction of the bandwidth floor.
+   bytes and operations per work item, the kernel's measured time on the GPU and its fraction of the roofline's
+   floor (the larger of the bandwidth's and the arithmetic's).
 6. **Choices** (5 %): the forms a GPU could run, timed side by side on it: the quadratic MLS shape functions as one
    kernel (166 registers) or four within 128 (``MLSModel.shape_at(staged=)``; a GPU's default is staged), at the
    beam's Gauss points (192 x 48 cells, d_max 2.5, 3 x 3 points).
@@ -58,15 +61,17 @@ REFERENCE = common.RESULTS / "default_figures.json"
 #: the parts' shares of the budget
 SHARES = {"tests": 0.15, "scenes": 0.30, "throughput": 0.20, "scale": 0.25, "roofline": 0.05, "choices": 0.05}
 #: the sizes a CPU cannot reach in a test: (family, scene, parameter, value, small value for ``--scale-dry-run``, steps
-#: timed a block, on the CPU too). Sizes from the counts at smaller ones (``bench/results/memory.md``): the 3D dam
+#: timed a block, on the CPU too, other settings of the scene: the 3D dam break's fluid pairs from the grid, no table,
+#: beside the default). Sizes from the counts at smaller ones (``bench/results/memory.md``): the 3D dam
 #: break has 26 349 particles at dx = 0.05 m (N ~ dx^-3: 1.0e6 at 0.015, 1.0e7 at 0.007); the cavity 60 484 at 80
 #: cells per radius (N ~ c^2: 1.0e7 at 1 030); the thermal plasma 262 144 in a 64 x 128 box (N ~ area: 1.0e7 in
 #: 400 x 800); the beam 4 608 Gauss points at 96 cells (N ~ c^2: 1.0e6 at 1 400)
-SCALE = [("wcsph", "dam_break_3d", "dx", 0.015, 0.06, 20, True),
-         ("wcsph", "dam_break_3d", "dx", 0.007, 0.05, 10, False),
-         ("spem", "em_cavity_2d", "cells_per_radius", 1030, 20, 20, False),
-         ("pic", "pic_thermal_plasma", "box", (400.0, 800.0), (16.0, 32.0), 10, False),
-         ("efg", "efg_timoshenko", "cells_x", 1400, 24, 1, False)]
+SCALE = [("wcsph", "dam_break_3d", "dx", 0.015, 0.06, 20, True, {}),
+         ("wcsph", "dam_break_3d", "dx", 0.015, 0.06, 20, False, {"fluid_pairs": "grid"}),
+         ("wcsph", "dam_break_3d", "dx", 0.007, 0.05, 10, False, {}),
+         ("spem", "em_cavity_2d", "cells_per_radius", 1030, 20, 20, False, {}),
+         ("pic", "pic_thermal_plasma", "box", (400.0, 800.0), (16.0, 32.0), 10, False, {}),
+         ("efg", "efg_timoshenko", "cells_x", 1400, 24, 1, False, {})]
 #: family -> (scene, the parameter that sets the size, three values, steps timed per block): what the scene of each
 #: family declares in ``BENCHMARK`` (``common.benchmarks``)
 SIZES = {family: (b["scene"], b["parameter"], b["values"], b["steps"]) for family, b in common.benchmarks().items()}
@@ -151,14 +156,15 @@ def run_scenes(device: str, budget: float, reference: dict | None, scenes: list[
 
 
 def measure(family: str, value, device: str, threads: int | None, scene: str | None = None,
-            param: str | None = None, steps: int | None = None) -> dict:
+            param: str | None = None, steps: int | None = None, settings: dict | None = None) -> dict:
     """Work items per second of one size of a family on ``device`` (in this process; the family's benchmark scene
-    unless ``scene``, ``param`` and ``steps`` are given), and the device memory per item."""
+    unless ``scene``, ``param`` and ``steps`` are given; ``settings``: the scene's other parameters), and the device
+    memory per item."""
     from warpfree.memory import solver_memory
 
     if scene is None:
         scene, param, _, steps = SIZES[family]
-    run = common.build_scene(scene, threads or common.cpu_count(), device=device, **{param: value})
+    run = common.build_scene(scene, threads or common.cpu_count(), device=device, **{param: value, **(settings or {})})
     solver = run.solver
     if hasattr(solver, "solve"):  # a static solve: the solve timed, work items = its Gauss points
         timing = common.time_steps(solver.solve, 1, warmup=1, repeats=3)
@@ -197,9 +203,10 @@ def run_scale(device: str, budget: float, dry_run: bool = False) -> list[dict]:
     """:data:`SCALE` on ``device`` (and the CPU where a row says so), in order, each only if the budget left holds
     twice what the last took (the sizes grow)."""
     rows, start, last = [], time.perf_counter(), 0.0
-    for family, scene, param, value, small, steps, on_cpu in SCALE:
+    for family, scene, param, value, small, steps, on_cpu, settings in SCALE:
         size = small if dry_run else value
-        row = {"family": family, "scene": scene, "size": f"{param}={size}"}
+        row = {"family": family, "scene": scene,
+               "size": " ".join([f"{param}={size}"] + [f"{k}={v}" for k, v in settings.items()])}
         left = budget - (time.perf_counter() - start)
         if left < 2.0 * last:
             row["status"] = "not run (budget)"
@@ -208,14 +215,16 @@ def run_scale(device: str, budget: float, dry_run: bool = False) -> list[dict]:
         began = time.perf_counter()
         for where in ((device, "cpu") if on_cpu and device != "cpu" else (device,)):
             try:
-                row[where] = measure(family, size, where, None, scene, param, steps)
+                row[where] = measure(family, size, where, None, scene, param, steps, settings)
             except Exception as exc:  # a size a device cannot hold: said, not fatal
                 row[where] = {"error": f"{type(exc).__name__}: {exc}"[:300]}
         try:  # the case's own compulsory bytes per work item a step, from its small size (per item, size-free)
             import roofline
 
-            row["traffic_bytes_per_item"] = sum(r["bytes_per_work_item"]
-                                                for r in roofline.one(family, scene, param, small, device))
+            kernels = roofline.one(family, scene, param, small, device, settings)
+            for key, name in (("traffic_bytes_per_item", "bytes_per_work_item"),
+                              ("ops_f32_per_item", "ops_f32_per_work_item"), ("ops_f64_per_item", "ops_f64_per_work_item")):
+                row[key] = sum(r[name] for r in kernels)
         except Exception as exc:  # said, not fatal
             row["traffic_error"] = f"{type(exc).__name__}: {exc}"[:300]
         last = time.perf_counter() - began
@@ -291,37 +300,39 @@ def markdown(result: dict) -> str:
                   common.md_table(["family", "size", "work items", "unit", "CPU", "GPU", "GPU / CPU"], rows), ""]
     import roofline
 
-    bandwidth = roofline.BANDWIDTH["H200" if "H200" in str(result.get("gpu")) else "H100 SXM"]
+    card = "H200" if "H200" in str(result.get("gpu")) else "H100 SXM"
     rows = []
     for r in result.get("scale", []):
         gpu, cpu = r.get(device, {}), r.get("cpu", {}) if device != "cpu" else {}
         ratio = (gpu["work_per_s"] / cpu["work_per_s"]) if "work_per_s" in gpu and "work_per_s" in cpu else None
-        roof = (gpu["work_per_s"] * r["traffic_bytes_per_item"] / bandwidth
-                if "work_per_s" in gpu and "traffic_bytes_per_item" in r and device != "cpu" else None)
+        floor = (roofline.floors(r["traffic_bytes_per_item"], r.get("ops_f32_per_item", 0.0),
+                                 r.get("ops_f64_per_item", 0.0), card) if "traffic_bytes_per_item" in r else None)
+        roof = (gpu["work_per_s"] * floor["floor_s"] if "work_per_s" in gpu and floor and device != "cpu" else None)
         rows.append([r["family"], f"{r['scene']} {r['size']}", gpu.get("work_items", r.get("status", "–")),
                      gpu.get("unit", "–"), common.fmt_rate(gpu.get("work_per_s")),
                      "–" if gpu.get("bytes_per_item") is None else f"{gpu['bytes_per_item']:.0f}",
                      common.fmt_rate(cpu.get("work_per_s")), "–" if ratio is None else f"{ratio:.1f}",
-                     "–" if roof is None else f"{roof:.2f}",
+                     "–" if roof is None else f"{roof:.2f}", "–" if floor is None else floor["bound"],
                      "–" if "solve" not in gpu.get("phase_share", {}) else f"{gpu['phase_share']['solve']:.2f}"])
     if rows:
         lines += ["## At scale", "",
                   common.md_table(["family", "case", "work items", "unit", "device", "bytes / item", "CPU (all threads)",
-                                   "device / CPU", "fraction of the bandwidth roofline",
+                                   "device / CPU", "fraction of the roofline", "bound",
                                    "field solve's share of the step"], rows), ""]
     rows = []
     for r in result.get("roofline", []):
         if "kernel" not in r:
-            rows.append([r["family"], r.get("status", r.get("error", "")), "–", "–", "–", "–"])
+            rows.append([r["family"], r.get("status", r.get("error", "")), "–", "–", "–", "–", "–", "–"])
             continue
-        floor = r["floor_s_H200"] if "H200" in str(result.get("gpu")) else r["floor_s_H100 SXM"]
+        floor, bound = r[f"floor_s_{card}"], r[f"bound_{card}"]
         s = r.get("s")
-        rows.append([r["family"], r["kernel"], f"{r['bytes_per_work_item']:.1f}", "–" if s is None else f"{1e6 * s:.1f}",
-                     f"{1e6 * floor:.1f}", "–" if not s else f"{floor / s:.2f}"])
+        rows.append([r["family"], r["kernel"], f"{r['bytes_per_work_item']:.1f}",
+                     f"{r['ops_f32_per_work_item'] + r['ops_f64_per_work_item']:.0f}", bound,
+                     "–" if s is None else f"{1e6 * s:.1f}", f"{1e6 * floor:.1f}", "–" if not s else f"{floor / s:.2f}"])
     if rows:
-        lines += ["## Roofline: each kernel's time against the least its bytes need", "",
-                  common.md_table(["family", "kernel", "bytes per work item", "measured (µs)", "floor (µs)",
-                                   "fraction of the roofline"], rows), ""]
+        lines += ["## Roofline: each kernel's time against the least its bytes and operations need", "",
+                  common.md_table(["family", "kernel", "bytes per work item", "operations per work item", "bound",
+                                   "measured (µs)", "floor (µs)", "fraction of the roofline"], rows), ""]
     rows = []
     for r in result.get("choices", []):
         single, staged = r.get("single", []), r.get("staged", [])

@@ -7,12 +7,14 @@ What it measures
     the compulsory traffic when every array is read or written once and every gather hits the cache: the fewest bytes
     a GPU must move, so bytes per item over a GPU's bandwidth is the least time the kernel can take (H100 SXM
     3.35 TB/s, H200 4.8 TB/s). A kernel given whole arrays it touches only in part (a row of a table) is counted
-    whole: the floor is an upper bound on that kernel's compulsory bytes. Operations are not counted. On a GPU
+    whole: the floor is an upper bound on that kernel's compulsory bytes. Operations per item are counted from the C++
+    Warp generates for the kernel (``operations.py``: loops at their measured trips); the arithmetic floor is the
+    operations over the GPU's FP32 and FP64 peaks, and the kernel's floor the larger of the two. On a GPU
     (``--device cuda``) each kernel's time over the step is measured too (synchronised launches, median of 5 steps)
     and its fraction of the roofline given.
 
 Usage
-    python bench/core/roofline.py                 # the CPU: bytes per item and the floors, about a minute
+    python bench/core/roofline.py                 # the CPU: bytes and operations per item, the floors, about a minute
     python bench/core/roofline.py --device cuda   # on a GPU: with each kernel's time and its fraction
 Writes bench/results/roofline.{json,md} (``--device cuda``: roofline_gpu.{json,md}).
 """
@@ -28,12 +30,24 @@ from pathlib import Path
 _HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(_HERE.parent), str(_HERE)]
 import common  # noqa: E402
+import operations  # noqa: E402
 
 #: The runs bench/run_all.py makes of this script, in order (argument lists; [] = no run).
 RUN_ALL = [[]]
 
 #: GPU memory bandwidths (bytes/s) the floors are given for
 BANDWIDTH = {"H100 SXM": 3.35e12, "H200": 4.8e12}
+#: GPU arithmetic peaks (operations/s, no tensor cores; NVIDIA's H100 SXM and H200 data sheets: FP32 67, FP64 34 TFLOPS)
+PEAK = {"H100 SXM": {"f32": 67e12, "f64": 34e12}, "H200": {"f32": 67e12, "f64": 34e12}}
+
+
+def floors(bytes_: float, f32: float, f64: float, gpu: str) -> dict:
+    """The least time ``bytes_`` of traffic and ``f32`` + ``f64`` operations take on ``gpu`` (s): the bandwidth's,
+    the arithmetic's (float32 and float64 units in turn) and the roofline's, the larger of the two, with its bound."""
+    memory = bytes_ / BANDWIDTH[gpu]
+    arithmetic = f32 / PEAK[gpu]["f32"] + f64 / PEAK[gpu]["f64"]
+    return {"memory_s": memory, "arithmetic_s": arithmetic, "floor_s": max(memory, arithmetic),
+            "bound": "arithmetic" if arithmetic > memory else "memory"}
 
 
 def _array_bytes(value, seen: set) -> int:
@@ -55,7 +69,8 @@ class Recorder:
 
     def __init__(self, launcher, timed: bool):
         self.launcher, self.timed = launcher, timed
-        self.rows = defaultdict(lambda: {"launches": 0, "items": 0, "bytes": 0, "s": 0.0})
+        self.rows = defaultdict(lambda: {"launches": 0, "items": 0, "bytes": 0, "s": 0.0, "f32": 0.0, "f64": 0.0,
+                                         "special": 0.0, "unresolved": set()})
         self.on = False
         self._launch = launcher.launch
 
@@ -73,15 +88,21 @@ class Recorder:
             if self.timed:
                 launcher.synchronize()
                 row["s"] += time.perf_counter() - t0
+            ops = operations.kernel_operations(kernel, inputs, int(n))  # the module is loaded now: its C++ is cached
+            for k in ("f32", "f64", "special"):
+                row[k] += ops[k] * int(n)
+            row["unresolved"].update(ops["unresolved"])
             return out
 
         launcher.launch = launch
 
 
-def one(family: str, scene: str, param: str, value, device: str) -> list[dict]:
+def one(family: str, scene: str, param: str, value, device: str, settings: dict | None = None) -> list[dict]:
+    """Per kernel of one step of ``scene`` at ``param`` = ``value`` (``settings``: its other parameters): launches,
+    items, bytes and operations per work item, the floors."""
     import warpfree.device
 
-    run = common.build_scene(scene, common.cpu_count(), device=device, **{param: value})
+    run = common.build_scene(scene, common.cpu_count(), device=device, **{param: value, **(settings or {})})
     solver = run.solver
     recorder = Recorder(warpfree.device.current_launcher(), timed=device != "cpu")
     static = hasattr(solver, "solve")
@@ -99,9 +120,13 @@ def one(family: str, scene: str, param: str, value, device: str) -> list[dict]:
     for name, r in sorted(recorder.rows.items(), key=lambda kv: -kv[1]["bytes"]):
         row = {"family": family, "case": f"{scene} {param}={value}", "work_items": items, "kernel": name,
                "launches": r["launches"] / steps, "items": r["items"] / steps, "bytes": r["bytes"] / steps,
-               "bytes_per_work_item": r["bytes"] / steps / items}
-        for gpu, bw in BANDWIDTH.items():
-            row[f"floor_s_{gpu}"] = row["bytes"] / bw
+               "bytes_per_work_item": r["bytes"] / steps / items,
+               "ops_f32_per_work_item": r["f32"] / steps / items, "ops_f64_per_work_item": r["f64"] / steps / items,
+               "special_per_work_item": r["special"] / steps / items, "loops_unresolved": sorted(r["unresolved"])}
+        for gpu in BANDWIDTH:
+            f = floors(row["bytes"], r["f32"] / steps, r["f64"] / steps, gpu)
+            row[f"floor_s_{gpu}"], row[f"bound_{gpu}"] = f["floor_s"], f["bound"]
+            row[f"memory_floor_s_{gpu}"], row[f"arithmetic_floor_s_{gpu}"] = f["memory_s"], f["arithmetic_s"]
         if device != "cpu":
             row["s"] = r["s"] / steps
             row["achieved_bytes_per_s"] = row["bytes"] / row["s"] if row["s"] > 0 else None
@@ -113,20 +138,36 @@ def markdown(result: dict) -> str:
     gpu = result["device"] != "cpu"
     rows = []
     for r in result["rows"]:
+        ops = r["ops_f32_per_work_item"] + r["ops_f64_per_work_item"]
         line = [r["family"], r["case"], r["kernel"], f"{r['launches']:.0f}", f"{r['bytes_per_work_item']:.1f}",
-                f"{1e6 * r['floor_s_H100 SXM']:.1f}", f"{1e6 * r['floor_s_H200']:.1f}"]
+                f"{ops:.0f}" + ("*" if r["loops_unresolved"] else ""), f"{r['ops_f64_per_work_item']:.0f}",
+                f"{r['special_per_work_item']:.0f}",
+                "–" if not r["bytes_per_work_item"] else f"{ops / r['bytes_per_work_item']:.2f}",
+                r["bound_H100 SXM"], f"{1e6 * r['floor_s_H100 SXM']:.1f}", f"{1e6 * r['floor_s_H200']:.1f}"]
         if gpu:
             line += [f"{1e6 * r['s']:.1f}", "–" if not r.get("achieved_bytes_per_s") else
                      f"{r['achieved_bytes_per_s'] / 1e9:.0f}"]
         rows.append(line)
-    head = ["family", "case", "kernel", "launches a step", "bytes per work item", "floor on an H100 (µs)",
-            "floor on an H200 (µs)"] + (["measured (µs)", "achieved GB/s"] if gpu else [])
-    total = defaultdict(float)
+    head = ["family", "case", "kernel", "launches a step", "bytes per work item", "operations per work item",
+            "of them float64", "special functions", "operations per byte", "bound on an H100",
+            "floor on an H100 (µs)", "floor on an H200 (µs)"] + (["measured (µs)", "achieved GB/s"] if gpu else [])
+    total = defaultdict(lambda: [0.0, 0.0, 0.0, 0.0, 0.0])
     for r in result["rows"]:
-        total[(r["family"], r["case"])] += r["bytes_per_work_item"]
-    lines = ["# Compulsory memory traffic per step, by kernel (the floor of a bandwidth roofline)", "",
+        t = total[(r["family"], r["case"])]
+        t[0] += r["bytes_per_work_item"]
+        t[1] += r["ops_f32_per_work_item"] + r["ops_f64_per_work_item"]
+        t[2] += r["ops_f64_per_work_item"]
+        t[3] += r["memory_floor_s_H100 SXM"] / r["work_items"]
+        t[4] += r["arithmetic_floor_s_H100 SXM"] / r["work_items"]
+    lines = ["# Memory traffic and arithmetic per step, by kernel (the floors of a roofline)", "",
+             "Bytes: every array a launch is given, once (compulsory traffic). Operations: counted from the C++ Warp "
+             "generates (`operations.py`); * marks a kernel with a loop whose trips could not be read (counted once). "
+             "The floor is the larger of the bytes over the bandwidth (H100 SXM 3.35 TB/s, H200 4.8 TB/s) and the "
+             "operations over the arithmetic peak (FP32 67, FP64 34 TFLOPS, both cards).", "",
              common.md_table(head, rows), "", "Per work item, all kernels of a step (a static case: of a solve):"]
-    lines += [f"- {f}, {c}: {b:.0f} bytes" for (f, c), b in total.items()]
+    lines += [f"- {f}, {c}: {b:.0f} bytes, {o:.0f} operations ({o64:.0f} float64); on an H100 the bytes need "
+              f"{1e9 * m:.3f} ns, the operations {1e9 * a:.3f} ns"
+              for (f, c), (b, o, o64, m, a) in total.items()]
     return "\n".join(lines) + "\n"
 
 

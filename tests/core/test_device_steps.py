@@ -53,20 +53,30 @@ def _run(solver, steps: int) -> int:
     return (moving.builds if moving is not None else 0) - builds
 
 
+def _refills(solver) -> int:
+    """Rows laid out again (a row outgrew its room) over the solver's neighbour tables so far."""
+    moving = getattr(solver, "moving_neighbours", None)
+    return 0 if moving is None else sum(t[0].refills for t in moving.tables.values())
+
+
 @pytest.mark.cuda
-@pytest.mark.parametrize("make", [_column, _spem], ids=["wcsph", "spem"])
-def test_a_step_reads_one_report_and_writes_nothing(make, device_name):
+@pytest.mark.parametrize("make,steps,rebuild", [(_column, 40, False), (lambda: _column(skin=0.0), 12, True),
+                                                (_spem, 40, False)], ids=["wcsph", "wcsph-rebuild-every-step", "spem"])
+def test_a_step_reads_one_report_and_writes_nothing(make, steps, rebuild, device_name):
     """Per step: one read (the clock with the step report), no write. A WCSPH step that rebuilds its neighbour tables
-    also reads each table's longest row (three tables: a table grows when a row overflows)."""
+    also reads each table's worst overflow (three tables), and a table whose row outgrew its room reads where its
+    rows end (two values) before it fills them again."""
     device.use(device_name, 2)
     solver = make()
     _start(solver)
     solver.clock.report()
-    steps = 40
+    refills = _refills(solver)
     with host_traffic() as traffic:
         rebuilds = _run(solver, steps)
+    refills = _refills(solver) - refills
+    assert (rebuilds == steps) if rebuild else (rebuilds < steps)
     assert traffic.writes == 0, traffic.where
-    assert traffic.reads == steps + 3 * rebuilds, (rebuilds, traffic.where)
+    assert traffic.reads == steps + 3 * rebuilds + 2 * refills, (rebuilds, refills, traffic.where)
 
 
 @pytest.mark.parametrize("make,steps", [(_column, 40), (lambda: _column(skin=0.0), 6), (_spem, 40)],

@@ -5,8 +5,8 @@
 
 from .bodies import PrescribedMotion, RigidBody
 from .openings import Opening
-from .model import BoundaryModel, FluidParams, WCSPHModel
+from .model import BoundaryModel, FluidPairs, FluidParams, WCSPHModel
 from .solver import FluidField, WCSPHSolver, WCSPHState
 
-__all__ = ["BoundaryModel", "FluidField", "FluidParams", "Opening", "PrescribedMotion", "RigidBody", "WCSPHModel", "WCSPHSolver",
+__all__ = ["BoundaryModel", "FluidField", "FluidPairs", "FluidParams", "Opening", "PrescribedMotion", "RigidBody", "WCSPHModel", "WCSPHSolver",
            "WCSPHState"]

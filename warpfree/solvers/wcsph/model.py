@@ -34,7 +34,7 @@ from .bodies import Bodies
 from .openings import Openings
 from .solids import Solids
 
-__all__ = ["FluidParams", "WCSPHModel", "BoundaryModel", "lattice_second_moment"]
+__all__ = ["FluidParams", "WCSPHModel", "BoundaryModel", "FluidPairs", "lattice_second_moment"]
 
 
 class BoundaryModel(Choice):
@@ -71,6 +71,15 @@ def lattice_second_moment(kernel: SmoothingKernel, dim: int, h_factor: float, ep
     return float(-np.sum(r * dwdr * r * r / (r * r + eps * h * h)) / dim)
 
 
+class FluidPairs(Choice):
+    """Where the rates kernels find a fluid particle's fluid neighbours."""
+
+    ROWS = "rows", ("a neighbour table's rows, kept between rebuilds (the candidates within support + skin, about "
+                    "100 four-byte entries a particle in 3D)")
+    GRID = "grid", ("the neighbour grid of the last rebuild, queried at every sweep (no table: about 200 bytes a "
+                    "particle less in 3D; more candidates tested a step)")
+
+
 @dataclass
 class FluidParams:
     """Model parameters of a WCSPH fluid (SI units)."""
@@ -105,12 +114,14 @@ class FluidParams:
     container_lo: tuple = (-1e30, -1e30, -1e30)   # fluid must stay inside this box (m)
     container_hi: tuple = (1e30, 1e30, 1e30)
     periodic: tuple = (False, False, False)       # periodic axes; their period is the container box
+    fluid_pairs: FluidPairs = FluidPairs.ROWS  # the fluid pairs from a table's rows or the grid's (kernels/wcsph.py)
 
     def __post_init__(self):
         if self.h_factor is None:
             self.h_factor = DEFAULT_H_FACTOR.get(self.dim, 1.3)
         self.kernel = SmoothingKernel.of("kernel", self.kernel)
         self.boundary_model = BoundaryModel.of("boundary_model", self.boundary_model)
+        self.fluid_pairs = FluidPairs.of("fluid_pairs", self.fluid_pairs)
 
     @property
     def h(self) -> float:
@@ -270,7 +281,8 @@ class WCSPHModel:
             wall_safety=params.boundary_model is BoundaryModel.DYNAMIC and params.lj_r0 > 0.0,
             no_slip=bool(params.no_slip), wall_artificial=bool(params.wall_artificial_viscosity),
             riemann=params.riemann > 0.0, moving_walls=self.bodies is not None,
-            shifting=params.shifting > 0.0, open_boundaries=self.openings is not None, periodic=self.space.periodic)
+            shifting=params.shifting > 0.0, open_boundaries=self.openings is not None, periodic=self.space.periodic,
+            fluid_pairs=params.fluid_pairs.value)
         self.constants = self._constants()
         body_surfaces = self.bodies.surfaces() if self.bodies is not None else []
         self.solids = (Solids(self.launcher, params.dim, containers, obstacles, body_surfaces)

@@ -9,7 +9,7 @@ from typing import Annotated
 from warpfree.parameters import Param
 from warpfree.smoothing import SmoothingKernel
 
-from .model import BoundaryModel
+from .model import BoundaryModel, FluidPairs
 from .solver import FluidField
 
 __all__ = ["Spacing", "EndTime", "OutputInterval", "FixedStep", "HFactor", "Kernel", "ArtificialViscosity",
@@ -46,3 +46,5 @@ Riemann = Annotated[float, Param("", "limiter η of the pair pressure from a low
                                       "Adams 2017; 0: off, Monaghan's pair pressure)", "[0, inf)")]
 Tension = Annotated[bool, Param("", "the equation of state gives negative pressures (false: p >= 0, a fluid without "
                                     "tension)")]
+Pairs = Annotated[FluidPairs, Param("", "where the rates find a particle's fluid neighbours: a table's rows (faster on a "
+                                        "CPU) or the neighbour grid (no table: about 200 bytes a particle less in 3D)")]

@@ -24,7 +24,7 @@ from warpfree.parallel.moving import points3
 from warpfree.errors import ParameterError, RunError, require_memory, require_positive
 from warpfree.kernels import wcsph as K
 from warpfree.parameters import Choice
-from warpfree.neighbours import MovingNeighbours, NeighbourGrid, NeighbourList, empty_rows
+from warpfree.neighbours import GridPairs, MovingNeighbours, NeighbourGrid, NeighbourList, empty_rows
 from warpfree.particles import ParticleSet, to_vec3
 from warpfree.progress import announced, group_digits
 from warpfree.graph import StepGraph
@@ -289,8 +289,11 @@ class WCSPHSolver(TimeDependentSolver):
             self.launcher, model.space, self.fluid.position, params.support, model.skin,
             static_sets={"walls": self.walls} if model.nb else None, position_at_build=S.position_at_build,
             sized_for=self._grid_sizes, static_at_build=self._walls_at_build())
-        self.fluid_fluid = self.moving_neighbours.add_table("fluid_fluid", "moving", "moving",
-                                                            capacities["fluid_fluid"], exclude_self=True)
+        if model.terms.fluid_pairs == "grid":  # read from the moving grid at every sweep: no table
+            self.fluid_fluid = GridPairs(self.moving_neighbours)
+        else:
+            self.fluid_fluid = self.moving_neighbours.add_table("fluid_fluid", "moving", "moving",
+                                                                capacities["fluid_fluid"], exclude_self=True)
         if model.nb:
             self.fluid_wall = self.moving_neighbours.add_table("fluid_wall", "moving", "walls",
                                                                capacities["fluid_wall"])
@@ -575,17 +578,22 @@ class WCSPHSolver(TimeDependentSolver):
                 self.spread.walls.refresh(*self._walls_view.values())
         if self.model.terms.delta_gradient:
             with self.phases("rates"):
-                L.launch(self.kernels.density_gradient, self._own_rows.shape[0], [c, a, self.fluid_fluid.rows,
+                L.launch(self.kernels.density_gradient, self._own_rows.shape[0], [c, a, self._fluid_pairs(),
                                                                                    self._own_rows])
             with self.phases("exchange"):  # a ghost's gradient needs neighbours this rank does not hold
                 self.spread.fluid.refresh(a.density_gradient)
         with self.phases("rates"):
-            L.launch(self.kernels.rates, self._own_rows.shape[0], [c, a, self.fluid_fluid.rows, self.fluid_wall.rows,
+            L.launch(self.kernels.rates, self._own_rows.shape[0], [c, a, self._fluid_pairs(), self.fluid_wall.rows,
                                                                     self._own_rows])
         if self.solids is not None:
             with self.phases("surfaces"):
                 L.launch(add_surface_penalty, self.nf, [self._penalty, self.fluid_wall.rows.count,
                                                               self.fluid.position, a.acceleration])
+
+    def _fluid_pairs(self):
+        """The fluid pairs as the rates kernels take them: the table's rows, or the moving grid's (``fluid_pairs``)."""
+        pairs = self.fluid_fluid
+        return pairs.struct() if isinstance(pairs, GridPairs) else pairs.rows
 
     def _wall_order(self) -> wp.array:
         """The order the wall-pressure pass takes the held walls in: blocks of walls dealt round-robin to the
