@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+import warp as wp
 
 from helpers.host_traffic import host_traffic
 from warpfree import device
@@ -100,6 +101,29 @@ def test_replayed_steps_are_bitwise_the_stepped_ones(make, steps, device_name):
     for k in a:
         assert np.array_equal(a[k].view(np.uint8), b[k].view(np.uint8)), k
     assert stepped.clock.time == replayed.clock.time > 0.0
+
+
+@pytest.mark.cuda
+def test_a_replayed_step_follows_a_table_that_grew(device_name):
+    """A rebuild that lays a table's rows out in a new, larger index (the replay's first fill finds the index too
+    small) records the rates again: the replayed steps stay bitwise the stepped ones."""
+    device.use(device_name, 2)
+    stepped, replayed = _column(skin=0.0), _column(skin=0.0)
+    for s in (stepped, replayed):
+        _start(s)
+    steps = 4
+    _run(stepped, steps)
+    graph = replayed.step_graph()
+    table = replayed.moving_neighbours.table("fluid_fluid")
+    table.rows.index.zero_()  # what a graph still reading the old index would find: every neighbour particle 0
+    table.rows.index = wp.empty(1, dtype=wp.int32, device=table.launcher.device)  # as if the rows had outgrown it
+    table._entries_allocated = 1
+    for _ in range(steps):
+        graph.replay()
+    assert table.refills >= 1 and table.rows.index.shape[0] > 1
+    a, b = stepped.state.numpy(), replayed.state.numpy()
+    for k in a:
+        assert np.array_equal(a[k].view(np.uint8), b[k].view(np.uint8)), k
 
 
 @pytest.mark.cuda

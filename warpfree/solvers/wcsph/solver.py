@@ -659,15 +659,32 @@ class WCSPHSolver(TimeDependentSolver):
             self._drift()
         with L.capturing() as second:
             self._after_drift()
+        recorded = {"rates": second.graph, "arrays": self._rebuilt_arrays()}
 
         def rebuild_if_needed():
             if self.moving_neighbours.needs_rebuild(self._bound):
                 self._rebuild()
+                arrays = self._rebuilt_arrays()
+                if arrays != recorded["arrays"]:  # a table grew, or the grid's points moved: record the rates again
+                    with L.capturing() as again:
+                        self._after_drift()
+                    recorded.update(rates=again.graph, arrays=arrays)
 
         def decide():
             self._bound = self._moved_bound(self.clock.step)
 
-        return StepGraph([decide, first.graph, rebuild_if_needed, second.graph], after=self.clock.invalidate)
+        return StepGraph([decide, first.graph, rebuild_if_needed, lambda: wp.capture_launch(recorded["rates"])],
+                         after=self.clock.invalidate)
+
+    def _rebuilt_arrays(self) -> tuple:
+        """Where the arrays a rebuild may replace lie (each neighbour table's rows, each grid's points and their
+        sources: address and length): a recorded step that reads them is recorded again when one moved."""
+        out = []
+        for table, *_ in self.moving_neighbours.tables.values():
+            out += [(a.ptr, a.shape[0]) for a in (table.rows.start, table.rows.count, table.rows.index)]
+        for grid in self.moving_neighbours.grids.values():
+            out += [None if a is None else (a.ptr, a.shape[0]) for a in (grid.points, grid.source_id)]
+        return tuple(out)
 
     def _moved_bound(self, dt: float) -> float:
         """Bound on the displacement since the table build after a drift of ``dt``: |Δx| <= Δt (|v| + ½Δt |a|) from
