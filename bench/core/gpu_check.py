@@ -11,7 +11,7 @@ report says what was left out):
    analysis figure (the numbers under ``summary["analysis"]``) against the CPU's from ``--reference`` (written on a
    CPU machine by ``--device cpu --write-reference``): the relative difference per figure. A scene's checks against
    its tolerances (``summary["checks"]``) are reported as they are.
-3. **Throughput** (20 %): work items per second at three sizes per family (the scene of each family whose module
+3. **Throughput** (17 %): work items per second at three sizes per family (the scene of each family whose module
    declares ``BENCHMARK``: its ``parameter``, ``values`` and ``steps``; ``common.benchmarks``), on the CPU with all
    its threads and on the GPU, measured side by side in one run (``bench/common.py``: warm-up first, median of timed
    blocks).
@@ -27,9 +27,10 @@ report says what was left out):
 5. **Roofline** (5 %): per kernel of a step of each family's benchmark scene (``roofline.py``), the compulsory
    bytes and operations per work item, the kernel's measured time on the GPU and its fraction of the roofline's
    floor (the larger of the bandwidth's and the arithmetic's).
-6. **Choices** (5 %): the forms a GPU could run, timed side by side on it: the quadratic MLS shape functions as one
+6. **Choices** (8 %): the forms a GPU could run, timed side by side on it: the quadratic MLS shape functions as one
    kernel (166 registers) or four within 128 (``MLSModel.shape_at(staged=)``; a GPU's default is staged), at the
-   beam's Gauss points (192 x 48 cells, d_max 2.5, 3 x 3 points).
+   beam's Gauss points (192 x 48 cells, d_max 2.5, 3 x 3 points); and locality, the 2D dam break's step with its
+   fluid stored in lattice, random and cell order (``particle_order.py``, :data:`ORDER_CASE`).
 
 Usage (on a machine with a GPU and warpfree installed: ``pip install -e '.[test]'``)
     python bench/core/gpu_check.py                      # everything, --budget 480
@@ -59,7 +60,7 @@ RUN_ALL_SKIPPED = "needs a GPU: run it once on a machine with one (python bench/
 
 REFERENCE = common.RESULTS / "default_figures.json"
 #: the parts' shares of the budget
-SHARES = {"tests": 0.15, "scenes": 0.30, "throughput": 0.20, "scale": 0.25, "roofline": 0.05, "choices": 0.05}
+SHARES = {"tests": 0.15, "scenes": 0.30, "throughput": 0.17, "scale": 0.25, "roofline": 0.05, "choices": 0.08}
 #: the sizes a CPU cannot reach in a test: (family, scene, parameter, value, small value for ``--scale-dry-run``, steps
 #: timed a block, on the CPU too, other settings of the scene: the 3D dam break's fluid pairs from the grid, no table,
 #: beside the default). Sizes from the counts at smaller ones (``bench/results/memory.md``): the 3D dam
@@ -264,12 +265,33 @@ def run_choices(device: str, budget: float) -> list[dict]:
     row = {"choice": "quadratic shape functions", "points": len(points)}
     start = time.perf_counter()
     for staged in (False, True, False, True):
-        if time.perf_counter() - start > budget:
+        if time.perf_counter() - start > budget / 2:
             break
         timing = common.time_steps(lambda: beam.model.shape_at(points, staged=staged), 1, warmup=1, repeats=3)
         row.setdefault("staged" if staged else "single", []).append(timing["median_s"])
     print(f"  {row}", flush=True)
-    return [row]
+    return [row, particle_orders(device, budget - (time.perf_counter() - start))]
+
+
+#: the 2D dam break of ``particle_order.py`` on the GPU: spacing (m; 221 k fluid particles), steps a block, blocks
+ORDER_CASE = {"dx": 0.003, "steps": 40, "repeats": 3}
+
+
+def particle_orders(device: str, budget: float) -> dict:
+    """Locality on ``device``: the 2D dam break's step with its fluid stored in lattice, random and cell order
+    (``particle_order.py``'s worker, in this process), within ``budget`` seconds: s a step in each order."""
+    import particle_order
+
+    row = {"choice": "particle order", **ORDER_CASE}
+    start = time.perf_counter()
+    for order in particle_order.ORDERS:
+        if time.perf_counter() - start > budget:
+            row.setdefault("not run (budget)", []).append(order)
+            continue
+        res = particle_order.worker({"order": order, "threads": common.cpu_count(), "device": device, **ORDER_CASE})
+        row[order] = res["median_s"] / res["steps"]
+    print(f"  {row}", flush=True)
+    return row
 
 
 def markdown(result: dict) -> str:
@@ -334,7 +356,11 @@ def markdown(result: dict) -> str:
                   common.md_table(["family", "kernel", "bytes per work item", "operations per work item", "bound",
                                    "measured (µs)", "floor (µs)", "fraction of the roofline"], rows), ""]
     rows = []
+    orders = []
     for r in result.get("choices", []):
+        if r.get("choice") == "particle order":
+            orders.append(r)
+            continue
         single, staged = r.get("single", []), r.get("staged", [])
         ratio = (min(staged) / min(single)) if single and staged else None
         rows.append([r["choice"], r["points"], ", ".join(f"{1e3 * s:.1f}" for s in single),
@@ -342,6 +368,12 @@ def markdown(result: dict) -> str:
     if rows:
         lines += ["## Choices: the forms a GPU could run, side by side (ms, in turn)", "",
                   common.md_table(["what", "points", "one kernel", "staged", "staged / one"], rows), ""]
+    for r in orders:
+        cells = [f"{1e3 * r[o]:.2f}" if o in r else "not run" for o in ("lattice", "random", "cell")]
+        ratio = f"{r['random'] / r['lattice']:.2f}" if "random" in r and "lattice" in r else "–"
+        lines += [f"## Locality: the 2D dam break (dx = {r['dx']} m) with its fluid stored in three orders", "",
+                  common.md_table(["lattice (ms a step)", "random", "cell", "random / lattice"], [cells + [ratio]]),
+                  ""]
     return "\n".join(lines) + "\n"
 
 

@@ -52,13 +52,15 @@ def ordered_fluid(fluid: np.ndarray, order: str, cell: float) -> np.ndarray:
 
 
 def worker(cfg: dict) -> dict:
-    """Step cost of the dam break with the fluid stored in ``cfg['order']``."""
+    """Step cost of the dam break with the fluid stored in ``cfg['order']`` (on ``cfg['device']``, the CPU by
+    default)."""
     import warpfree.device
     from warpfree.geometry import lattice_box
     from warpfree.solvers.wcsph import FluidParams, WCSPHModel, WCSPHSolver
     from warpfree.solvers.wcsph.scene_tools import box_walls_2d, hydrostatic_density
 
-    warpfree.device.use("cpu", cfg["threads"])
+    device = cfg.get("device", "cpu")
+    warpfree.device.use(device, cfg["threads"] if device == "cpu" else None)
     dx, g, height = cfg["dx"], 9.81, 2.0
     c0 = 10.0 * np.sqrt(2.0 * g * height)
     params = FluidParams(dim=2, dx=dx, c0=c0, alpha=0.1, delta=0.1, gravity=(0.0, -g, 0.0), cfl=0.2,
