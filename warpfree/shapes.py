@@ -181,7 +181,8 @@ class Polygon(Shape):
         from matplotlib.path import Path
         from scipy.spatial import cKDTree
 
-        loops = [loops] if np.ndim(loops) == 2 else list(loops)
+        one = isinstance(loops, np.ndarray) or (len(loops) > 0 and np.ndim(loops[0]) == 1)  # vertices, not loops
+        loops = [loops] if one else list(loops)
         checked = []
         for k, loop in enumerate(loops):
             try:

@@ -9,7 +9,9 @@
 - :mod:`.nodal_integration`: stabilized conforming nodal integration (smoothing cells of a triangulation, smoothed
   gradients as shape data);
 - :mod:`.assembly`: stiffness matrices (node rows or triplets) and load vectors;
-- :mod:`.node_layouts`: regular and stratified-random node grids on boxes, quadrilaterals and ring sectors.
+- :mod:`.node_layouts`: regular and stratified-random node grids on boxes, quadrilaterals and ring sectors;
+- :mod:`.curves`, :mod:`.region`, :mod:`.region_files`: regions bounded by exact curves (shapes, booleans, files),
+  their nodes, integration cells and boundary conditions on the true curves.
 
 Kernels: ``kernels/mls.py`` and ``kernels/galerkin.py``. float64 throughout.
 """

@@ -23,6 +23,7 @@ from warpfree.errors import ParameterError
 from warpfree.parameters import Choice
 
 from warpfree.galerkin.quadrature import BoundaryPoints, segment_points
+from warpfree.galerkin.region import CurveQuadrature
 
 __all__ = ["EssentialMethod", "InterfaceCondition", "Essential", "Natural", "Free", "Interface", "EssentialPoints",
            "essential_points"]
@@ -48,7 +49,9 @@ class InterfaceCondition(Choice):
 class Essential:
     """ū prescribed along the polyline ``vertices`` (k, 2), in order; ``value(points)`` -> (n, components);
     ``constrained``: which components are prescribed (elasticity: (True, False) fixes u_x only); ``order``: Gauss
-    points per piece for the boundary integrals."""
+    points per piece for the boundary integrals. ``curve``: the boundary's Gauss points and multiplier hats on the
+    exact curve through ``vertices`` (``warpfree.galerkin.region.CurveQuadrature``), used instead of the
+    polyline's."""
 
     vertices: np.ndarray
     value: Callable[[np.ndarray], np.ndarray]
@@ -56,6 +59,7 @@ class Essential:
     order: int = 3
     name: str = "essential"
     material: int = -1  # the material whose shape functions serve this boundary (-1: every node)
+    curve: CurveQuadrature | None = None
 
 
 @dataclass
@@ -110,10 +114,17 @@ def _polyline(vertices, name: str) -> np.ndarray:
 
 
 def essential_points(boundary: Essential, components: int) -> EssentialPoints:
-    """Boundary Gauss points of ``boundary`` with their multipliers (the polyline's vertices) and ū."""
+    """Boundary Gauss points of ``boundary`` with their multipliers (the polyline's vertices, or its exact curve's)
+    and ū."""
     v = _polyline(boundary.vertices, f"{boundary.name}.vertices")
     if len(boundary.constrained) != components or not any(boundary.constrained):
         raise ParameterError(f"{boundary.name}.constrained", f"must give {components} flags, at least one true")
+    if boundary.curve is not None:
+        q = boundary.curve
+        ubar = np.asarray(boundary.value(q.points.position), dtype=np.float64).reshape(len(q.points.weight), -1)
+        if ubar.shape[1] != components or not np.all(np.isfinite(ubar)):
+            raise ParameterError(f"{boundary.name}.value", f"must return finite (n, {components}) values")
+        return EssentialPoints(q.points, q.multiplier, q.hat, ubar, q.n_multipliers)
     pts = segment_points(v[:-1], v[1:], boundary.order)
     seg = np.asarray(pts.segment, dtype=np.int64)
     length = np.linalg.norm(v[1:] - v[:-1], axis=1)
