@@ -396,7 +396,7 @@ needs_petsc = pytest.mark.skipif(not _has_petsc(), reason=f"no PETSc here: {PETS
 #: (three ranks need a beam of 24 cells: the smallest's 12 span two supports)
 WIDER = ["--set", "cells_x=24", "--set", "cells_y=6"]
 GALERKIN_CASES = [("efg_timoshenko", 2, []), ("efg_timoshenko", 3, WIDER + ["--set", "method=penalty"]),
-                  ("efg_resistor", 3, []), ("efg_cook", 2, []),
+                  ("efg_resistor", 3, []), ("efg_cook", 2, []), ("efg_coax", 3, []),
                   ("efg_timoshenko", 2, ["--set", "model=nem", "--set", "integration=gauss"]),
                   ("efg_timoshenko", 3, WIDER + ["--set", "model=nem", "--set", "integration=gauss",
                                          "--set", "preconditioner=gamg"])]
