@@ -334,17 +334,15 @@ class Region:
         x = nodes.position
         keep = self.contains(x[tri].mean(axis=1))
         tri = tri[keep]
-        sides = {}
-        for t, (a, b, c) in enumerate(tri):
-            for u, v in ((a, b), (b, c), (c, a)):
-                sides.setdefault((min(u, v), max(u, v)), []).append(t)
-        for (a, b) in nodes.edge_nodes:
-            if (min(a, b), max(a, b)) not in sides:
-                mid = 0.5 * (x[a] + x[b])
-                raise ParameterError("nodes", f"the boundary between nodes {a} and {b} (near "
-                                              f"({mid[0]:.6g}, {mid[1]:.6g})) is not a side of the nodes' triangles: "
-                                              "a node stands too close to it, or the spacing is too coarse for the "
-                                              "boundary's curvature there")
+        sides = _side_keys(tri, len(x)).ravel()
+        missing = np.flatnonzero(~np.isin(_edge_keys(nodes.edge_nodes, len(x)), sides))
+        if missing.size:
+            a, b = (int(v) for v in nodes.edge_nodes[missing[0]])
+            mid = 0.5 * (x[a] + x[b])
+            raise ParameterError("nodes", f"the boundary between nodes {a} and {b} (near ({mid[0]:.6g}, "
+                                          f"{mid[1]:.6g})) is not a side of the nodes' triangles: a node stands too "
+                                          "close to it, or the spacing is too coarse for the boundary's curvature "
+                                          "there")
         return tri
 
     def cells(self, nodes: RegionNodes, degree: int = 5) -> QuadraturePoints:
@@ -356,10 +354,7 @@ class Region:
         tri = self.triangles(nodes)
         x = nodes.position
         edge_of = {(int(a), int(b)): k for k, (a, b) in enumerate(nodes.edge_nodes)}
-        curved = np.zeros(len(tri), bool)
-        for t, (a, b, c) in enumerate(tri):
-            curved[t] = any((int(u), int(v)) in edge_of or (int(v), int(u)) in edge_of
-                            for u, v in ((a, b), (b, c), (c, a)))
+        curved = np.isin(_side_keys(tri, len(x)), _edge_keys(nodes.edge_nodes, len(x))).any(axis=1)
         straight = triangle_cells(x, tri[~curved], degree) if np.any(~curved) else None
         n = int(math.ceil((require_integer("degree", degree, minimum=1, maximum=5) + 2) / 2))
         g, w = gauss_legendre(n)
@@ -479,6 +474,19 @@ class Region:
 
 
 # -- helpers --------------------------------------------------------------------------------------------------------
+def _edge_keys(edges: np.ndarray, n: int) -> np.ndarray:
+    """One int64 key for each undirected edge (a, b) (e, 2) of n nodes."""
+    e = np.sort(np.asarray(edges, dtype=np.int64), axis=1)
+    return e[:, 0] * n + e[:, 1]
+
+
+def _side_keys(triangles: np.ndarray, n: int) -> np.ndarray:
+    """(m, 3) the keys of each triangle's sides (:func:`_edge_keys`)."""
+    t = np.asarray(triangles, dtype=np.int64)
+    sides = np.stack([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]], axis=1).reshape(-1, 2)
+    return _edge_keys(sides, n).reshape(-1, 3)
+
+
 def _cross(u: np.ndarray, v: np.ndarray):
     """The z-component of u × v (rows or single vectors)."""
     return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
