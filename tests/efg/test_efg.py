@@ -286,6 +286,33 @@ def test_an_essential_boundary_of_long_pieces_is_refused_by_name(launcher, integ
         assert np.max(np.abs(solver.field_at(cells.position)[0].ravel() - exact(cells.position).ravel())) < 1e-9
 
 
+def test_more_multipliers_than_boundary_nodes_are_refused_by_name(launcher):
+    """Multipliers 1.25 a boundary node (20 pieces a side on 16 node spacings) held a harmonic u to 4.1e-2 (38x the
+    error with one a node); now refused, naming the boundary. Vertices between the nodes at the nodes' density
+    (the sides' midpoints and corners, one more than the nodes) keep the error of vertices at the nodes."""
+    n = 16
+    nodes = grid_nodes((0, 0), (1, 1), (n, n)).position
+    model = MLSModel(nodes, MLSSettings(d_max=2.0), launcher=launcher)
+    cells = rectangle_cells((0, 0), (1, 1), (n, n), 2)
+    exact = lambda p: (np.sin(np.pi * p[:, 0]) * np.sinh(np.pi * p[:, 1]) / np.sinh(np.pi))[:, None]  # noqa: E731
+    ends = [((0, 0), (1, 0)), ((1, 0), (1, 1)), ((1, 1), (0, 1)), ((0, 1), (0, 0))]
+
+    def sides(t):
+        return [np.asarray(a, float) * (1 - t[:, None]) + np.asarray(b, float) * t[:, None] for a, b in ends]
+
+    with pytest.raises(ParameterError, match="side0.vertices: its 21 vertices .* outnumber the 17 nodes"):
+        PoissonSolver(model, cells, essential=[Essential(v, exact, (True,), name=f"side{k}")
+                                               for k, v in enumerate(sides(np.arange(21) / 20))])
+    q = rectangle_cells((0, 0), (1, 1), (40, 40), 3)
+    errors = []
+    for t in (np.arange(n + 1) / n, np.r_[0.0, (np.arange(n) + 0.5) / n, 1.0]):
+        solver = PoissonSolver(model, cells, essential=[Essential(v, exact, (True,)) for v in sides(t)])
+        solver.solve()
+        u, ue = solver.field_at(q.position)[0].ravel(), exact(q.position).ravel()
+        errors.append(np.sqrt(np.sum(q.weight * (u - ue) ** 2) / np.sum(q.weight * ue ** 2)))
+    assert errors[0] < 1.5e-3 and errors[1] < 1.5e-3, errors
+
+
 def test_cylinder_radial_displacement_matches_plane_strain_lame(tmp_path):
     """Issue: u_r(10) within 0.5 % of 0.079167 (plane strain; the thesis's eq 5.3 is plane stress, 0.080815).
     Measured (mean over the nodes on each arc; consistent integration of order 2), 17 x 17 polar nodes (default):

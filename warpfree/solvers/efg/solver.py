@@ -71,6 +71,10 @@ __all__ = ["EFGSolver", "PoissonSolver", "ElasticitySolver", "elasticity_matrix"
 #: of 1, 2, 3, 4 grid spacings h (0.7 to 2.8 of these), 2.4e-2 at 6 and 8 (4.2, 5.7: refused), 0.19 (0.38 with Gauss
 #: integration) with one piece a side
 ESSENTIAL_PIECE_SPACINGS = 3.0
+#: the most multipliers an essential boundary may hold for each node along it (within half a spacing): on the same
+#: square, 1.06 and 1.12 of them a node gave 0.7-2.6x the error of one (1.1e-3 at 16 x 16 nodes, 1.1e-4 at 32 x 32),
+#: 1.24 gave 26-38x (4.1e-2, 2.9e-3), 1.5 gave 0.27 and 2 a singular system
+MULTIPLIER_EXCESS = 1.15
 
 
 class Integration(Choice):
@@ -456,6 +460,23 @@ class EFGSolver(StaticSolver):
                                                            f"{ESSENTIAL_PIECE_SPACINGS:g} spacings a piece); put a "
                                                            "vertex at every boundary node (node_layouts.box_sides, "
                                                            "or a region's essential)")
+            if self.method is EssentialMethod.LAGRANGE:
+                self._check_multiplier_count(b, v, tree, float(np.median(local)))
+
+    def _check_multiplier_count(self, b: Essential, v: np.ndarray, tree, spacing: float) -> None:
+        """More multipliers than the nodes along the boundary (within half a spacing of it) by over
+        :data:`MULTIPLIER_EXCESS` make the multipliers' system unstable (refused, naming the boundary)."""
+        length = np.linalg.norm(np.diff(v, axis=0), axis=1)
+        steps = np.maximum(1, np.ceil(length / (0.25 * spacing)).astype(int))
+        samples = np.vstack([v[k] + np.outer(np.arange(steps[k]) / steps[k], v[k + 1] - v[k])
+                             for k in range(len(length))] + [v[-1:]])
+        near = {j for row in tree.query_ball_point(samples, 0.5 * spacing) for j in row}
+        distinct = len(np.unique(np.round(v / (1e-9 * spacing)).astype(np.int64), axis=0))  # a closed loop's end
+        if len(near) >= 2 and distinct > MULTIPLIER_EXCESS * len(near) + 1:
+            raise ParameterError(f"{b.name}.vertices", f"its {distinct} vertices (the multipliers) outnumber the "
+                                                       f"{len(near)} nodes along it by more than "
+                                                       f"{MULTIPLIER_EXCESS - 1:.0%}: the multipliers' system is "
+                                                       "unstable (put the vertices at the boundary nodes)")
 
     def _check_closed(self, pieces: list) -> None:
         """The pieces of each material region must enclose its cells: ∮ x·n dΓ = 2 · area (divergence theorem)."""
