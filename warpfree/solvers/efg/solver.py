@@ -467,10 +467,12 @@ class EFGSolver(StaticSolver):
         """More multipliers than the nodes along the boundary (within half a spacing of it) by over
         :data:`MULTIPLIER_EXCESS` make the multipliers' system unstable (refused, naming the boundary)."""
         length = np.linalg.norm(np.diff(v, axis=0), axis=1)
-        steps = np.maximum(1, np.ceil(length / (0.25 * spacing)).astype(int))
-        samples = np.vstack([v[k] + np.outer(np.arange(steps[k]) / steps[k], v[k + 1] - v[k])
-                             for k in range(len(length))] + [v[-1:]])
-        near = {j for row in tree.query_ball_point(samples, 0.5 * spacing) for j in row}
+        steps = np.maximum(1, np.ceil(length / (0.25 * spacing)).astype(np.int64))
+        piece = np.repeat(np.arange(len(length)), steps)           # samples a quarter spacing apart on each piece
+        fraction = (np.arange(piece.size) - np.repeat(np.cumsum(steps) - steps, steps)) / steps[piece]
+        samples = np.vstack([v[piece] + fraction[:, None] * (v[piece + 1] - v[piece]), v[-1:]])
+        distance = cKDTree(samples).query(tree.data, distance_upper_bound=0.5 * spacing)[0]
+        near = np.flatnonzero(np.isfinite(distance))
         distinct = len(np.unique(np.round(v / (1e-9 * spacing)).astype(np.int64), axis=0))  # a closed loop's end
         if len(near) >= 2 and distinct > MULTIPLIER_EXCESS * len(near) + 1:
             raise ParameterError(f"{b.name}.vertices", f"its {distinct} vertices (the multipliers) outnumber the "
