@@ -361,3 +361,23 @@ def smoothed_gradient_rows(
             for s in range(count):
                 if rows.index[base + s] == node:
                     dphi[base + s] = dphi[base + s] + value * fp
+
+
+# --- layout quality ---------------------------------------------------------------------------------------------
+
+
+@wp.kernel
+def lebesgue_constants(
+    first: int,
+    rows: NeighbourRows,
+    phi: wp.array(dtype=wp.float64),
+    lebesgue: wp.array(dtype=wp.float64),
+):
+    """Per point, the Lebesgue constant Λ = Σ_I |φ_I| of its shape functions: 1 where all are positive, else the
+    factor by which the approximation can amplify the nodal values' errors. One thread a point, its row in order."""
+    i = first + wp.tid()
+    start = rows.start[i]
+    total = wp.float64(0.0)
+    for k in range(rows.count[i]):
+        total += wp.abs(phi[start + k])
+    lebesgue[i] = total

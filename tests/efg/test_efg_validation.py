@@ -12,6 +12,7 @@ import pytest
 
 from warpfree.validation import efg_cook as cook
 from warpfree.validation import efg_cylinder as cyl
+from warpfree.validation import efg_plate_hole as hole
 from warpfree.validation import efg_timoshenko as beam
 from warpfree.validation.efg_cook import reference_fem
 
@@ -290,6 +291,7 @@ def test_readmes_name_their_sources_and_the_thesis_errors():
         "efg_timoshenko": ("Timoshenko & Goodier", "§21", "5.1a", "4.47467", "8.900e-3"),
         "efg_cylinder": ("Lamé", "§28", "eq 5.3", "plane-stress", "0.079167", "0.080815"),
         "efg_cook": ("Cook 1974", "240,565", "reference_fem", "32.27", "Richardson", "23.96"),
+        "efg_plate_hole": ("Muskhelishvili", "§81", "Inglis", "Kirsch"),
     }
     for case, words in needles.items():
         text = resources.files(f"warpfree.validation.{case}").joinpath("README.md").read_text(encoding="utf-8")
@@ -320,3 +322,51 @@ def test_cook_fem_pieces():
     h = np.array([1.0, 0.5, 0.25])
     limit, order = reference_fem.richardson(*(1 + h ** 1.5))
     assert limit == pytest.approx(1.0, abs=1e-14) and order == pytest.approx(1.5, rel=1e-12)
+
+
+# ---------------------------------------------------------------- plate with an elliptical hole (Muskhelishvili)
+
+
+def _kirsch(points: np.ndarray, a: float, p: float) -> np.ndarray:
+    """Kirsch's stresses (σ_xx, σ_yy, σ_xy) around a circular hole of radius a under a tension p along x."""
+    r, t = np.hypot(points[:, 0], points[:, 1]), np.arctan2(points[:, 1], points[:, 0])
+    q2, q4 = (a / r) ** 2, (a / r) ** 4
+    srr = 0.5 * p * (1 - q2) + 0.5 * p * (1 - 4 * q2 + 3 * q4) * np.cos(2 * t)
+    stt = 0.5 * p * (1 + q2) - 0.5 * p * (1 + 3 * q4) * np.cos(2 * t)
+    srt = -0.5 * p * (1 + 2 * q2 - 3 * q4) * np.sin(2 * t)
+    c, s = np.cos(t), np.sin(t)
+    return np.column_stack([srr * c * c + stt * s * s - 2 * srt * s * c, srr * s * s + stt * c * c + 2 * srt * s * c,
+                            (srr - stt) * s * c + srt * (c * c - s * s)])
+
+
+@pytest.mark.parametrize("a,b", [(0.25, 0.5), (0.5, 0.25), (1.0, 0.1), (0.3, 0.3)])
+def test_plate_hole_stresses_free_the_hole_balance_and_tend_to_the_tension(a, b):
+    """Muskhelishvili's stresses: no traction on the ellipse, σ_xx = p (1 + 2b/a) at its tip (Inglis), -p at (a, 0),
+    divergence-free, and the remote tension p far away (the perturbation falls as 1/r²)."""
+    p = 2.5
+    t = np.linspace(0.0, 2.0 * np.pi, 37)[:-1]
+    edge = np.column_stack([a * np.cos(t), b * np.sin(t)])
+    normal = np.column_stack([np.cos(t) / a, np.sin(t) / b])
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    s = hole.stresses(edge, a, b, p)
+    traction = np.column_stack([s[:, 0] * normal[:, 0] + s[:, 2] * normal[:, 1],
+                                s[:, 2] * normal[:, 0] + s[:, 1] * normal[:, 1]])
+    assert np.abs(traction).max() < 1e-12 * p
+    assert hole.stresses(np.array([[0.0, b]]), a, b, p)[0, 0] == pytest.approx(hole.tip_stress(a, b, p), rel=1e-12)
+    assert hole.tip_stress(a, b, p) == pytest.approx(p * (1 + 2 * b / a))
+    assert hole.stresses(np.array([[a, 0.0]]), a, b, p)[0, 1] == pytest.approx(-p, rel=1e-12)
+    rng = np.random.default_rng(5)
+    angle = rng.uniform(0, 2 * np.pi, 40)
+    outside = (1.3 + rng.uniform(0, 2, 40))[:, None] * np.column_stack([a * np.cos(angle), b * np.sin(angle)])
+    assert np.abs(stress_divergence(lambda x: hole.stresses(x, a, b, p), outside, 1e-5)).max() < 1e-6 * p / min(a, b)
+    far = 1e3 * max(a, b) * np.column_stack([np.cos(angle), np.sin(angle)])
+    assert np.abs(hole.stresses(far, a, b, p) - [p, 0.0, 0.0]).max() < 1e-5 * p
+
+
+def test_plate_hole_stresses_of_a_circle_are_kirsch_s():
+    """a = b: the circular hole's Kirsch solution (σ_θθ = 3p at (0, a))."""
+    rng = np.random.default_rng(6)
+    angle, radius = rng.uniform(0, 2 * np.pi, 50), rng.uniform(1.0, 4.0, 50)
+    points = radius[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])
+    assert np.abs(hole.stresses(points, 1.0, 1.0, 1.0) - _kirsch(points, 1.0, 1.0)).max() < 1e-12
+    assert hole.stresses(np.array([[0.0, 1.0]]), 1.0, 1.0, 1.0)[0, 0] == pytest.approx(3.0, rel=1e-12)

@@ -36,6 +36,7 @@ float64 throughout (``kernels/mls.py``, ``kernels/galerkin.py``, ``kernels/efg.p
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 from typing import ClassVar
 
@@ -52,6 +53,7 @@ from warpfree.sparse import FactorisedSystem, PrescribedValues
 
 from warpfree.galerkin import assembly
 from warpfree.galerkin.consistent_integration import ORDERS, consistent_test_gradients
+from warpfree.galerkin.layout_quality import LayoutReport, layout_report
 from warpfree.galerkin.nodal_integration import SmoothingCells, smoothed_shape
 from warpfree.galerkin.quadrature import BoundaryPoints, QuadraturePoints
 from warpfree.galerkin.shapes import ShapeData, ShapeModel
@@ -225,6 +227,8 @@ class EFGSolver(StaticSolver):
         self._material = None if self.point_material is None else self.point_material[held]
         self._multiplier_scale = 1.0
         self._interface_cache: dict = {}
+        #: the layout's quality at the Gauss points (``warpfree.galerkin.layout_quality``), made by :meth:`solve`
+        self.layout: LayoutReport | None = None
 
     def set_linear_solver(self, linear_solver: LinearSolver = LinearSolver.AUTO,
                           preconditioner: Preconditioner = Preconditioner.AUTO) -> None:
@@ -277,6 +281,8 @@ class EFGSolver(StaticSolver):
             else:
                 self.shape = model.shape_at(self._points.position, self._material, name="Gauss point")
                 self._check_supports_held(self.shape)
+                self.layout = layout_report(model, self.shape, self.point_part.owned, self.point_part.ids, self.world)
+                self.layout.check(model)
             direct = self.method is EssentialMethod.DIRECT
             essential = [] if direct else [self._essential_set(b) for b in self.essential]
             natural = [(nat, self._shape(nat.points.position, nat.material, f"{nat.name} point"))
@@ -481,17 +487,32 @@ class EFGSolver(StaticSolver):
                                                        "unstable (put the vertices at the boundary nodes)")
 
     def _check_closed(self, pieces: list) -> None:
-        """The pieces of each material region must enclose its cells: ∮ x·n dΓ = 2 · area (divergence theorem)."""
+        """The pieces of each material region must enclose its cells (divergence theorem): ∮ n dΓ = 0 and
+        ∮ x ⊗ n dΓ = area · I, the second about the cells' centroid (a missing side through the origin would leave
+        ∮ x·n alone unchanged). A gap is named by the outward normals it lacks, -∮ n dΓ."""
         region = np.zeros(self.work_items, dtype=int) if self.point_material is None else self.point_material
         for r in range(int(region.max()) + 1):
-            area = float(np.sum(self.cells.weight[region == r]))
-            flux = sum(float(np.sum(p.weight * np.einsum("ij,ij->i", p.position, p.normal)))
-                       for _, p, m in pieces if max(m, 0) == r)
-            if not abs(flux - 2.0 * area) <= CLOSURE_RTOL * 2.0 * area:
+            inside = region == r
+            weight = self.cells.weight[inside]
+            area = float(np.sum(weight))
+            centre = (weight @ self.cells.position[inside]) / area
+            side = [p for _, p, m in pieces if max(m, 0) == r]
+            normal_sum = sum((p.weight @ p.normal for p in side), np.zeros(2))
+            moment = sum((np.einsum("g,gi,gj->ij", p.weight, p.position - centre, p.normal) for p in side),
+                         np.zeros((2, 2)))
+            scale = math.sqrt(area)
+            if (np.linalg.norm(normal_sum) > CLOSURE_RTOL * scale
+                    or np.abs(moment - area * np.eye(2)).max() > CLOSURE_RTOL * area):
+                gap = np.where(np.abs(normal_sum) > CLOSURE_RTOL * scale, -normal_sum, 0.0) + 0.0  # no -0
+                lacking = (f"they lack a part whose outward normals sum to ({gap[0]:.6g}, {gap[1]:.6g}) m (a side "
+                           f"{np.linalg.norm(gap):.6g} m long facing ({gap[0] / np.linalg.norm(gap):.3g}, "
+                           f"{gap[1] / np.linalg.norm(gap):.3g}), if straight)" if np.linalg.norm(gap) >
+                           CLOSURE_RTOL * scale else
+                           f"∮ x ⊗ n dΓ = {np.round(moment, 6).tolist()}, area · I = {area:.6g} · I")
                 raise ParameterError("free", f"the boundary pieces (essential, natural, free, interfaces) do not "
-                                             f"enclose the integration cells of material {r}: ∮ x·n dΓ = {flux:.6g}, "
-                                             f"2 · area = {2 * area:.6g}; add the load-free sides to free= (and "
-                                             f"material interfaces to interfaces=), or use integration='gauss'")
+                                             f"enclose the integration cells of material {r}: {lacking}; add the "
+                                             f"load-free sides to free= (and material interfaces to interfaces=), or "
+                                             f"use integration='gauss'")
 
     def _check_nodes_inside(self, pieces: list[BoundaryPoints]) -> None:
         """Every node inside or on the boundary: its winding number (1/2π) ∮ (x_b - x)·n / |x_b - x|² dΓ is 1
@@ -620,6 +641,7 @@ class EFGSolver(StaticSolver):
                 "integration": self.integration,
                 "unknowns": int(self.components * self.model.node_count),
                 "multipliers": int(self.multipliers.size),
+                **({"layout": self.layout.describe()} if self.layout is not None else {}),
                 "linear_solver": (self.system.describe() if isinstance(self.system, PETScSystem)
                                   else {"library": "SciPy SuperLU"})}
 
