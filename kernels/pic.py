@@ -204,7 +204,8 @@ class SpeciesTable:
 class ParticleArrays:
     """The particles' slots as kernels read them: float64 ``position`` and ``velocity``, ``species``,
     ``particle_id``, the float32 ``position32`` the HashGrid queries take, and ``exit_wall`` (w + 1 for a particle
-    that left through wall w, 0 inside; 5 for an injected particle another rank holds, which this rank drops)."""
+    that left through wall w: the box's four, then a region's boundary groups; 0 inside; one past the last wall for
+    an injected particle another rank holds, which this rank drops)."""
 
     position: wp.array(dtype=wp.vec2d)
     velocity: wp.array(dtype=wp.vec2d)
@@ -378,8 +379,8 @@ def cell_keys(
     cell + id), so that particles sharing nodes sit together in memory (the deposit's node gather reads them) in an
     order that depends on their positions and ids alone, not on the order before (a part of the particles, as a rank
     of a distributed run holds them, sorts into the order they have among all); an absorbed particle (``exit_wall``
-    w + 1 > 0; 5: another rank's) gets cell ``dead_key`` + w, past every cell: the sort moves it to the end, grouped
-    by wall."""
+    w + 1 > 0; one past the last wall: another rank's) gets cell ``dead_key`` + w, past every cell: the sort moves it
+    to the end, grouped by wall."""
     i = first + wp.tid()
     values[i] = i
     cell = int(0)
@@ -449,3 +450,184 @@ def flag_bad_particles(
     if not (wp.isfinite(v[0]) and wp.isfinite(v[1])):
         bad = True
     flags[i] = int(bad)
+
+
+# --- a region's boundary: particles crossing it are absorbed or reflected -----------------------------------------
+
+
+@wp.struct
+class RegionBoundary:
+    """A region's boundary as chords (``warpfree.solvers.pic.boundary``): chord k runs from ``chord_start[k]`` to
+    ``chord_end[k]`` (within 1e-7 of the exact curve), belongs to group ``chord_group[k]``, whose particles are
+    absorbed (``group_absorbs[g]`` 1: ``exit_wall`` = ``first_exit`` + g) or reflected specularly (0); a uniform grid of
+    ``cells_x`` × ``cells_y`` cells of side ``cell`` from ``lower`` lists each cell's chords (``cell_start``,
+    ``cell_chords``: CSR)."""
+
+    chord_start: wp.array(dtype=wp.vec2d)
+    chord_end: wp.array(dtype=wp.vec2d)
+    chord_group: wp.array(dtype=wp.int32)
+    group_absorbs: wp.array(dtype=wp.int32)
+    lower: wp.vec2d
+    cell: wp.float64
+    cells_x: int
+    cells_y: int
+    cell_start: wp.array(dtype=wp.int32)
+    cell_chords: wp.array(dtype=wp.int32)
+    first_exit: int
+
+
+@wp.func
+def cell_range(boundary: RegionBoundary, lo: wp.float64, hi: wp.float64, axis: int, cells: int) -> wp.vec2i:
+    """The cells [first, last] along ``axis`` that [lo, hi] overlaps, clamped to the grid (first > last: none)."""
+    a = int(wp.floor((lo - boundary.lower[axis]) / boundary.cell))
+    b = int(wp.floor((hi - boundary.lower[axis]) / boundary.cell))
+    return wp.vec2i(wp.max(a, 0), wp.min(b, cells - 1))
+
+
+@wp.func
+def first_crossing(boundary: RegionBoundary, a: wp.vec2d, b: wp.vec2d, skip: int) -> wp.vec2d:
+    """(t, chord) of the first chord the segment a -> b crosses at a + t (b - a), 0 < t <= 1 (chord ``skip``
+    excluded: the one just reflected from); (2, -1) if none. Crossing: t and s in [0, 1] of d × e ≠ 0, d = b - a,
+    e = the chord."""
+    d = b - a
+    best_t = wp.float64(2.0)
+    best = int(-1)
+    xs = cell_range(boundary, wp.min(a[0], b[0]), wp.max(a[0], b[0]), 0, boundary.cells_x)
+    ys = cell_range(boundary, wp.min(a[1], b[1]), wp.max(a[1], b[1]), 1, boundary.cells_y)
+    for cy in range(ys[0], ys[1] + 1):
+        for cx in range(xs[0], xs[1] + 1):
+            c = cy * boundary.cells_x + cx
+            for j in range(boundary.cell_start[c], boundary.cell_start[c + 1]):
+                k = boundary.cell_chords[j]
+                if k == skip:
+                    continue
+                p = boundary.chord_start[k]
+                e = boundary.chord_end[k] - p
+                denom = d[0] * e[1] - d[1] * e[0]
+                if denom == wp.float64(0.0):
+                    continue
+                w = p - a
+                t = (w[0] * e[1] - w[1] * e[0]) / denom
+                s = (w[0] * d[1] - w[1] * d[0]) / denom
+                if t > wp.float64(0.0) and t <= wp.float64(1.0) and s >= wp.float64(0.0) and s <= wp.float64(1.0):
+                    if t < best_t:
+                        best_t = t
+                        best = k
+    return wp.vec2d(best_t, wp.float64(best))
+
+
+@wp.kernel
+def cross_boundary(
+    first: int,
+    boundary: RegionBoundary,
+    dt: wp.float64,
+    particles: ParticleArrays,
+):
+    """After the push (x^{n+1} = x^n + v^{n+1/2} Δt): the step's path x^n -> x^{n+1} (x^n = x^{n+1} - v^{n+1/2} Δt)
+    against the region's boundary. At the first chord it crosses the particle is absorbed (``exit_wall`` = the
+    chord's group's code, left where it landed for the sort to drop) or reflected specularly: x mirrored across the
+    chord's line, v's normal component reversed, and the rest of the path tested again (up to 4 reflections; a
+    fifth crossing absorbs it into that chord's group, counted). Particles the push already took out are left."""
+    i = first + wp.tid()
+    if particles.exit_wall[i] != 0:
+        return
+    x = particles.position[i]
+    v = particles.velocity[i]
+    a = x - dt * v
+    skip = int(-1)
+    moved = int(0)
+    for bounce in range(5):
+        hit = first_crossing(boundary, a, x, skip)
+        k = int(hit[1])
+        if k < 0:
+            break
+        g = boundary.chord_group[k]
+        if boundary.group_absorbs[g] != 0 or bounce == 4:
+            particles.exit_wall[i] = boundary.first_exit + g
+            break
+        e = boundary.chord_end[k] - boundary.chord_start[k]
+        n = wp.normalize(wp.vec2d(-e[1], e[0]))
+        crossing = a + hit[0] * (x - a)
+        x = x - wp.float64(2.0) * wp.dot(x - crossing, n) * n
+        v = v - wp.float64(2.0) * wp.dot(v, n) * n
+        a = crossing
+        skip = k
+        moved = 1
+    if moved != 0:
+        particles.position[i] = x
+        particles.velocity[i] = v
+        particles.position32[i] = wp.vec3(float(x[0]), float(x[1]), 0.0)
+
+
+@wp.struct
+class SurfaceSourceArrays:
+    """A source on a region's boundary (``warpfree.solvers.pic.emission``): its chords (``chord_start`` to
+    ``chord_end``, on the exact curve to 1e-7, ``inward`` the unit normal into the region), the cumulative share of the
+    step's particles up to each chord (``share``: 0 to 1, one more entry than chords), the step's particle ``count``,
+    the species index, random ``seed``, the emission ``normal_speed`` (cold) or ``thermal_speed`` (> 0: a
+    half-Maxwellian flux) and the ``inset`` every particle starts at least this far inside (beyond the chords'
+    distance from the curve)."""
+
+    chord_start: wp.array(dtype=wp.vec2d)
+    chord_end: wp.array(dtype=wp.vec2d)
+    inward: wp.array(dtype=wp.vec2d)
+    share: wp.array(dtype=wp.float64)
+    chords: int
+    count: int
+    species: int
+    seed: int
+    normal_speed: wp.float64
+    thermal_speed: wp.float64
+    inset: wp.float64
+
+
+@wp.kernel
+def emit_from_surface(
+    first: int,
+    source: SurfaceSourceArrays,
+    slot0: int,
+    id0: int,
+    dt: wp.float64,
+    particles: ParticleArrays,
+):
+    """New particle i of the step's n from a surface ``source`` into slot ``slot0`` + i with id ``id0`` + i: stratified
+    over the chords' shares, its place s = (i + U)/n on the cumulative share (a binary search finds the chord, the
+    share left over places it along it), v = v_n n_in (v_n the cold speed, or v_th sqrt(-2 ln U) from the
+    flux-weighted half-Maxwellian, with a tangential v_th N(0, 1)), started ``inset`` + v_n Δt U inside the surface (a
+    uniformly random time within the step). Counter-based random numbers (the source's seed, the id): the same
+    particles for any thread count."""
+    i = first + wp.tid()
+    slot = slot0 + i
+    pid = id0 + i
+    rng = wp.rand_init(source.seed, pid)
+    place = (wp.float64(i) + wp.float64(wp.randf(rng))) / wp.float64(source.count)
+    lo = int(0)
+    hi = source.chords
+    while hi - lo > 1:  # the last k with share[k] <= place
+        mid = (lo + hi) // 2
+        if source.share[mid] <= place:
+            lo = mid
+        else:
+            hi = mid
+    k = lo
+    width = source.share[k + 1] - source.share[k]
+    along = wp.float64(0.5)
+    if width > wp.float64(0.0):
+        along = wp.min(wp.max((place - source.share[k]) / width, wp.float64(0.0)), wp.float64(1.0))
+    depth = wp.float64(wp.randf(rng))
+    normal = source.inward[k]
+    tangent = wp.vec2d(normal[1], -normal[0])
+    vn = source.normal_speed
+    vt = wp.float64(0.0)
+    if source.thermal_speed > wp.float64(0.0):
+        u = wp.float64(1.0) - wp.float64(wp.randf(rng))   # (0, 1]
+        vn = source.thermal_speed * wp.sqrt(wp.float64(-2.0) * wp.log(u))
+        vt = source.thermal_speed * wp.float64(wp.randn(rng))
+    p = source.chord_start[k] + along * (source.chord_end[k] - source.chord_start[k])
+    x = p + (source.inset + vn * dt * depth) * normal
+    particles.position[slot] = x
+    particles.velocity[slot] = vn * normal + vt * tangent
+    particles.species[slot] = source.species
+    particles.particle_id[slot] = pid
+    particles.position32[slot] = wp.vec3(float(x[0]), float(x[1]), 0.0)
+    particles.exit_wall[slot] = 0

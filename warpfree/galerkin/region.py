@@ -458,6 +458,18 @@ class Region:
                                         np.stack([1.0 - tau, tau], axis=1), n_mult)))
         return out
 
+    def chords(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The boundary as chords within 1e-7 of each curved piece's length of its curve (a segment: one chord):
+        (start (c, 2), end (c, 2), the index of the piece each lies on, into :attr:`pieces`), in the loops' order."""
+        start, end, piece = [], [], []
+        for k, p in enumerate(self.pieces):
+            n = 1 if isinstance(p.curve, Segment) else _samples(p)
+            points = p.point(np.arange(n + 1) / n)
+            start.append(points[:-1])
+            end.append(points[1:])
+            piece.append(np.full(n, k, dtype=np.int64))
+        return np.vstack(start), np.vstack(end), np.concatenate(piece)
+
     # -- sampling -------------------------------------------------------------------------------------------------
     @staticmethod
     def _sample_loop(loop: Sequence[Piece], longest: float | None = None) -> np.ndarray:

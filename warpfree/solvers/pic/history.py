@@ -19,7 +19,7 @@ from warpfree.solver import PhaseTimes
 from .coupling import NodeCoupling
 from .device_solve import bsr_matrix
 from .field import PlasmaPoisson
-from .particles import Particles
+from .particles import WALLS, Particles
 
 __all__ = ["Diagnostics", "history_columns", "report_slots", "REPORT", "FIELD_TERMS"]
 
@@ -39,10 +39,11 @@ def report_slots(modes) -> int:
     return len(REPORT) + len(FIELD_TERMS) + 2 * len(modes)
 
 
-def history_columns(modes: list[tuple[int, int]], open_boundaries: bool) -> list[str]:
+def history_columns(modes: list[tuple[int, int]], open_boundaries: bool, region: list[str] = ()) -> list[str]:
     """The history's columns: time, the field terms (:meth:`Diagnostics.field_terms`), then the particles' energy and
-    momentum."""
-    field = list(FIELD) + (list(OPEN) if open_boundaries else [])
+    momentum. ``region``: a region's columns instead of the box's walls' (its boundary groups' absorbed charges, its
+    electrodes' charges and floating potentials)."""
+    field = list(FIELD) + ((list(OPEN[:2]) + list(region) if region else list(OPEN)) if open_boundaries else [])
     field += [f"mode_{mx}_{my}_energy" for mx, my in modes] + [f"mode_{mx}_{my}_potential_re" for mx, my in modes]
     return [*FIRST, *field, *LAST]
 
@@ -96,6 +97,8 @@ class Diagnostics:
         self.bad_flag = 0
         #: the combination of the ranks' reports (their particle sums added in rank order; one process's own), or None
         self.combine = None
+        #: a region's boundary groups (their absorbed charges are history columns), or None in a box
+        self.region_groups: list[str] | None = None
 
     def _sum_into(self, values: wp.array, n: int, slot: int, out: wp.array, scale: float = 1.0) -> None:
         self._sum.launch(values, n)
@@ -141,8 +144,16 @@ class Diagnostics:
         pa = self.particles
         if pa.open_boundaries:
             wall = pa.wall_charge
-            self.pending_tallies = dict(particles=float(pa.live_total), injected_charge=float(pa.state.injected_charge),
-                                        wall_charge_lower=float(wall[2]), wall_charge_upper=float(wall[3]))
+            self.pending_tallies = dict(particles=float(pa.live_total), injected_charge=float(pa.state.injected_charge))
+            names = self.region_groups
+            if names is None:
+                self.pending_tallies.update(wall_charge_lower=float(wall[2]), wall_charge_upper=float(wall[3]))
+            else:
+                field = self.field
+                self.pending_tallies.update({f"absorbed_charge_{n}": float(wall[WALLS + g]) for g, n in enumerate(names)})
+                self.pending_tallies.update({f"charge_{e.name}": float(q) for e, q in zip(field.electrodes, field.charges)})
+                self.pending_tallies.update({f"potential_{e.name}": float(v) for e, v in
+                                             zip(field.electrodes, field.potentials) if e.floating})
 
     def record(self, time: float) -> None:
         """Time n's row: :meth:`launch_record`, then the host's part (:meth:`begin_row`)."""

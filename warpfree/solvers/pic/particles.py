@@ -24,14 +24,14 @@ from warpfree.solver import HostTable, State
 from .injection import Injection
 from .spread import PlasmaSpread
 
-__all__ = ["PICState", "Particles", "PARTICLE_ARRAYS", "WALLS", "ELSEWHERE"]
+__all__ = ["PICState", "Particles", "PARTICLE_ARRAYS", "WALLS"]
 
 #: the state's per-particle arrays (they share one capacity: slots [0, particle_count) hold the live particles)
 PARTICLE_ARRAYS = ("position", "velocity", "species", "particle_id")
-#: the walls a particle can leave through (w = 2 axis + side; ``exit_wall`` w + 1)
+#: the box's walls a particle can leave through (w = 2 axis + side; ``exit_wall`` w + 1); a region's boundary groups
+#: follow (w = WALLS + g, ``warpfree.solvers.pic.boundary``), then the code of an injected particle another rank's part
+#: holds, not this one's (:attr:`Particles.elsewhere`: the sort drops it uncounted)
 WALLS = 4
-#: the ``exit_wall`` of an injected particle another rank's part holds, not this one's: the sort drops it uncounted
-ELSEWHERE = WALLS + 1
 
 
 class PICState(State):
@@ -42,15 +42,15 @@ class PICState(State):
     at injection: ids are never reused, and the arrays are re-sorted by cell every step). Host values: ``steps`` (the
     step count n: t = n Δt survives a resume), ``particle_count`` (the live particles this process holds),
     ``injected`` (particles injected so far: ids and random streams), ``injection_carry`` (each source's fraction of a
-    particle owed), ``absorbed`` (int64 (4, species): the particles each wall absorbed, index 2·axis + side, of each
-    species, over every rank; the wall's charge is :attr:`Particles.wall_charge`), ``injected_charge``, ``history`` (the
+    particle owed: the box's sources', then each surface source's), ``absorbed`` (int64 (walls, species): the particles each wall absorbed, index 2·axis + side for
+    the box's four, then the region's boundary groups, of each species, over every rank; the wall's charge is :attr:`Particles.wall_charge`), ``injected_charge``, ``history`` (the
     per-step diagnostics,
     :class:`~warpfree.solvers.pic.history.Diagnostics`: a resumed run's ``history.csv`` covers the whole run) and,
     when the potential is averaged, ``potential_sum`` and ``potential_samples``.
     """
 
     def __init__(self, position: np.ndarray, velocity: np.ndarray, species: np.ndarray, capacity: int, sources: int,
-                 device: str, history_columns: list[str], kinds: int = 1):
+                 device: str, history_columns: list[str], kinds: int = 1, walls: int = WALLS):
         n = len(species)
 
         def padded(a: np.ndarray) -> np.ndarray:
@@ -66,7 +66,7 @@ class PICState(State):
         self.particle_count = n
         self.injected = 0
         self.injection_carry = np.zeros(max(sources, 1))
-        self.absorbed = np.zeros((WALLS, max(kinds, 1)), dtype=np.int64)
+        self.absorbed = np.zeros((walls, max(kinds, 1)), dtype=np.int64)
         self.injected_charge = 0.0
         self.history = HostTable(history_columns)
 
@@ -98,26 +98,33 @@ class Particles:
     state: the :class:`PICState`; box: the space's ``Box2d``; sort_cell: the side of a sort cell (the supports'
     reach); macro_charge: each species' macro-particle charge (host); injections and their kernel bundles
     (``sources``, ``pk.WallSource``); open_boundaries: absorbing walls or sources (the sort then drops absorbed
-    particles); spread: the particles' spread over the ranks (which injected particles this rank keeps and which
+    particles); emitters: a region's surface sources (:mod:`.emission`); spread: the particles' spread over the ranks (which injected particles this rank keeps and which
     absorbed ones it counts); on_resize: called with the new capacity after the arrays grew (the other parts' work
     arrays).
     """
 
     def __init__(self, launcher: Launcher, state: PICState, space, box, sort_cell: float, macro_charge: np.ndarray,
                  injections: list[Injection], sources: list, loaded_count: int, dt: float, open_boundaries: bool,
-                 spread: PlasmaSpread):
+                 spread: PlasmaSpread, emitters: list = ()):
         self.launcher = launcher
         self.state = state
         self.spread = spread
         #: the particles this rank's last sort found absorbed and owns, per wall and species (summed over the ranks
         #: into the state's ``absorbed`` by :meth:`count_over_ranks`)
         self.absorbed_here = np.zeros_like(state.absorbed)
+        #: the walls particles are counted against (the box's, then a region's boundary groups) and the ``exit_wall``
+        #: code of a particle another rank holds (past them all)
+        self.walls = state.absorbed.shape[0]
+        self.elsewhere = self.walls + 1
         #: the live particles of every rank (:meth:`count_over_ranks`)
         self.live_total = state.particle_count
         self.box = box
         self.macro_charge_np = macro_charge
         self.injections = injections
         self.sources = sources
+        #: a region's surface sources (:class:`~.emission.SurfaceEmitter`), after the box's; their carried fractions
+        #: follow the box sources' in the state's ``injection_carry``
+        self.emitters = list(emitters)
         self.loaded_count = loaded_count
         self.dt = dt
         self.open_boundaries = open_boundaries
@@ -189,7 +196,7 @@ class Particles:
         """Reorder slots [0, ``total``) by cell (row-major, cells of the support reach), then particle id: the deposit
         gathers each node's particles from contiguous memory. Every step, so the order depends on the positions and ids
         only (a resumed run sorts as the uninterrupted one did, a distributed run's rank as the one process does).
-        Absorbed particles sort past every cell, grouped by wall (then those another rank holds, :data:`ELSEWHERE`):
+        Absorbed particles sort past every cell, grouped by wall (then those another rank holds, :attr:`elsewhere`):
         the live count drops to the particles before them, and the absorbed ones this rank owns are counted in
         :attr:`absorbed_here`."""
         L, st = self.launcher, self.state
@@ -213,10 +220,10 @@ class Particles:
 
     def count_absorbed(self, first: int, last: int) -> None:
         """Add the absorbed particles in the sorted dead slots [``first``, ``last``) that this rank owns to
-        :attr:`absorbed_here`, per wall and species (those of :data:`ELSEWHERE` are another rank's)."""
+        :attr:`absorbed_here`, per wall and species (those of :attr:`elsewhere` are another rank's)."""
         walls = self.sort_keys[first:last].numpy() // 2 ** 31 - self.dead_key
         species = self.state.species[first:last].numpy()
-        counted = (walls < WALLS) & self.spread.owned(self.state.position, first, last)
+        counted = (walls < self.walls) & self.spread.owned(self.state.position, first, last)
         np.add.at(self.absorbed_here, (walls[counted], species[counted]), 1)
 
     def count_over_ranks(self, owned: np.ndarray) -> None:
@@ -231,14 +238,17 @@ class Particles:
 
     @property
     def wall_charge(self) -> np.ndarray:
-        """The charge each wall absorbed (index 2·axis + side): its count of each species × the species'
+        """The charge each wall absorbed (index 2·axis + side, then a region's boundary groups): its count of each
+        species × the species'
         macro-charge, summed over the species (the same bits on every rank count)."""
         return (self.state.absorbed * self.macro_charge_np).sum(axis=1)
 
     def inject(self) -> int:
-        """Each source's particles for this step into the slots after the live ones (:mod:`.injection`); returns the
-        slots now filled (live + new). Every rank makes every new particle (the same ids, positions and velocities as
-        the one process); those its part does not hold are marked :data:`ELSEWHERE` for the sort to drop."""
+        """Each source's particles for this step into the slots after the live ones (:mod:`.injection`, and a
+        region's surface sources, :mod:`.emission`);
+        returns the slots now filled (live + new). Every rank makes every new particle (the same ids, positions and
+        velocities as the one process); those its part does not hold are marked :attr:`elsewhere` for the sort to
+        drop."""
         st = self.state
         carry = st.injection_carry
         injected = st.injected
@@ -247,6 +257,9 @@ class Particles:
             owed = carry[k] + source.particles_per_step
             new_counts.append(int(math.floor(owed)))
             carry[k] = owed - new_counts[-1]
+        first = len(self.injections)
+        for k, emitter in enumerate(self.emitters):
+            new_counts.append(emitter.count(carry[first + k:first + k + 1]))
         if self.loaded_count + injected + sum(new_counts) >= 2 ** 31:
             raise RunError(f"{self.loaded_count + injected} particles loaded and injected so far: the next step's "
                            "would take particle ids past the int32 range", st.steps)
@@ -259,6 +272,12 @@ class Particles:
             slot += new
             injected += new
             charge += new * self.macro_charge_np[source.species]
+        for emitter, new in zip(self.emitters, new_counts[len(self.sources):]):
+            self.launcher.launch(pk.emit_from_surface, new, [emitter.bundle, slot, self.loaded_count + injected,
+                                                             wp.float64(self.dt), self.arrays])
+            slot += new
+            injected += new
+            charge += new * self.macro_charge_np[emitter.bundle.species]
         self.spread.issued(self.loaded_count + injected)
         self._drop_elsewhere(self.count, slot)
         st.injected = injected
@@ -267,11 +286,11 @@ class Particles:
 
     def _drop_elsewhere(self, first: int, last: int) -> None:
         """Mark the new particles in slots [``first``, ``last``) that this rank's part does not hold
-        :data:`ELSEWHERE` (no read in one process: it holds them all)."""
+        :attr:`elsewhere` (no read in one process: it holds them all)."""
         drop = self.spread.injected_elsewhere(self.state.position, first, last)
         if drop.size:
             codes = self.exit_wall[first:last].numpy().copy()
-            codes[drop - first] = ELSEWHERE
+            codes[drop - first] = self.elsewhere
             self.exit_wall[first:last].assign(codes)
 
     @staticmethod

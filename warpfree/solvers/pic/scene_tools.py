@@ -194,16 +194,18 @@ def plot_growth(path: str, time, energy, gamma_theory: float, gamma_fit: float |
 
 
 def plot_profile(path: str, y, computed, reference, scale: float, tolerance: float, tolerance_label: str,
-                 title: str, xlabel: str = "y (normalised length)", ylabel: str = "potential φ (normalised)") -> str:
-    """A computed profile against its reference (top) and their difference over ``scale`` (bottom) with the band
-    ± ``tolerance`` labelled ``tolerance_label``; without a reference (None) the computed profile alone."""
+                 title: str, xlabel: str = "y (normalised length)", ylabel: str = "potential φ (normalised)",
+                 reference_label: str = "steady beam (Child–Langmuir–Jaffé)") -> str:
+    """A computed profile against its reference (``reference_label``; top) and their difference over ``scale``
+    (bottom) with the band ± ``tolerance`` labelled ``tolerance_label``; without a reference (None) the computed
+    profile alone."""
     y = np.asarray(y, np.float64)
     fig, top, bottom = _two_panels(title)
     top.plot(y, computed, lw=1.6, label="PIC (mean over the second half)")
     if reference is not None:
-        top.plot(y, reference, "k--", lw=1.2, label="steady beam (Child–Langmuir–Jaffé)")
+        top.plot(y, reference, "k--", lw=1.2, label=reference_label)
         bottom.plot(y, (np.asarray(computed) - np.asarray(reference)) / scale, color="k", lw=1.3,
-                    label="(PIC - steady beam) / V")
+                    label=f"(PIC - {reference_label.split(' (')[0]}) / V")
         draw_tolerance(bottom, tolerance, x=y, label=tolerance_label)
         bottom.legend(fontsize=8, framealpha=0.85, loc="lower right")
     else:

@@ -41,12 +41,15 @@ from warpfree.parameters import Choice
 from warpfree.progress import announced
 from warpfree.solver import HostTable, OutputSet, StepRule, TimeDependentSolver
 
+from .boundary import ParticleBoundary, Wall
+from .emission import SurfaceEmitter, SurfaceSource
 from .coupling import FieldSolve, Gather, NodeCoupling
+from .electrodes import ElectrodeField
 from .field import PlasmaPoisson
 from .history import REPORT, Diagnostics, history_columns, report_slots
 from .spread import PlasmaSpread
 from .injection import Injection
-from .particles import Particles, PICState
+from .particles import WALLS, Particles, PICState
 from .species import ParticleLoad, Species
 
 __all__ = ["PICSolver", "PICState", "ParticleWall", "HEATING_DT", "HEATING_SPACING"]
@@ -75,11 +78,13 @@ class PICSolver(TimeDependentSolver):
 
     Parameters
     ----------
-    field: :class:`~.field.PlasmaPoisson` (holds the :class:`~warpfree.galerkin.mls.MLSModel`).
+    field: :class:`~.field.PlasmaPoisson` (a box; holds the :class:`~warpfree.galerkin.mls.MLSModel`) or
+    :class:`~.electrodes.ElectrodeField` (a region of any shape between electrodes: the particles absorbed by the
+    electrodes they reach, their charge on it, and by the ``walls`` that absorb; the energy gather, the host's solve).
     loads: the species and their macro-particles (:func:`~.species.load_species`).
     dt: the time step (ω_pe⁻¹ units); ω_pe Δt must be < 2.
     background_density: uniform immobile charge density (e n_ref); default: the one that makes the plasma neutral.
-    modes: Fourier modes (mx, my) whose field energy each step records.
+    modes: Fourier modes (mx, my) whose field energy each step records (default (1, 0) in a box, none in a region).
     gather: a :class:`~.coupling.Gather`: "momentum" (nodal fields interpolated with φ_I: no self-force, momentum kept
     on node lattices) or "energy" (eq 4.5, -Σ u_I ∇φ_I: energy kept, a self-force of the order of a neighbour's); see
     :mod:`.field`.
@@ -92,6 +97,10 @@ class PICSolver(TimeDependentSolver):
     field_solve: where the field is solved each step (a :class:`~.device_solve.FieldSolve`, :mod:`.coupling`): "host"
     (SuperLU, the CPU's fastest: the default on the CPU), "device" (on the device, no host copy: the default on a GPU;
     :mod:`.device_solve`), or the device's "cg" or "dense".
+    walls: with a region's field, the :class:`~.boundary.Wall` pieces (insulating; absorbing or reflecting particles;
+    the region's pieces in no electrode and no wall reflect them).
+    surface_sources: with a region's field, its :class:`~.emission.SurfaceSource` list (a beam or space-charge-limited
+    emission from tagged pieces); loads may then be empty.
     """
 
     name = "pic"
@@ -100,73 +109,96 @@ class PICSolver(TimeDependentSolver):
     time_unit = "/ω_pe"
 
     @announced("PIC solver made: particles loaded and coupled to the nodes")
-    def __init__(self, field: PlasmaPoisson, loads: list[ParticleLoad], dt: float,
-                 background_density: float | None = None, modes=((1, 0),), gather: Gather = Gather.MOMENTUM,
+    def __init__(self, field: PlasmaPoisson | ElectrodeField, loads: list[ParticleLoad], dt: float,
+                 background_density: float | None = None, modes=None, gather: Gather = Gather.MOMENTUM,
                  magnetic_field: float = 0.0, particle_walls=ParticleWall.REFLECT, injections: list[Injection] = (),
                  average_from: float | None = None, field_solve: FieldSolve | None = None,
-                 launcher: Launcher | None = None):
+                 launcher: Launcher | None = None, walls: list[Wall] = (), surface_sources: list[SurfaceSource] = ()):
         model: MLSModel = field.model
+        in_region = isinstance(field, ElectrodeField)
+        modes = (() if in_region else ((1, 0),)) if modes is None else modes
         modes = [tuple(int(v) for v in m) for m in modes]
+        if in_region:
+            self._check_region(modes, gather, injections, field_solve)
+        elif walls or surface_sources:
+            raise ParameterError("walls" if walls else "surface_sources",
+                                 "a box's field has its walls along y (particle_walls=, injections=): a region's walls "
+                                 "and surface sources go with its field (ElectrodeField)")
         # the step report (``history.py``) in the clock's report slots: one read a step brings both
         super().__init__(model, launcher or model.launcher, report_slots=report_slots(modes))
         self.field = field
         self.loads = list(loads)
         self.injections = list(injections)
-        if not self.loads and not self.injections:
+        self.surface_sources = list(surface_sources)
+        if not self.loads and not self.injections and not self.surface_sources:
             raise ParameterError("loads", "need at least one species (loaded, or injected from a wall)")
         self.gather = gather = Gather.of("gather", gather)
         field_solve = None if field_solve is None else FieldSolve.of("field_solve", field_solve)
         self.magnetic_field = wp.float64(require_finite("magnetic_field", magnetic_field))
         self.dt = require_positive("dt", dt)
-        space = model.space
-        self.particle_walls = self._wall_modes(particle_walls, space)
+        space = field.space if in_region else model.space
+        self.particle_walls = self._wall_modes(particle_walls, space) if not in_region else (ParticleWall.ABSORB,) * 2
+        #: a region's boundary as the particles meet it (None in a box): its electrodes, then its walls
+        self.boundary = (ParticleBoundary(field.region, field.electrodes, list(walls), self.launcher, WALLS + 1)
+                         if in_region else None)
         if self.injections and space.periodic[1]:
             raise ParameterError("injections", "a source sits on a wall: the box is periodic along y (give walls)")
-        self.species_list: list[Species] = [ld.species for ld in self.loads] + [j.species for j in self.injections]
+        self.species_list: list[Species] = ([ld.species for ld in self.loads] + [j.species for j in self.injections]
+                                            + [src.species for src in self.surface_sources])
+        first = len(self.loads) + len(self.injections)
+        #: a region's surface sources, as emitted (:mod:`.emission`)
+        self.emitters = [SurfaceEmitter(src, first + k, field, self.dt, self.launcher)
+                         for k, src in enumerate(self.surface_sources)]
         self.plasma_frequency = math.sqrt(sum(s.plasma_frequency ** 2 for s in self.species_list))
         self._check_step()
         self._check_spacing()
         self.background_density = (-sum(ld.species.charge * ld.species.density for ld in self.loads)
                                    if background_density is None else float(background_density))
         dev = self.launcher.device
-        weights = [ld.weight for ld in self.loads] + [j.weight(space.length[0], self.dt) for j in self.injections]
+        weights = ([ld.weight for ld in self.loads] + [j.weight(space.length[0], self.dt) for j in self.injections]
+                   + [e.weight for e in self.emitters])
         self.macro_charge_np = np.array([sp_.charge * w for sp_, w in zip(self.species_list, weights)])
         self.macro_mass_np = np.array([sp_.mass * w for sp_, w in zip(self.species_list, weights)])
         self.species_table = pk.SpeciesTable()
         self.species_table.charge_over_mass = wp.array([sp_.charge / sp_.mass for sp_ in self.species_list],
                                                        dtype=wp.float64, device=dev)
         self.species_table.macro_mass = wp.array(self.macro_mass_np, dtype=wp.float64, device=dev)
+        box = space.box2d
         self.push = pk.PushParams()
-        self.push.box = model.box
+        self.push.box = box
         self.push.magnetic_field = self.magnetic_field
         self.push.dt = wp.float64(self.dt)
-        self.push.absorb = wp.array([0, 0] + [int(m is ParticleWall.ABSORB) for m in self.particle_walls], dtype=wp.int32,
-                                    device=dev)
-        open_boundaries = bool(self.injections) or ParticleWall.ABSORB in self.particle_walls
+        # a region's particles meet its boundary before the box's walls, which absorb any that got past (none should)
+        self.push.absorb = wp.array([int(in_region)] * 2 + [int(m is ParticleWall.ABSORB) for m in self.particle_walls],
+                                    dtype=wp.int32, device=dev)
+        open_boundaries = bool(self.injections or self.emitters) or ParticleWall.ABSORB in self.particle_walls
         position = np.concatenate([ld.position for ld in self.loads]) if self.loads else np.zeros((0, 2))
         velocity = np.concatenate([ld.velocity for ld in self.loads]) if self.loads else np.zeros((0, 2))
         index = (np.concatenate([np.full(ld.count, k, np.int32) for k, ld in enumerate(self.loads)]) if self.loads
                  else np.zeros(0, np.int32))
         self.initial_particle_charge = float(sum(ld.count * q for ld, q in zip(self.loads, self.macro_charge_np)))
-        headroom = int(math.ceil(4 * sum(j.particles_per_step for j in self.injections)))
+        headroom = int(math.ceil(4 * sum(j.particles_per_step for j in self.injections + self.surface_sources)))
         self.world = ranks_of_run()
         #: how the particles are spread over the ranks (one process: a one-rank partition, every particle)
-        self.spread = PlasmaSpread(self.world, model, position)
+        self.spread = PlasmaSpread(self.world, model, position, space=space)
         held = self.spread.particles
         loaded = index.size   # every rank's: the ids 0..loaded-1; injected particles take the next
         ids = held.take(np.arange(loaded, dtype=np.int32))
         position, velocity, index = held.take(position), held.take(velocity), held.take(index)
         self.state = PICState(position, velocity, index,
-                              max(1, index.size + self.spread.room(index.size, headroom)), len(self.injections), dev,
-                              history_columns(modes, open_boundaries), len(self.species_list))
+                              max(1, index.size + self.spread.room(index.size, headroom)),
+                              len(self.injections) + len(self.emitters), dev,
+                              history_columns(modes, open_boundaries, self._region_columns()), len(self.species_list),
+                              WALLS + (len(self.boundary.names) if self.boundary else 0))
         self.state.particle_id[:index.size].assign(ids)
         self.average_from = None if average_from is None else require_finite("average_from", average_from)
         if self.average_from is not None:
             self.state.potential_sum = np.zeros(model.node_count)
             self.state.potential_samples = 0
         sources = [Particles.wall_source(len(self.loads) + k, j) for k, j in enumerate(self.injections)]
-        self.particles = Particles(self.launcher, self.state, space, model.box, model.reach, self.macro_charge_np,
-                                   self.injections, sources, loaded, self.dt, open_boundaries, self.spread)
+        self.particles = Particles(self.launcher, self.state, space, box, model.reach, self.macro_charge_np,
+                                   self.injections, sources, loaded, self.dt, open_boundaries, self.spread,
+                                   self.emitters)
         self.particles.sync_position32()
         if field_solve is None:
             field_solve = FieldSolve.HOST if self.launcher.is_cpu else FieldSolve.DEVICE
@@ -176,11 +208,13 @@ class PICSolver(TimeDependentSolver):
         self.particles.on_resize = self.coupling.allocate
         self.diagnostics_record = Diagnostics(field, self.coupling, self.particles, modes, self.phases,
                                               self.clock.report_values, self.clock.read_report)
+        self.diagnostics_record.region_groups = self.boundary.names if self.boundary is not None else None
         # a rank deposits on its own nodes; the charges of all, and the step's sums
         self.coupling.whole_charge = self.spread.charge_exchange
         self.diagnostics_record.combine = self._combine_report
         self.particles.sort(self.count)
         self._find_owned()
+        self._charge_electrodes()
         self.coupling.fields_at_particles()
         bad = self.coupling.bad_particle()
         if bad:
@@ -238,6 +272,36 @@ class PICSolver(TimeDependentSolver):
             raise ParameterError("particle_walls", "the box is periodic along y: it has no walls to absorb particles")
         return modes
 
+    @staticmethod
+    def _check_region(modes, gather, injections, field_solve) -> None:
+        """What a region's field does not take (yet): Fourier modes (a box's), the momentum gather (its projection is
+        corrected at a box's walls only), a box wall's sources, a field solve off the host."""
+        if modes:
+            raise ParameterError("modes", f"Fourier modes are a periodic box's; a region's field has none (got {modes})")
+        if Gather.of("gather", gather) is not Gather.ENERGY:
+            raise ParameterError("gather", "a region's field takes the energy gather (gather='energy'): the momentum "
+                                           "gather's projection is corrected at a box's walls only")
+        if injections:
+            raise ParameterError("injections", "a box wall's sources: a region has no such walls")
+        if field_solve is not None and FieldSolve.of("field_solve", field_solve) is not FieldSolve.HOST:
+            raise ParameterError("field_solve", "a region's field is solved on the host (field_solve='host')")
+
+    def _region_columns(self) -> list[str]:
+        """A region's history columns: the charge each boundary group absorbed, then each electrode's charge and
+        each floating one's potential."""
+        if self.boundary is None:
+            return []
+        return ([f"absorbed_charge_{name}" for name in self.boundary.names]
+                + [f"charge_{e.name}" for e in self.field.electrodes]
+                + [f"potential_{e.name}" for e in self.field.electrodes if e.floating])
+
+    def _charge_electrodes(self) -> None:
+        """A region's electrodes take the charge of the particles they absorbed (a floating one's potential follows
+        from it at the next solve)."""
+        if self.boundary is not None:
+            first = WALLS
+            self.field.absorbed_charge[:] = self.particles.wall_charge[first:first + len(self.field.electrodes)]
+
     # -- checks ----------------------------------------------------------------------------------------------
     def _check_step(self) -> None:
         """Refuse ω_p Δt >= 2 (ω_p of all species together: the leapfrog's limit); warn above ω_pe Δt = 0.2 (ω_pe:
@@ -286,6 +350,9 @@ class PICSolver(TimeDependentSolver):
         with self.phases("push"):
             self.launcher.launch(pk.leapfrog_push, self.count, [self.push, self.species_table, pa.arrays, pa.e_field,
                                                                 pa.kinetic, pa.momentum])
+            if self.boundary is not None:
+                self.launcher.launch(pk.cross_boundary, self.count, [self.boundary.struct, wp.float64(self.dt),
+                                                                      pa.arrays])
         self.spread.count_once((pa.kinetic, pa.momentum), self._owned, self.count)  # each particle on its owner
         self.diagnostics_record.launch_record()
 
@@ -297,9 +364,10 @@ class PICSolver(TimeDependentSolver):
         with self.phases("exchange"):
             self.spread.redistribute(self._moving_slots, self._owned, self._refill)
         with self.phases("sort"):
-            total = pa.inject() if self.injections else self.count
+            total = pa.inject() if self.injections or self.emitters else self.count
             pa.sort(total)
         self._find_owned()
+        self._charge_electrodes()
         self.coupling.build_grid()
 
     def _launch_fields(self) -> None:
@@ -476,6 +544,7 @@ class PICSolver(TimeDependentSolver):
         self.spread.issued(pa.loaded_count + self.state.injected)
         pa.sort(self.count)
         self._find_owned()
+        self._charge_electrodes()
         self.coupling.fields_at_particles()
         self.diagnostics_record.after_solve()
 
@@ -519,7 +588,11 @@ class PICSolver(TimeDependentSolver):
                             "weight": self.macro_mass_np[len(self.loads) + k] / sp_.mass, "charge": sp_.charge,
                             "mass": sp_.mass, "density": sp_.density, "temperature": sp_.temperature,
                             "drift": list(sp_.drift), "flux": j.flux})
-        return {**self.spread.describe(), "particles": self.n, "species": species, "particle_walls": list(self.particle_walls),
+        species += [{"name": e.source.species.name, "charge": e.source.species.charge, "mass": e.source.species.mass,
+                     "density": e.source.species.density, "temperature": e.source.species.temperature,
+                     "emitted_from": e.describe()} for e in self.emitters]
+        walls = self.boundary.describe() if self.boundary is not None else list(self.particle_walls)
+        return {**self.spread.describe(), "particles": self.n, "species": species, "particle_walls": walls,
                 "dt": self.dt, "gather": self.gather, "field_solve": self.coupling.field_solve,
                 "magnetic_field": float(self.magnetic_field), "plasma_frequency": self.plasma_frequency,
                 "omega_dt": self.plasma_frequency * self.dt,

@@ -22,7 +22,8 @@ from warpfree.space import Space
 #: gather rows (float64); the thermal plasma's peak resident memory grows by 420 B per particle, rounded up
 BYTES_PER_PARTICLE = 512.0
 
-__all__ = ["Species", "ParticleLoad", "load_species", "lattice_positions", "random_positions"]
+__all__ = ["Species", "ParticleLoad", "load_species", "load_in_region", "lattice_positions", "random_positions",
+           "region_positions"]
 
 
 @dataclass(frozen=True)
@@ -105,17 +106,52 @@ def load_species(species: Species, space: Space, position, rng: np.random.Genera
     drift + a Maxwell–Boltzmann spread at the species' temperature (``rng``, needed when T > 0), or ``velocity``
     (n, 2) given (e.g. a cold beam with a perturbation)."""
     lower, length = _box_of(space)
-    p = np.asarray(position, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] != 2 or p.shape[0] == 0:
-        raise ParameterError("position", f"species {species.name!r}: need an (n, 2) array, got shape {p.shape}")
-    if not np.all(np.isfinite(p)):
-        raise ParameterError("position", f"species {species.name!r}: positions must be finite")
+    p = _positions(species, position)
     outside = np.flatnonzero(np.any((p < lower) | (p >= lower + length), axis=1))
     if outside.size:
         i = int(outside[0])
         raise ParameterError("position", f"species {species.name!r}: particle {i} at {p[i].tolist()} lies outside "
                                          f"the box [{lower.tolist()}, {(lower + length).tolist()}) "
                                          f"({outside.size} such)")
+    return _load(species, p, float(np.prod(length)), rng, velocity)
+
+
+def load_in_region(species: Species, region, position, rng: np.random.Generator | None = None,
+                   velocity=None) -> ParticleLoad:
+    """As :func:`load_species`, in a :class:`~warpfree.galerkin.region.Region` (a field on a region,
+    ``warpfree.solvers.pic.electrodes``): ``position`` inside it, W = density · region's area / n."""
+    p = _positions(species, position)
+    outside = np.flatnonzero(~region.contains(p))
+    if outside.size:
+        i = int(outside[0])
+        raise ParameterError("position", f"species {species.name!r}: particle {i} at {p[i].tolist()} lies outside "
+                                         f"the region ({outside.size} such)")
+    return _load(species, p, float(region.area), rng, velocity)
+
+
+def region_positions(region, count: int, rng: np.random.Generator) -> np.ndarray:
+    """``count`` positions uniform in a region (drawn in its bounding box, those outside drawn again)."""
+    count = require_integer("count", count, minimum=1)
+    require_memory("count", count, BYTES_PER_PARTICLE, "macro-particles")
+    lo, hi = region.bounds()
+    out = np.zeros((0, 2))
+    while len(out) < count:
+        p = lo + rng.random((2 * (count - len(out)) + 16, 2)) * (hi - lo)
+        out = np.vstack([out, p[region.contains(p)]])
+    return out[:count]
+
+
+def _positions(species: Species, position) -> np.ndarray:
+    p = np.asarray(position, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 2 or p.shape[0] == 0:
+        raise ParameterError("position", f"species {species.name!r}: need an (n, 2) array, got shape {p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise ParameterError("position", f"species {species.name!r}: positions must be finite")
+    return p
+
+
+def _load(species: Species, p: np.ndarray, area: float, rng, velocity) -> ParticleLoad:
+    """The load of ``p`` (checked inside) over ``area``: W = density · area / n, velocities as :func:`load_species`."""
     n = p.shape[0]
     if velocity is not None:
         v = np.asarray(velocity, dtype=np.float64)
@@ -127,5 +163,5 @@ def load_species(species: Species, space: Space, position, rng: np.random.Genera
             if rng is None:
                 raise ParameterError("rng", f"species {species.name!r} is warm: loading needs a random generator")
             v = v + species.thermal_speed * rng.standard_normal((n, 2))
-    weight = species.density * float(np.prod(length)) / n
+    weight = species.density * area / n
     return ParticleLoad(species, np.ascontiguousarray(p), np.ascontiguousarray(v), weight)

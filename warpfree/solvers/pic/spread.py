@@ -46,10 +46,11 @@ __all__ = ["PlasmaSpread"]
 
 class PlasmaSpread(MovingSpread):
     """The decomposition of a plasma over ``world``'s ranks: the particles are the moving set (:attr:`particles`;
-    global ids: the particles' ids), the nodes each rank's box owns deposit there."""
+    global ids: the particles' ids), the nodes each rank's box owns deposit there. ``space``: the particles' box (default
+    the model's; a region's field gives the box enclosing it)."""
 
-    def __init__(self, world: World, model, positions: np.ndarray, method: CutMethod = CutMethod.RCB):
-        space = model.space
+    def __init__(self, world: World, model, positions: np.ndarray, method: CutMethod = CutMethod.RCB, space=None):
+        space = space or model.space
         self.nodes = points3(model.nodes_np)
         super().__init__(world, positions, cell=float(model.reach), depth=float(model.reach) * (1.0 + 1e-9), dim=2,
                          lower=space.lower, upper=space.upper, periodic=space.periodic, method=method)
