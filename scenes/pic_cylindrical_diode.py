@@ -11,8 +11,8 @@ each). Steady, the current per unit length is Langmuir and Blodgett's, I = (8π/
 
 Normalised units as ``pic_diode``'s: ε0 = 1, electron charge -1, mass 1, lengths in L, times in T. Measured over
 the second half of the run: the anode current (the slope of the charge it absorbed), the net emitted current, their
-ratio to Langmuir–Blodgett, and the mean potential along a radius against V(r). Writes ``history.csv``,
-``energy.png``, ``profile.png`` (mean potential and V(r), and their difference), particle frames coloured by speed
+ratio to Langmuir–Blodgett, the mean potential along a radius against V(r), and the charge balance. Writes
+``history.csv``, ``energy.png`` (the energies, and below the charge balance), ``profile.png`` (mean potential and V(r), and their difference), particle frames coloured by speed
 and VTU.
 """
 
@@ -52,6 +52,8 @@ TIME_UNIT = "T"
 CURRENT_TOLERANCE = 0.04
 #: the mean potential's largest error over V along a radius
 POTENTIAL_TOLERANCE = 0.02
+#: the charge in the region = emitted - absorbed, to round-off (float64 tallies of integer counts)
+BALANCE_TOLERANCE = 1e-11
 
 
 def diode_potential(r, current: float, cathode_radius: float) -> np.ndarray:
@@ -108,6 +110,8 @@ def build(voltage: Annotated[float, Param(UNITS["potential"], "anode potential V
         emitted = -np.polyfit(t[late], np.asarray(h["injected_charge"])[late]
                               - np.asarray(h["absorbed_charge_cathode"])[late], 1)[0]
         returned = -np.polyfit(t[late], np.asarray(h["absorbed_charge_cathode"])[late], 1)[0]
+        balance = (np.asarray(h["deposited_charge"]) - np.asarray(h["injected_charge"])
+                   + np.asarray(h["absorbed_charge_cathode"]) + np.asarray(h["absorbed_charge_anode"]))
         r = np.linspace(cathode_radius, anode_radius, 41)
         points = np.column_stack([r, np.zeros_like(r)])
         mean = model.evaluate(s.mean_potential(), model.shape_at(points))[0][:, 0]
@@ -119,11 +123,19 @@ def build(voltage: Annotated[float, Param(UNITS["potential"], "anode potential V
                   "emitted_over_langmuir_blodgett": float(emitted / expected),
                   "returned_over_langmuir_blodgett": float(returned / expected) + 0.0,
                   "potential_max_error": float(np.max(np.abs(mean - reference)) / voltage),
+                  "charge_balance_error": float(np.max(np.abs(balance))
+                                                / max(abs(h["injected_charge"][-1]), 1e-300)),
                   "particles": s.n, "nodes": model.node_count}
         result["checks"] = diode_checks(result)
         if out_dir is not None:
             write_history(os.path.join(out_dir, "history.csv"), h)
-            plot_history(out_dir, h, s, units=UNITS)
+            injected = max(abs(h["injected_charge"][-1]), 1e-300)
+            plot_history(out_dir, h, s, BALANCE_TOLERANCE, f"± {BALANCE_TOLERANCE:g} (round-off)", units=UNITS,
+                         below={"values": balance / injected,
+                                "label": "(Q_region - Q_emitted + Q_absorbed) / Q_emitted(end)",
+                                "ylabel": "charge balance error", "title": "the charge balance (an open diode: the "
+                                                                          "electrodes do work, energy is not kept)",
+                                "xlabel": f"t ({TIME_UNIT})"})
             plot_profile(os.path.join(out_dir, "profile.png"), r, mean, reference, voltage, POTENTIAL_TOLERANCE,
                          f"± {POTENTIAL_TOLERANCE:g} V", "cylindrical diode: mean potential against "
                          "Langmuir–Blodgett", xlabel=f"r ({UNITS['position']})",

@@ -479,15 +479,16 @@ REGION_TALLIES = ("particles", "injected_charge", "absorbed_charge_cathode", "ab
 
 
 @needs_mpi
-def test_a_distributed_cylindrical_diode_emits_and_absorbs_bitwise(tmp_path):
-    """Space-charge-limited emission from a curved electrode and absorption at the region's boundary on 2 ranks:
+@pytest.mark.parametrize("ranks", [2, 3])
+def test_a_distributed_cylindrical_diode_emits_and_absorbs_bitwise(ranks, tmp_path):
+    """Space-charge-limited emission from a curved electrode and absorption at the region's boundary on 2 and 3 ranks:
     every snapshot bitwise the one process's, and the tallies (live count, emitted charge, each electrode's absorbed
     and induced charge) and field terms bitwise."""
     one, many = tmp_path / "one", tmp_path / "many"
     sets = [*CYLINDRICAL, "--set", "t_end=3.0"]
     assert main(["run", "pic_cylindrical_diode", *sets, "--out", str(one), "--no-progress", "--no-frames",
                  "--threads", "1"]) == 0
-    done = run_distributed(2, ["run", "pic_cylindrical_diode", *sets, "--out", str(many), "--no-progress",
+    done = run_distributed(ranks, ["run", "pic_cylindrical_diode", *sets, "--out", str(many), "--no-progress",
                                "--no-frames"])
     assert done.returncode == 0, done.stderr[-3000:]
     a, b = summary(one), summary(many)

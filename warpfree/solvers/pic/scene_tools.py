@@ -88,7 +88,8 @@ def plot_history(out_dir: str, history: dict[str, list[float]], solver=None, ene
     paths = [plot_energy(os.path.join(out_dir, "energy.png"), history, energy_tolerance, tolerance_label, below)]
     if solver is not None:
         model = solver.model
-        lo, length = model.space.lower[:2], model.space.length[:2]
+        space = getattr(solver.field, "space", model.space)   # a region's field: the box enclosing it
+        lo, length = space.lower[:2], space.length[:2]
         paths.append(str(render_frame(os.path.join(out_dir, "potential.png"), model.nodes_np, solver.potential, 2,
                                       "potential", ((lo[0], lo[0] + length[0]), (lo[1], lo[1] + length[1])),
                                       title="potential at the nodes", time=solver.t, time_unit=solver.time_unit,
