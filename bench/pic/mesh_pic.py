@@ -288,29 +288,28 @@ class MeshPIC:
     def sort(self) -> None:
         """Counting sort of the particles by cell: ``order`` lists them cell by cell, cell c in [start, end)."""
         L, n = self.launcher, self.n
-        L.launch(cell_keys, n, [self.nx, self.ny, 1.0 / self.dx, 1.0 / self.dy, self.x], [self.keys, self.order])
+        L.launch(cell_keys, n, [self.nx, self.ny, 1.0 / self.dx, 1.0 / self.dy, self.x, self.keys, self.order])
         wp.utils.radix_sort_pairs(self.keys, self.order, n)
         self.start.zero_()
         self.end.zero_()
-        L.launch(cell_ranges, n, [n, self.keys], [self.start, self.end])
+        L.launch(cell_ranges, n, [n, self.keys, self.start, self.end])
 
     def solve_field(self) -> None:
         """Sort, deposit ρ, solve for φ (FFT), E on the nodes; records the φ mode."""
         self.sort()
         L, nx, ny = self.launcher, self.nx, self.ny
         L.launch(deposit, nx * ny, [nx, ny, 1.0 / self.dx, 1.0 / self.dy, 1.0 / (self.dx * self.dy), self.background,
-                                    self.x, self.species, self.charge, self.order, self.start, self.end], [self.rho])
+                                    self.x, self.species, self.charge, self.order, self.start, self.end, self.rho])
         rho_hat = np.fft.rfft2(self.rho.numpy().reshape(nx, ny))
         phi_hat = rho_hat * self.inv_k2
         self.phi.assign(np.fft.irfft2(phi_hat, s=(nx, ny)).reshape(-1))
         self.mode_amplitude = complex(2.0 * phi_hat[self.mode, 0] / (nx * ny))
-        L.launch(node_field, nx * ny, [nx, ny, 0.5 / self.dx, 0.5 / self.dy, self.phi], [self.e])
+        L.launch(node_field, nx * ny, [nx, ny, 0.5 / self.dx, 0.5 / self.dy, self.phi, self.e])
 
     def _push(self, dt_kick: float, dt_drift: float) -> None:
         self.launcher.launch(push, self.n, [self.nx, self.ny, 1.0 / self.dx, 1.0 / self.dy, self.lx, self.ly,
                                             float(dt_kick), float(dt_drift), self.order, self.species, self.q_over_m,
-                                            self.mass, self.e],
-                             [self.x, self.v, self.ke, self.momentum])
+                                            self.mass, self.e, self.x, self.v, self.ke, self.momentum])
 
     def field_energy(self) -> float:
         e = self.e.numpy()

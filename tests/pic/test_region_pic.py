@@ -187,18 +187,19 @@ def test_a_cold_beam_leaves_a_curved_cathode_along_its_normal_and_the_anode_take
 
 
 def test_the_cylindrical_diode_draws_langmuir_blodgett_s_current(tmp_path):
-    """The cathode emitting space-charge limited (Gauss's law on its multipliers) at a short size (node spacing 0.1,
-    quadratic MLS, Δt 0.02, t = 10, 20 particles a step): the anode current within 6 % of Langmuir and Blodgett's
-    (measured +4.0 %; +2.8 % and +2.25 % at spacings 0.05 and 0.025), none of the emission turned back to the cathode
-    (a local estimate of σ over-emitted and returned most of it), the mean potential along a radius within 0.02 V
-    (8.6e-3)."""
+    """The cathode emitting space-charge limited (Gauss's law on its multipliers) at a short size (nodes 0.05 apart
+    at the cathode growing to 0.1, quadratic MLS, Δt 0.02, t = 10, 20 particles a step): the anode current within 4 %
+    of Langmuir and Blodgett's (measured +2.3 %; the scene's defaults +1.3 %), almost none of the emission turned back
+    to the cathode (measured 5e-4 of the current; a local estimate of σ over-emitted and returned most of it), the
+    mean potential along a radius within 0.02 V (4.5e-3)."""
     from warpfree.scene_loader import load_scene
 
-    summary = load_scene("pic_cylindrical_diode").build(node_spacing=0.1, t_end=10.0, particles_per_step=20.0,
-                                                         frames=False, vtk=False).run(str(tmp_path), progress=False)
+    summary = load_scene("pic_cylindrical_diode").build(node_spacing=0.1, cathode_spacing=0.05, t_end=10.0,
+                                                         particles_per_step=20.0, frames=False,
+                                                         vtk=False).run(str(tmp_path), progress=False)
     diode = summary["analysis"]["diode"]
-    assert abs(diode["anode_over_langmuir_blodgett"] - 1.0) < 0.06, diode
-    assert abs(diode["returned_over_langmuir_blodgett"]) < 1e-12
+    assert abs(diode["anode_over_langmuir_blodgett"] - 1.0) < 0.04, diode
+    assert abs(diode["returned_over_langmuir_blodgett"]) < 1e-2
     assert diode["potential_max_error"] < 0.02
     assert diode["beta_squared"] == pytest.approx(0.2793, abs=1e-4)
 
@@ -216,3 +217,11 @@ def test_langmuir_blodgett_beta_squared_matches_their_table_and_series():
     gap = 1e-3
     planar = 2 * math.pi * 1.0 * 4 / 9 * math.sqrt(2.0) / gap ** 2
     assert current_per_length(1.0, 1.0, 1.0 + gap) == pytest.approx(planar, rel=2e-3)
+
+
+def test_the_cylindrical_diode_refuses_a_cathode_spacing_above_the_node_spacing():
+    """The nodes grade from the cathode outward: a cathode spacing above the node spacing is named."""
+    from warpfree.scene_loader import load_scene
+
+    with pytest.raises(ParameterError, match="cathode_spacing.*must not exceed node_spacing"):
+        load_scene("pic_cylindrical_diode").build(node_spacing=0.05, cathode_spacing=0.1)
