@@ -116,7 +116,7 @@ def _openings_traffic(solver) -> int:
 #: out again at a step where particles entered or left; an injected plasma grows its arrays (by doubling) past the most
 #: particles it held
 CHANGING = {"cylinder_flow_2d": (_openings_traffic, "changed"), "pic_diode": (lambda s: s.n, "grew"),
-            "pic_cylindrical_diode": (lambda s: s.n, "grew")}
+            "pic_cylindrical_diode": (lambda s: s.n, "grew"), "pic_sheath": (lambda s: s.n, "grew")}
 
 
 @pytest.mark.slow
