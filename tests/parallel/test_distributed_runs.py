@@ -498,3 +498,28 @@ def test_a_distributed_cylindrical_diode_emits_and_absorbs_bitwise(ranks, tmp_pa
         assert a["diagnostics"][key] == b["diagnostics"][key], key
     owned = b["model"]["distributed"]["particles_owned"]
     assert sum(owned) == a["model"]["particles"] and min(owned) > 0
+
+
+#: the sheath, small: a source emitting both species and a floating wall charging from what it absorbs (16 λ_D long:
+#: three supports, one for each of 3 ranks)
+SHEATH = smallest_sets("pic_sheath", without=("t_end", "length")) + ["--set", "t_end=6.0", "--set", "length=16.0"]
+SHEATH_TALLIES = ("particles", "injected_charge", "absorbed_charge_source", "absorbed_charge_wall", "charge_source",
+                  "charge_wall", "potential_wall", "deposited_charge", "field_energy")
+
+
+@needs_mpi
+@pytest.mark.parametrize("ranks", [2, 3])
+def test_a_distributed_sheath_charges_its_floating_wall_bitwise(ranks, tmp_path):
+    """Two species emitted from a source, absorbed at it and at a floating wall whose potential follows its charge,
+    on 2 and 3 ranks: every snapshot bitwise the one process's, and the tallies (each electrode's absorbed and held charge,
+    the wall's potential) bitwise."""
+    one, many = tmp_path / "one", tmp_path / "many"
+    assert main(["run", "pic_sheath", *SHEATH, "--out", str(one), "--no-progress", "--no-frames",
+                 "--threads", "1"]) == 0
+    done = run_distributed(ranks, ["run", "pic_sheath", *SHEATH, "--out", str(many), "--no-progress", "--no-frames"])
+    assert done.returncode == 0, done.stderr[-3000:]
+    a, b = summary(one), summary(many)
+    assert a["diagnostics"]["absorbed_charge_wall"] != 0 and a["diagnostics"]["potential_wall"] < 0
+    assert snapshot_differences(one, many) == []
+    for key in SHEATH_TALLIES:
+        assert a["diagnostics"][key] == b["diagnostics"][key], key

@@ -119,8 +119,9 @@ class Decomposition:
         if size > max(room, 1) and size > 1:
             along = " and ".join("xyz"[a] for a in axes)
             raise ParameterError("ranks", f"{size} ranks cannot cut the domain at the support size: it spans "
-                                          f"{room} cells of {cell:.4g} m along {along}, and each rank needs at least "
-                                          "one (fewer ranks, or a finer resolution)")
+                                          f"{room} cells of side {cell:.4g} (in the scene's length unit) along "
+                                          f"{along}, and each rank needs at least one (fewer ranks, or a finer "
+                                          "resolution)")
         _cut(np.arange(len(points)), list(range(size)), cells, cost, axes, lower, upper, origin, cell, method)
         return cls(lower, upper, period, dim, method, float(cell))
 
