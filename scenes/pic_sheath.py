@@ -148,9 +148,10 @@ def build(mass_ratio: Annotated[float, Param("", "ion to electron mass ratio m_i
                                                                           "source and the wall exchange particles)",
                                 "xlabel": f"t ({TIME_UNIT})"})
             plot_profile(os.path.join(out_dir, "profile.png"), x, mean, reference, 1.0, PROFILE_TOLERANCE,
-                         f"± {PROFILE_TOLERANCE:g} T_e/e", "sheath at a floating wall: mean potential against the "
-                         "kinetic model", xlabel="x (λ_D)", ylabel="potential φ (T_e/e)",
-                         reference_label="collisionless kinetic model")
+                         f"± {PROFILE_TOLERANCE:g} T_e/e, checked over the last {SHEATH_WIDTH:g} λ_D",
+                         "sheath at a floating wall: mean potential against the kinetic model", xlabel="x (λ_D)",
+                         ylabel="potential φ (T_e/e)", reference_label="collisionless kinetic model",
+                         scale_label="", checked_from=length - SHEATH_WIDTH)
         return {"sheath": result}
 
     return TimeLoop(solver, t_end=n_steps * dt, output_interval=output_every * dt, name="pic_sheath",

@@ -196,18 +196,21 @@ def plot_growth(path: str, time, energy, gamma_theory: float, gamma_fit: float |
 
 def plot_profile(path: str, y, computed, reference, scale: float, tolerance: float, tolerance_label: str,
                  title: str, xlabel: str = "y (normalised length)", ylabel: str = "potential φ (normalised)",
-                 reference_label: str = "steady beam (Child–Langmuir–Jaffé)") -> str:
+                 reference_label: str = "steady beam (Child–Langmuir–Jaffé)",
+                 scale_label: str = "V, V the anode potential", checked_from: float | None = None) -> str:
     """A computed profile against its reference (``reference_label``; top) and their difference over ``scale``
-    (bottom) with the band ± ``tolerance`` labelled ``tolerance_label``; without a reference (None) the computed
-    profile alone."""
+    (``scale_label`` says what it is; bottom) with the band ± ``tolerance`` labelled ``tolerance_label``, drawn where
+    it is checked (from ``checked_from`` on; None: everywhere); without a reference (None) the computed profile
+    alone."""
     y = np.asarray(y, np.float64)
     fig, top, bottom = _two_panels(title)
     top.plot(y, computed, lw=1.6, label="PIC (mean over the second half)")
     if reference is not None:
         top.plot(y, reference, "k--", lw=1.2, label=reference_label)
+        divided = f" / {scale_label.split(',')[0]}" if scale_label else ""
         bottom.plot(y, (np.asarray(computed) - np.asarray(reference)) / scale, color="k", lw=1.3,
-                    label=f"(PIC - {reference_label.split(' (')[0]}) / V")
-        draw_tolerance(bottom, tolerance, x=y, label=tolerance_label)
+                    label=f"(PIC - {reference_label.split(' (')[0]}){divided}")
+        draw_tolerance(bottom, tolerance, x=y if checked_from is None else y[y >= checked_from], label=tolerance_label)
         bottom.legend(fontsize=8, framealpha=0.85, loc="lower right")
     else:
         bottom.text(0.5, 0.5, "no steady monotone profile: no reference", ha="center", va="center",
@@ -215,7 +218,7 @@ def plot_profile(path: str, y, computed, reference, scale: float, tolerance: flo
     top.set_ylabel(ylabel)
     top.legend(fontsize=8, framealpha=0.85)
     bottom.set_xlabel(xlabel)
-    bottom.set_ylabel("(φ − φ_steady) / V, V the anode potential")
+    bottom.set_ylabel(f"(φ − φ_steady) / {scale_label}" if scale_label else "φ − φ_steady")
     return save_figure(fig, path)
 
 
