@@ -4,12 +4,14 @@ ranks' part of the summary, and the refusals of a distributed run."""
 
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
 import sys
 
 import pytest
 
+from helpers import ROOT
 from helpers.runs import (field_differences, relative_differences, smallest_sets, smallest_sets_then,
                           snapshot_differences, summary)
 from warpfree.cli import main
@@ -18,6 +20,10 @@ from warpfree.parallel.launch import find_mpiexec, run_ranks
 from warpfree.parallel.petsc_system import PETSC_EXTRA
 
 needs_mpi = pytest.mark.skipif(find_mpiexec() is None, reason=f"no MPI here: {MPI_EXTRA}")
+
+#: (page, code) of the documentation's ```python blocks (a tutorial's scene run over ranks as written)
+DOC_BLOCKS = [(str(page.relative_to(ROOT / "docs")), code) for page in sorted((ROOT / "docs").rglob("*.md"))
+              for code in re.findall(r"^```python\n(.*?)^```", page.read_text(encoding="utf-8"), re.S | re.M)]
 
 #: (scene, ranks): walls and a rebalancing cut (2D dam break), a rank that starts with no fluid (3D), periodic
 #: axes cut across (Taylor-Green, Poiseuille), a wall moving along its surface (the cavity's lid), a settled tank given its wave (standing wave); SPEM in 1D, with a PML
@@ -392,11 +398,12 @@ needs_petsc = pytest.mark.skipif(not _has_petsc(), reason=f"no PETSc here: {PETS
 #: (scene, ranks, settings): the beam's saddle point (Lagrange multipliers, their rows rank 0's) and its penalty
 #: form, the two-material resistor (Nitsche interface terms, each rank's rows of them), Cook's membrane, NEM on the
 #: beam's Delaunay triangles (direct substitution: prescribed values eliminated from every rank's rows), there also
-#: with algebraic multigrid
+#: with algebraic multigrid; a region built from shapes (the plate with an elliptical hole: its nodes relaxed about
+#: the exact ellipse, its cells and its load-free hole on the curve)
 #: (three ranks need a beam of 24 cells: the smallest's 12 span two supports)
 WIDER = ["--set", "cells_x=24", "--set", "cells_y=6"]
 GALERKIN_CASES = [("efg_timoshenko", 2, []), ("efg_timoshenko", 3, WIDER + ["--set", "method=penalty"]),
-                  ("efg_resistor", 3, []), ("efg_cook", 2, []), ("efg_coax", 3, []),
+                  ("efg_resistor", 3, []), ("efg_cook", 2, []), ("efg_coax", 3, []), ("efg_plate_hole", 3, []),
                   ("efg_timoshenko", 2, ["--set", "model=nem", "--set", "integration=gauss"]),
                   ("efg_timoshenko", 3, WIDER + ["--set", "model=nem", "--set", "integration=gauss",
                                          "--set", "preconditioner=gamg"])]
@@ -429,6 +436,28 @@ def test_a_distributed_galerkin_solve_through_petsc_gives_the_one_process_result
     assert solve["library"] == "PETSc" and solve["relative_residual"] < 1e-11
     assert sum(solve["rows_per_rank"]) == solve["unknowns"] and len(solve["rows_per_rank"]) == ranks
     assert a["model"]["linear_solver"]["library"] == "SciPy SuperLU"
+    assert field_differences(one, many) < GALERKIN_RTOL
+
+
+@needs_mpi
+@needs_petsc
+def test_a_users_region_read_from_a_file_solves_over_ranks_to_the_one_process_results(tmp_path):
+    """The geometry tutorial's scene as a user runs it (a shield's outline read from a spline file, a conductor's
+    exact circle cut out of it, φ held on both curves by Lagrange multipliers; its analysis solves a coarser layout
+    too) on 3 ranks: the surface field's errors and every output field within the Krylov solve's tolerance of one
+    process's."""
+    pages = [code for page, code in DOC_BLOCKS if page == "tutorials/geometry.md"]
+    scene = tmp_path / "coax_from_a_file.py"
+    scene.write_text(pages[0], encoding="utf-8")
+    sets = ["--set", "spacing=0.2"]
+    one, many = tmp_path / "one", tmp_path / "many"
+    assert main(["run", str(scene), *sets, "--out", str(one), "--no-progress", "--threads", "1"]) == 0
+    done = run_distributed(3, ["run", str(scene), *sets, "--out", str(many), "--no-progress"])
+    assert done.returncode == 0, done.stderr[-3000:]
+    a, b = summary(one), summary(many)
+    differences = relative_differences(a["analysis"], b["analysis"])
+    assert differences and max(differences.values()) < GALERKIN_RTOL, differences
+    assert b["model"]["linear_solver"]["rows_per_rank"] and len(b["model"]["linear_solver"]["rows_per_rank"]) == 3
     assert field_differences(one, many) < GALERKIN_RTOL
 
 
