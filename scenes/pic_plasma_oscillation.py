@@ -28,6 +28,7 @@ from warpfree.solvers.pic.parameters import (FieldSolveAt, LengthY, NodeSpacing,
 from warpfree.solvers.pic.scene_tools import (ENERGY_DRIFT_TARGET, POTENTIAL_FRAMES, lattice_nodes, momentum_change,
                                               periodic_box, plot_history, plot_oscillation, relative_drift,
                                               write_history)
+from warpfree.solvers.pic.units import Density, ElectronTemperature, plasma_units
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import tolerance_check
 from warpfree.validation.pic_plasma_oscillation import frequency_from_crossings, leapfrog_frequency
@@ -56,12 +57,15 @@ def build(wavenumber: Annotated[float, Param("1/λ_D", "wavenumber k of the disp
           amplitude: Annotated[float, Param("λ_D", "displacement δ of the electrons, δ sin(kx)", "(0, inf)")] = 0.01,
           dt: TimeStep = 0.1, periods: Periods = 4.0, gather: ParticleGather = Gather.MOMENTUM,
           output_every: OutputEvery = 16, field_solve: FieldSolveAt = None, frames: Frames = True,
-          vtk: Vtk = True) -> TimeLoop:
+          vtk: Vtk = True, density: Density = None,
+          electron_temperature: ElectronTemperature = None) -> TimeLoop:
     """``wavenumber`` k (1/λ_D units; the box is 2π/k long); ``amplitude`` δ of the displacement; ``dt`` in 1/ω_pe;
     ``periods`` of ω_p to run; ``gather`` "momentum" or "energy" (``warpfree.solvers.pic.field``); outputs every
     ``output_every`` steps. ``field_solve``: where the field is solved (None: the host's SuperLU on the CPU, the
-    device on a GPU; ``PICSolver``)."""
+    device on a GPU; ``PICSolver``). ``density`` (m⁻³) and ``electron_temperature`` (eV): the results also in SI
+    (:mod:`warpfree.solvers.pic.units`)."""
     params = dict(locals())
+    units = plasma_units(density, electron_temperature)
     k = wavenumber
     length = 2.0 * math.pi / k
     with reported_as(length_y="length_y", node_spacing="node_spacing, wavenumber, length_y"):
@@ -91,6 +95,10 @@ def build(wavenumber: Annotated[float, Param("1/λ_D", "wavenumber k of the disp
                                                            / run.solver.initial_particle_charge - 1.0))),
                       particles=run.solver.n, nodes=model.node_count, steps=len(h["time"]))
         result["checks"] = oscillation_checks(result)
+        if units is not None:
+            result["si"] = units.describe({"frequency": (result.get("frequency", math.nan), "angular_frequency"),
+                                           "leapfrog_frequency": (reference, "angular_frequency"),
+                                           "wavelength": (length, "length"), "amplitude": (amplitude, "length")})
         if out_dir is not None:
             write_history(os.path.join(out_dir, "history.csv"), h)
             plot_history(out_dir, h, energy_tolerance=ENERGY_DRIFT_TARGET,

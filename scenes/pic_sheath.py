@@ -40,6 +40,7 @@ from warpfree.solvers.pic.emission import Emission, SurfaceSource
 from warpfree.solvers.pic.parameters import OutputEvery
 from warpfree.solvers.pic.scene_tools import POTENTIAL_FRAMES, plot_history, plot_profile, write_history
 from warpfree.solvers.pic.species import load_in_region, region_positions
+from warpfree.solvers.pic.units import Density, ElectronTemperature, plasma_units
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import tolerance_check
 from warpfree.validation.pic_sheath import SheathModel
@@ -79,11 +80,14 @@ def build(mass_ratio: Annotated[float, Param("", "ion to electron mass ratio m_i
           dt: Annotated[float, Param("1/ω_pe", "time step Δt of the leapfrog", "(0, inf)")] = 0.1,
           t_end: Annotated[float, Param("1/ω_pe", "time at which the run ends", "(0, inf)")] = 600.0,
           seed: Annotated[int, Param("", "seed of the random number generator", "[0, inf)")] = 0,
-          output_every: OutputEvery = 500, frames: Frames = True, vtk: Vtk = True) -> TimeLoop:
+          output_every: OutputEvery = 500, frames: Frames = True, vtk: Vtk = True, density: Density = None,
+          electron_temperature: ElectronTemperature = None) -> TimeLoop:
     """A plasma source at x = 0 (potential 0), a floating wall at x = ``length``, ions of ``mass_ratio`` entering at
     ``ion_mach`` times the Bohm speed; ``particles_per_cell`` per λ_D² of each species; the wall's potential and the
-    profile averaged over the second half."""
+    profile averaged over the second half. ``density`` (m⁻³) and ``electron_temperature`` (eV): the results also in
+    SI (:mod:`warpfree.solvers.pic.units`)."""
     params = dict(locals())
+    units = plasma_units(density, electron_temperature)
     if node_spacing > 0.5 * min(length, width):
         raise ParameterError("node_spacing", f"must be at most half the strip's width and length "
                                              f"({0.5 * min(length, width):g}), got {node_spacing:g}")
@@ -140,6 +144,12 @@ def build(mass_ratio: Annotated[float, Param("", "ion to electron mass ratio m_i
                   "charge_balance_error": float(np.max(np.abs(balance))),
                   "particles": s.n, "nodes": model.node_count}
         result["checks"] = sheath_checks(result)
+        if units is not None:
+            result["si"] = units.describe({
+                "wall_potential": (wall, "potential"), "model_wall_potential": (model_of.wall_potential, "potential"),
+                "ion_current_density": (model_of.ion_flux, "current_density"),
+                "wall_net_current_density": (wall_current, "current_density"), "length": (length, "length"),
+                "sheath_checked_over": (SHEATH_WIDTH, "length")})
         if out_dir is not None:
             write_history(os.path.join(out_dir, "history.csv"), h)
             plot_history(out_dir, h, s, BALANCE_TOLERANCE, f"± {BALANCE_TOLERANCE:g} (round-off)", units=UNITS,

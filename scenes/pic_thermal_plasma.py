@@ -28,6 +28,7 @@ from warpfree.solvers.pic.parameters import (FieldSolveAt, NodeSpacing, OutputEv
                                              TimeStep)
 from warpfree.solvers.pic.scene_tools import (ENERGY_DRIFT_TARGET, POTENTIAL_FRAMES, lattice_nodes, momentum_change,
                                               periodic_box, plot_history, relative_drift, write_history)
+from warpfree.solvers.pic.units import Density, ElectronTemperature, plasma_units
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import tolerance_check
 
@@ -60,12 +61,15 @@ def build(box: Annotated[tuple[float, float], Param("λ_D", "size (Lx, Ly) of th
           ion_temperature: Annotated[float, Param("T_e", "proton temperature T_p (0: cold)", "[0, inf)")] = 0.1,
           dt: TimeStep = 0.2, periods: Periods = 50.0, gather: ParticleGather = Gather.MOMENTUM, seed: Seed = 0,
           output_every: OutputEvery = 50, field_solve: FieldSolveAt = None, frames: Frames = True,
-          vtk: Vtk = True) -> TimeLoop:
+          vtk: Vtk = True, density: Density = None,
+          electron_temperature: ElectronTemperature = None) -> TimeLoop:
     """``box`` (Lx, Ly) in λ_D; ``node_spacing`` in λ_D; ``particles_per_node``: macro-particles of each species per
     node cell; ``mass_ratio`` m_p/m_e; ``ion_temperature`` T_p/T_e; ``dt`` in 1/ω_pe; ``periods`` 2π/ω_pe.
     ``field_solve``: where the field is solved (None: the host's SuperLU on the CPU, the device on a GPU;
-    ``PICSolver``)."""
+    ``PICSolver``). ``density`` (m⁻³) and ``electron_temperature`` (eV): the results also in SI
+    (:mod:`warpfree.solvers.pic.units`)."""
     params = dict(locals())
+    units = plasma_units(density, electron_temperature)
     lx, ly = box
     with reported_as(length_x="box", length_y="box", node_spacing="node_spacing, box"):
         space = periodic_box(lx, ly)
@@ -101,6 +105,9 @@ def build(box: Annotated[tuple[float, float], Param("λ_D", "size (Lx, Ly) of th
             "particles_per_support": float(count / nodes.shape[0] * math.pi * (d_max * node_spacing) ** 2
                                            / node_spacing ** 2)}
         result["checks"] = thermal_checks(result)
+        if units is not None:
+            result["si"] = units.describe({"box_x": (lx, "length"), "box_y": (ly, "length"),
+                                           "duration": (float(t[-1]), "time")})
         if out_dir is not None:
             write_history(os.path.join(out_dir, "history.csv"), h)
             plot_history(out_dir, h, run.solver, ENERGY_DRIFT_TARGET, "± 1 % (the target over 50 plasma periods)")

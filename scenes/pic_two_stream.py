@@ -28,6 +28,7 @@ from warpfree.solvers.pic.parameters import (EndTime, FieldSolveAt, LengthY, Nod
                                              TimeStep)
 from warpfree.solvers.pic.scene_tools import (ENERGY_DRIFT_TARGET, POTENTIAL_FRAMES, lattice_nodes, momentum_change,
                                               periodic_box, plot_growth, plot_history, relative_drift, write_history)
+from warpfree.solvers.pic.units import Density, ElectronTemperature, plasma_units
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import tolerance_check
 from warpfree.validation.pic_two_stream import GAMMA_MAX, K_V0_FASTEST, growth_rate
@@ -62,13 +63,16 @@ def build(beam_speed: Annotated[float, Param("λ_D ω_pe", "drift speed v0 of th
                                                                "the beams' kinetic energy, between which γ is fitted",
                                                            "(0, inf)")] = (1e-6, 1e-3),
           gather: ParticleGather = Gather.MOMENTUM, output_every: OutputEvery = 20, field_solve: FieldSolveAt = None,
-          frames: Frames = True, vtk: Vtk = True) -> TimeLoop:
+          frames: Frames = True, vtk: Vtk = True, density: Density = None,
+          electron_temperature: ElectronTemperature = None) -> TimeLoop:
     """``beam_speed`` v0; ``wavenumber``: k v0/ω_pe of the seeded mode (the box one wavelength long);
     ``amplitude``: the velocity perturbation / v0; ``dt``, ``t_end`` in 1/ω_pe; ``fit_window``:
     the mode's field energy, as fractions of the beams' kinetic energy, between which γ is fitted; ``gather``
     "momentum" or "energy" (``warpfree.solvers.pic.field``). ``field_solve``: where the field is solved (None: the
-    host's SuperLU on the CPU, the device on a GPU; ``PICSolver``)."""
+    host's SuperLU on the CPU, the device on a GPU; ``PICSolver``). ``density`` (m⁻³) and ``electron_temperature``
+    (eV): the results also in SI (:mod:`warpfree.solvers.pic.units`)."""
     params = dict(locals())
+    units = plasma_units(density, electron_temperature)
     v0 = beam_speed
     lo, hi = fit_window
     if not lo < hi:
@@ -116,6 +120,10 @@ def build(beam_speed: Annotated[float, Param("λ_D ω_pe", "drift speed v0 of th
                                            f"{fit_window}: run longer or widen it")
         result["beam_momentum"] = 0.5 * v0 * length * length_y     # one beam's: density 1/2, mass 1, speed v0
         result["checks"] = two_stream_checks(result)
+        if units is not None:
+            result["si"] = units.describe({"growth_rate": (result.get("growth_rate", math.nan), "rate"),
+                                           "growth_rate_theory": (gamma_theory, "rate"),
+                                           "beam_speed": (v0, "speed"), "wavelength": (length, "length")})
         if out_dir is not None:
             write_history(os.path.join(out_dir, "history.csv"), h)
             plot_history(out_dir, h, energy_tolerance=ENERGY_DRIFT_TARGET,

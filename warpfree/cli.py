@@ -279,6 +279,11 @@ def print_summary(summary: dict, out_dir: str) -> None:
             for k2, v2 in val.items():
                 if isinstance(v2, (int, float)) and not isinstance(v2, bool):
                     print(f"  {key}.{k2} = {v2:.4g}")
+                elif isinstance(v2, dict):      # quantities with units ({"value", "unit"}), e.g. a plasma's SI block
+                    for group in v2.values():
+                        for name, q in (group.items() if isinstance(group, dict) else ()):
+                            if isinstance(q, dict) and set(q) == {"value", "unit"}:
+                                print(f"  {key}.{k2}.{name} = {q['value']:.4g} {q['unit']}")
     validation = summary.get("validation")
     if validation:                  # last, so that they are seen
         from .validation import check_lines

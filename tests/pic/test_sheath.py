@@ -56,14 +56,21 @@ def test_the_floating_wall_charges_to_the_model_s_potential_and_the_sheath_follo
     """The scene at half its particles and run (50 per λ_D², t = 300, m_i/m_e = 100, ions at c_s): the wall's mean
     potential over the second half within 0.05 T_e/e of ln(Γ_i/Γ_e0) = -1.4301 (measured -0.022), the mean potential
     over the sheath's last 5 λ_D within 0.05 of the model's (0.022), the wall's net current near zero (it floats:
-    8e-5 against the ion flux 0.1), and the charge balance kept."""
+    8e-5 against the ion flux 0.1), and the charge balance kept. For a plasma of 1e17 m⁻³ at 5 eV, the wall's
+    potential in volts is 5 times its normalised value, the ions' current density e n0 c_s."""
     from warpfree.scene_loader import load_scene
+    from warpfree.solvers.pic.units import PlasmaUnits
 
-    summary = load_scene("pic_sheath").build(t_end=300.0, particles_per_cell=50, frames=False,
-                                             vtk=False).run(str(tmp_path), progress=False)
+    summary = load_scene("pic_sheath").build(t_end=300.0, particles_per_cell=50, frames=False, vtk=False,
+                                             density=1e17, electron_temperature=5.0).run(str(tmp_path),
+                                                                                           progress=False)
     sheath = summary["analysis"]["sheath"]
     assert sheath["model_wall_potential"] == pytest.approx(-1.4301, abs=1e-4)
     assert abs(sheath["wall_potential_error"]) < 0.05, sheath
     assert sheath["sheath_profile_max_error"] < 0.05, sheath
     assert abs(sheath["wall_net_current"]) < 0.01 * sheath["ion_flux"]
     assert sheath["charge_balance_error"] < 1e-11
+    si = sheath["si"]["results"]
+    assert si["wall_potential"] == {"value": pytest.approx(5.0 * sheath["wall_potential"], rel=1e-14), "unit": "V"}
+    c_s = PlasmaUnits(1e17, 5.0).thermal_speed / math.sqrt(100.0)
+    assert si["ion_current_density"]["value"] == pytest.approx(1.602176634e-19 * 1e17 * c_s, rel=1e-12)
