@@ -18,8 +18,8 @@ back, and the cold ion beam accelerated by the potential; the source's electron 
 is neutral at the source, and the ions reach the sheath at ``ion_mach`` c_s (Bohm's criterion).
 
 Normalised units: n0 = 1, T_e = 1, e = m_e = ε0 = 1: lengths in λ_D, times in 1/ω_pe, potentials in T_e/e.
-Measured over the second half of the run: the floating wall's mean potential, the mean potential along the strip
-against the model's, and the fluxes to the wall. Writes ``history.csv``, ``energy.png`` (with the charge balance),
+Measured over the second half of the run: the floating wall's mean potential (and its fluctuation: σ and the
+exponential mean ln⟨exp φ_w⟩), the mean potential along the strip against the model's, and the fluxes to the wall. Writes ``history.csv``, ``energy.png`` (with the charge balance),
 ``profile.png`` (mean potential and the model's along x, and their difference), particle frames and VTU.
 """
 
@@ -124,7 +124,8 @@ def build(mass_ratio: Annotated[float, Param("", "ion to electron mass ratio m_i
         h = s.history
         t = np.asarray(h["time"])
         late = t >= 0.5 * t[-1]
-        wall = float(np.mean(np.asarray(h["potential_wall"])[late]))
+        wall_series = np.asarray(h["potential_wall"])[late]
+        wall = float(np.mean(wall_series))
         x = np.linspace(0.0, length, 161)
         points = np.column_stack([x, np.full_like(x, 0.5 * width)])
         mean = model.evaluate(s.mean_potential(), model.shape_at(points))[0][:, 0]
@@ -136,6 +137,10 @@ def build(mass_ratio: Annotated[float, Param("", "ion to electron mass ratio m_i
                    - np.asarray(h["injected_charge"]) + absorbed) / loaded
         result = {"wall_potential": wall, "model_wall_potential": model_of.wall_potential,
                   "wall_potential_error": wall - model_of.wall_potential,
+                  # the electrons the wall draws go as exp(φ_w(t)): the flux balance fixes the exponential mean
+                  # ln⟨exp φ_w⟩, the plain mean lies about σ²/2 below it
+                  "wall_potential_std": float(np.std(wall_series)),
+                  "wall_flux_potential": float(np.log(np.mean(np.exp(wall_series)))),
                   "bohm_wall_potential": -0.5 * math.log(mass_ratio / (2 * math.pi)),
                   "profile_max_error": float(np.max(np.abs(mean - reference))),
                   "sheath_profile_max_error": float(np.max(np.abs(mean - reference)[x >= length - SHEATH_WIDTH])),

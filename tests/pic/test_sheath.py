@@ -52,6 +52,19 @@ def test_ions_below_bohm_s_speed_have_no_monotone_sheath_and_the_scene_names_the
         load_scene("pic_sheath").build(ion_mach=0.9)
 
 
+def test_below_bohm_s_speed_the_model_s_plateau_is_neutral_and_its_ions_meet_bohm_s_criterion():
+    """Ions at 0.5 c_s: the plateau a source sheath would drop to (where V is least) is neutral, n_e = n_i to
+    round-off, at -1.0705 T_e/e (the README's figure), the ions there at 1.55 c_s (Bohm's criterion met); at and
+    above Bohm's speed there is no source sheath (φ_p = 0)."""
+    model = SheathModel(100.0, 0.5)
+    plateau = model.plateau_potential()
+    assert plateau == pytest.approx(-1.0705, abs=1e-4)
+    electrons = model.electron_density(plateau, model.source_electron_density, model.wall_potential)
+    assert electrons == pytest.approx(model.ion_density(plateau), rel=1e-12)
+    assert math.sqrt(0.25 - 2.0 * plateau) == pytest.approx(1.546, abs=1e-3)
+    assert all(SheathModel(100.0, mach).plateau_potential() == 0.0 for mach in (0.98, 1.0, 1.2))
+
+
 def test_the_floating_wall_charges_to_the_model_s_potential_and_the_sheath_follows_it(tmp_path):
     """The scene at half its particles and run (50 per λ_D², t = 300, m_i/m_e = 100, ions at c_s): the wall's mean
     potential over the second half within 0.05 T_e/e of ln(Γ_i/Γ_e0) = -1.4301 (measured -0.022), the mean potential

@@ -54,6 +54,20 @@ class SheathModel:
         c_s for hydrogen)."""
         return bool(np.all(self._pseudo_potential(np.linspace(self.wall_potential, 0.0, 2001)[:-1]) > 0.0))
 
+    def plateau_potential(self) -> float:
+        """φ_p, the potential of the neutral plasma between the sheaths: where V is least on [φ_w, 0] (n_e = n_i
+        there). 0 for ions entering at Bohm's speed or above (no source sheath); below it, the potential a source
+        sheath would drop to for the ions to meet Bohm's criterion (u_p² = u0² - 2φ_p/μ ≥ c_s²) at the wall's sheath,
+        were the sheaths steady (``README.md``: the simulation's plasma does not hold still there)."""
+        grid = np.linspace(self.wall_potential, 0.0, 20001)
+        values = self._pseudo_potential(grid)
+        k = int(np.argmin(values))
+        if k == grid.size - 1:
+            return 0.0
+        lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+        return float(brentq(lambda p: self.electron_density(p, self.source_electron_density, self.wall_potential)
+                            - self.ion_density(p), lo, hi, xtol=1e-15))
+
     def _wall_of(self, source_density: float) -> float:
         return math.log(self.ion_flux * math.sqrt(2.0 * math.pi) / source_density)
 
