@@ -6,12 +6,12 @@ report says what was left out):
 1. **Tests** (``--tests``, 15 %): ``pytest -m cuda --device cuda``: every shipped scene at its smallest size through the
    command line, and the device steps' checks (one read and no write per step, replayed graphs bitwise equal to
    stepping) for WCSPH, SPEM and PIC, on the GPU.
-2. **Scenes** (30 %): every shipped scene at its default on the GPU (frames and VTU off), cheapest first (by the
+2. **Scenes** (27 %): every shipped scene at its default on the GPU (frames and VTU off), cheapest first (by the
    reference's wall times, :func:`scene_order`); each
    analysis figure (the numbers under ``summary["analysis"]``) against the CPU's from ``--reference`` (written on a
    CPU machine by ``--device cpu --write-reference``): the relative difference per figure. A scene's checks against
    its tolerances (``summary["checks"]``) are reported as they are.
-3. **Throughput** (17 %): work items per second at three sizes per family (the scene of each family whose module
+3. **Throughput** (14 %): work items per second at three sizes per family (the scene of each family whose module
    declares ``BENCHMARK``: its ``parameter``, ``values`` and ``steps``; ``common.benchmarks``), on the CPU with all
    its threads and on the GPU, measured side by side in one run (``bench/common.py``: warm-up first, median of timed
    blocks).
@@ -31,6 +31,11 @@ report says what was left out):
    kernel (166 registers) or four within 128 (``MLSModel.shape_at(staged=)``; a GPU's default is staged), at the
    beam's Gauss points (192 x 48 cells, d_max 2.5, 3 x 3 points); and locality, the 2D dam break's step with its
    fluid stored in lattice, random and cell order (``particle_order.py``, :data:`ORDER_CASE`).
+7. **The cylindrical diode at scale** (6 %): ``pic_cylindrical_diode`` (a graded EFG layout, the field solved on the
+   host) at cathode spacings the CPU reaches only in minutes or more (:data:`DIODE_SCALE`, finest last, each only if
+   the budget left holds twice what the last took): the anode current against Langmuir–Blodgett's, the run's wall
+   time, nodes and particles. The CPU's side: ``bench/results/pic_diode_vs_mesh.md`` (+1.9 %, +1.3 %, +0.77 % at
+   0.05, 0.025, 0.0125 in 11, 40, 113 s on 2 threads, to t = 10).
 
 Usage (on a machine with a GPU and warpfree installed: ``pip install -e '.[test]'``)
     python bench/core/gpu_check.py                      # everything, --budget 480
@@ -60,7 +65,8 @@ RUN_ALL_SKIPPED = "needs a GPU: run it once on a machine with one (python bench/
 
 REFERENCE = common.RESULTS / "default_figures.json"
 #: the parts' shares of the budget
-SHARES = {"tests": 0.15, "scenes": 0.30, "throughput": 0.17, "scale": 0.25, "roofline": 0.05, "choices": 0.08}
+SHARES = {"tests": 0.15, "scenes": 0.27, "throughput": 0.14, "scale": 0.25, "roofline": 0.05, "choices": 0.08,
+          "diode": 0.06}
 #: the sizes a CPU cannot reach in a test: (family, scene, parameter, value, small value for ``--scale-dry-run``, steps
 #: timed a block, on the CPU too, other settings of the scene: the 3D dam break's fluid pairs from the grid, no table,
 #: beside the default). Sizes from the counts at smaller ones (``bench/results/memory.md``): the 3D dam
@@ -73,6 +79,13 @@ SCALE = [("wcsph", "dam_break_3d", "dx", 0.015, 0.06, 20, True, {}),
          ("spem", "em_cavity_2d", "cells_per_radius", 1030, 20, 20, False, {}),
          ("pic", "pic_thermal_plasma", "box", (400.0, 800.0), (16.0, 32.0), 10, False, {}),
          ("efg", "efg_timoshenko", "cells_x", 1400, 24, 1, False, {})]
+#: the cylindrical diode's settings at scale, finest last (the current converges at first order in the cathode's
+#: spacing: +0.77 % at 0.0125 with 200 particles a step; twice the particles as the spacing halves), and the small ones
+#: of ``--scale-dry-run``; to t = 10 T (steady from t = 5), frames and VTU off
+DIODE_SCALE = [{"cathode_spacing": 0.00625, "particles_per_step": 400.0, "t_end": 10.0},
+               {"cathode_spacing": 0.003125, "particles_per_step": 800.0, "t_end": 10.0}]
+DIODE_DRY_RUN = [{"node_spacing": 0.1, "cathode_spacing": 0.05, "particles_per_step": 20.0, "t_end": 2.0}]
+
 #: family -> (scene, the parameter that sets the size, three values, steps timed per block): what the scene of each
 #: family declares in ``BENCHMARK`` (``common.benchmarks``)
 SIZES = {family: (b["scene"], b["parameter"], b["values"], b["steps"]) for family, b in common.benchmarks().items()}
@@ -113,11 +126,13 @@ def _numbers(tree, prefix: str = "") -> dict[str, float]:
     return out
 
 
-def run_scene(name: str, device: str, timeout: float) -> dict:
-    """One scene at its default on ``device`` through the command line; its analysis figures and checks."""
+def run_scene(name: str, device: str, timeout: float, settings: dict | None = None) -> dict:
+    """One scene at its default (or ``settings``) on ``device`` through the command line; its analysis figures and
+    checks."""
     with tempfile.TemporaryDirectory() as out:
         cmd = [common.PYTHON, "-m", "warpfree", "run", name, "--out", f"{out}/{name}", "--no-frames", "--no-progress",
                "--set", "vtk=false", "--device", device]
+        cmd += [a for k, v in (settings or {}).items() for a in ("--set", f"{k}={v}")]
         start = time.perf_counter()
         try:
             proc = subprocess.run(cmd, cwd=common.ROOT, capture_output=True, text=True,
@@ -233,6 +248,24 @@ def run_scale(device: str, budget: float, dry_run: bool = False) -> list[dict]:
         print(f"  scale {family} {row['size']}: " + ", ".join(
             f"{w} {row[w].get('work_per_s', float('nan')):.3g}/s, {row[w].get('bytes_per_item') or float('nan'):.0f} B"
             for w in (device, "cpu") if w in row), flush=True)
+    return rows
+
+
+def run_diode(device: str, budget: float, dry_run: bool = False) -> list[dict]:
+    """The cylindrical diode at :data:`DIODE_SCALE` (``dry_run``: :data:`DIODE_DRY_RUN`) on ``device``, each only if the
+    budget left holds twice what the last took."""
+    rows, start, last = [], time.perf_counter(), 0.0
+    for settings in DIODE_DRY_RUN if dry_run else DIODE_SCALE:
+        left = budget - (time.perf_counter() - start)
+        if left < max(2.0 * last, 5.0):
+            rows.append({"settings": settings, "status": "not run (budget)"})
+            continue
+        row = {"settings": settings, **run_scene("pic_cylindrical_diode", device, left, settings)}
+        last = row.get("wall_s", left)
+        rows.append(row)
+        figures = row.get("figures", {})
+        print(f"  diode {settings}: {row['status']}, anode current / Langmuir–Blodgett "
+              f"{figures.get('diode/anode_over_langmuir_blodgett', float('nan')):.4f} in {last:.0f} s", flush=True)
     return rows
 
 
@@ -374,6 +407,19 @@ def markdown(result: dict) -> str:
         lines += [f"## Locality: the 2D dam break (dx = {r['dx']} m) with its fluid stored in three orders", "",
                   common.md_table(["lattice (ms a step)", "random", "cell", "random / lattice"], [cells + [ratio]]),
                   ""]
+    rows = []
+    for r in result.get("diode", []):
+        f = r.get("figures", {})
+        ratio = f.get("diode/anode_over_langmuir_blodgett")
+        rows.append([", ".join(f"{k} {v:g}" for k, v in r["settings"].items()), r.get("status", "–"),
+                     "–" if ratio is None else f"{100 * (ratio - 1):+.2f} %", common.fmt(r.get("wall_s")),
+                     *(f"{f[k]:.0f}" if k in f else "–" for k in ("diode/nodes", "diode/particles"))])
+    if rows:
+        lines += ["## The cylindrical diode at a size the CPU cannot reach", "",
+                  "On the CPU (2 threads, `bench/results/pic_diode_vs_mesh.md`): +1.9 %, +1.3 %, +0.77 % at cathode "
+                  "spacings 0.05, 0.025, 0.0125 in 11, 40, 113 s to t = 10.", "",
+                  common.md_table(["settings", "status", "anode current against Langmuir–Blodgett", "wall s",
+                                   "nodes", "particles at the end"], rows), ""]
     return "\n".join(lines) + "\n"
 
 
@@ -384,8 +430,10 @@ def main(argv=None) -> int:
     p.add_argument("--write-reference", action="store_true",
                    help="run the scenes' defaults on --device and write their figures to " + str(REFERENCE))
     p.add_argument("--reference", default=str(REFERENCE))
-    p.add_argument("--skip", default="", help="parts to leave out: tests,scenes,throughput,scale,roofline,choices")
-    p.add_argument("--scale-dry-run", action="store_true", help="the scale part at small sizes (a CPU's check)")
+    p.add_argument("--skip", default="", help="parts to leave out: tests,scenes,throughput,scale,roofline,choices,"
+                                              "diode")
+    p.add_argument("--scale-dry-run", action="store_true",
+                   help="the scale and diode parts at small sizes (a CPU's check)")
     p.add_argument("--leave-out", default="", help="scenes to leave out of the scenes' part (comma-separated)")
     args = p.parse_args(argv)
     skip = set(filter(None, args.skip.split(",")))
@@ -419,6 +467,8 @@ def main(argv=None) -> int:
         result["roofline"] = run_roofline(args.device, SHARES["roofline"] * args.budget)
     if "choices" not in skip:
         result["choices"] = run_choices(args.device, SHARES["choices"] * args.budget)
+    if "diode" not in skip:
+        result["diode"] = run_diode(args.device, SHARES["diode"] * args.budget, args.scale_dry_run)
     result["wall_s"] = time.perf_counter() - start
     common.write_results("gpu_check", result, markdown(result))
     return 0 if (result.get("tests") or {}).get("returncode", 0) == 0 else 1

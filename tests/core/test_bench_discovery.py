@@ -104,6 +104,17 @@ def test_every_family_with_a_scene_is_timed_by_the_gpu_check():
         assert len(values) == 3 and isinstance(steps, int) and steps >= 1, scene
 
 
+def test_the_gpu_check_s_diode_at_scale_sets_parameters_of_its_scene_and_the_parts_share_the_budget():
+    """Its settings (and the dry run's) are the cylindrical diode's parameters, the finest last; the parts' shares
+    sum to the whole budget."""
+    parameters = build_parameters("pic_cylindrical_diode")
+    for settings in gpu_check.DIODE_SCALE + gpu_check.DIODE_DRY_RUN:
+        assert set(settings) <= parameters, settings
+    spacings = [s["cathode_spacing"] for s in gpu_check.DIODE_SCALE]
+    assert spacings == sorted(spacings, reverse=True) and spacings[-1] < 0.0125   # finer than the CPU's finest run
+    assert sum(gpu_check.SHARES.values()) == pytest.approx(1.0)
+
+
 def test_every_family_that_distributes_is_in_the_scaling_sweep():
     distributed = {family for family, flag in DISTRIBUTES.items() if flag and family in WITH_SCENES}
     for size, cases in scaling.SIZES.items():

@@ -225,3 +225,20 @@ def test_the_cylindrical_diode_refuses_a_cathode_spacing_above_the_node_spacing(
 
     with pytest.raises(ParameterError, match="cathode_spacing.*must not exceed node_spacing"):
         load_scene("pic_cylindrical_diode").build(node_spacing=0.05, cathode_spacing=0.1)
+
+
+def test_a_region_s_field_is_solved_on_the_host_by_default_on_a_gpu_too(monkeypatch):
+    """With no ``field_solve`` given, a region's field goes to the host's SuperLU on any device (the device's solves
+    are a box's: given a region's field they failed on a GPU, the cylindrical diode stopping at set-up); a box's goes
+    to the device on a GPU. The launcher made to say it is not a CPU, as on a GPU."""
+    from warpfree.scene_loader import load_scene
+    from warpfree.solvers.pic.device_solve import FieldSolve
+    from warpfree.solvers.pic.solver import default_field_solve
+
+    assert default_field_solve(on_cpu=False, in_region=True) is FieldSolve.HOST
+    assert default_field_solve(on_cpu=False, in_region=False) is FieldSolve.DEVICE
+    assert default_field_solve(on_cpu=True, in_region=False) is FieldSolve.HOST
+    monkeypatch.setattr(Launcher, "is_cpu", property(lambda self: False))
+    scene = load_scene("pic_cylindrical_diode")
+    run = scene.build(**scene.SMALLEST, frames=False, vtk=False)
+    assert run.solver.coupling.field_solve is FieldSolve.HOST

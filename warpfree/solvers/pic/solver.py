@@ -52,7 +52,7 @@ from .injection import Injection
 from .particles import WALLS, Particles, PICState
 from .species import ParticleLoad, Species
 
-__all__ = ["PICSolver", "PICState", "ParticleWall", "HEATING_DT", "HEATING_SPACING"]
+__all__ = ["PICSolver", "PICState", "ParticleWall", "HEATING_DT", "HEATING_SPACING", "default_field_solve"]
 
 #: ω_pe Δt above which the leapfrog's phase error heats the plasma noticeably (Marques 2008, §2.2.3: Δt = 0.2/ω_pe)
 HEATING_DT = 0.2
@@ -71,6 +71,12 @@ class ParticleWall(Choice):
 #: deposited charge in e n_ref λ_D² (per unit depth); the species index and the particle id are numbers
 UNITS = {"position": "λ_D", "velocity": "λ_D ω_pe", "speed": "λ_D ω_pe", "e_field": "m_e λ_D ω_pe²/e",
          "species": "1", "particle_id": "1", "potential": "m_e λ_D² ω_pe²/e", "charge": "e n_ref λ_D²"}
+
+
+def default_field_solve(on_cpu: bool, in_region: bool) -> FieldSolve:
+    """Where the field is solved when a scene does not say: the host's SuperLU on a CPU (its fastest) and for a
+    region's field (its electrodes' multipliers are read there each step); the device on a GPU for a box."""
+    return FieldSolve.HOST if on_cpu or in_region else FieldSolve.DEVICE
 
 
 class PICSolver(TimeDependentSolver):
@@ -201,7 +207,7 @@ class PICSolver(TimeDependentSolver):
                                    self.emitters)
         self.particles.sync_position32()
         if field_solve is None:
-            field_solve = FieldSolve.HOST if self.launcher.is_cpu else FieldSolve.DEVICE
+            field_solve = default_field_solve(self.launcher.is_cpu, in_region)
         self.coupling = NodeCoupling(field, self.particles,
                                      wp.array(self.macro_charge_np, dtype=wp.float64, device=dev),
                                      self.background_density, gather, self.phases, field_solve)
