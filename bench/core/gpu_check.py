@@ -34,7 +34,7 @@ report says what was left out):
 7. **The cylindrical diode at scale** (6 %): ``pic_cylindrical_diode`` (a graded EFG layout, the field solved on the
    host) at cathode spacings the CPU reaches only in minutes or more (:data:`DIODE_SCALE`, finest last, each only if
    the budget left holds twice what the last took): the anode current against Langmuir–Blodgett's, the run's wall
-   time, nodes and particles. The CPU's side: ``bench/results/pic_diode_vs_mesh.md`` (+1.9 %, +1.3 %, +0.77 % at
+   time, nodes and particles, and the host field solve's share of the step (what a device solve could save). The CPU's side: ``bench/results/pic_diode_vs_mesh.md`` (+1.9 %, +1.3 %, +0.77 % at
    0.05, 0.025, 0.0125 in 11, 40, 113 s on 2 threads, to t = 10).
 
 Usage (on a machine with a GPU and warpfree installed: ``pip install -e '.[test]'``)
@@ -146,7 +146,8 @@ def run_scene(name: str, device: str, timeout: float, settings: dict | None = No
                     "output": (proc.stdout + proc.stderr)[-2000:]}
         summary = json.loads(summary_path.read_text())
     return {"scene": name, "status": summary.get("status"), "wall_s": wall,
-            "figures": _numbers(summary.get("analysis", {})), "checks": summary.get("checks")}
+            "figures": _numbers(summary.get("analysis", {})), "checks": summary.get("checks"),
+            "phases_s": summary.get("phases_s", {})}
 
 
 def compare(figures: dict[str, float], reference: dict[str, float]) -> dict:
@@ -411,15 +412,19 @@ def markdown(result: dict) -> str:
     for r in result.get("diode", []):
         f = r.get("figures", {})
         ratio = f.get("diode/anode_over_langmuir_blodgett")
+        phases = r.get("phases_s") or {}
+        share = phases["solve"] / phases["step"] if phases.get("step") and "solve" in phases else None
         rows.append([", ".join(f"{k} {v:g}" for k, v in r["settings"].items()), r.get("status", "–"),
                      "–" if ratio is None else f"{100 * (ratio - 1):+.2f} %", common.fmt(r.get("wall_s")),
-                     *(f"{f[k]:.0f}" if k in f else "–" for k in ("diode/nodes", "diode/particles"))])
+                     *(f"{f[k]:.0f}" if k in f else "–" for k in ("diode/nodes", "diode/particles")),
+                     "–" if share is None else f"{share:.2f}"])
     if rows:
         lines += ["## The cylindrical diode at a size the CPU cannot reach", "",
                   "On the CPU (2 threads, `bench/results/pic_diode_vs_mesh.md`): +1.9 %, +1.3 %, +0.77 % at cathode "
                   "spacings 0.05, 0.025, 0.0125 in 11, 40, 113 s to t = 10.", "",
                   common.md_table(["settings", "status", "anode current against Langmuir–Blodgett", "wall s",
-                                   "nodes", "particles at the end"], rows), ""]
+                                   "nodes", "particles at the end", "field solve's share of the step (host)"],
+                                  rows), ""]
     return "\n".join(lines) + "\n"
 
 
