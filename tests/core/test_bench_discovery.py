@@ -113,6 +113,10 @@ def test_the_gpu_check_s_diode_at_scale_sets_parameters_of_its_scene_and_the_par
     spacings = [s["cathode_spacing"] for s in gpu_check.DIODE_SCALE]
     assert spacings == sorted(spacings, reverse=True) and spacings[-1] < 0.0125   # finer than the CPU's finest run
     assert sum(gpu_check.SHARES.values()) == pytest.approx(1.0)
+    whole = gpu_check.part_budgets(480.0, set())
+    assert whole == pytest.approx({part: 480.0 * s for part, s in gpu_check.SHARES.items()})
+    alone = gpu_check.part_budgets(480.0, set(gpu_check.SHARES) - {"diode"})
+    assert alone == pytest.approx({"diode": 480.0})     # a part run on its own has the whole budget
 
 
 def test_every_family_that_distributes_is_in_the_scaling_sweep():
