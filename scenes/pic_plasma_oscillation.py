@@ -24,11 +24,11 @@ from warpfree.run import OutputOptions
 from warpfree.galerkin.mls import MLSModel, MLSSettings, SupportScale
 from warpfree.solvers.pic import Gather, PICSolver, PlasmaPoisson, Species, lattice_positions, load_species
 from warpfree.solvers.pic.parameters import (FieldSolveAt, LengthY, NodeSpacing, OutputEvery, ParticleGather, Periods,
-                                             TimeStep)
+                                             TimeStep, Density, ElectronTemperature)
 from warpfree.solvers.pic.scene_tools import (ENERGY_DRIFT_TARGET, POTENTIAL_FRAMES, lattice_nodes, momentum_change,
                                               periodic_box, plot_history, plot_oscillation, relative_drift,
                                               write_history)
-from warpfree.solvers.pic.units import Density, ElectronTemperature, plasma_units
+from warpfree.solvers.pic.units import plasma_units
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import tolerance_check
 from warpfree.validation.pic_plasma_oscillation import frequency_from_crossings, leapfrog_frequency

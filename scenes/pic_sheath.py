@@ -19,8 +19,9 @@ is neutral at the source, and the ions reach the sheath at ``ion_mach`` c_s (Boh
 
 Normalised units: n0 = 1, T_e = 1, e = m_e = ε0 = 1: lengths in λ_D, times in 1/ω_pe, potentials in T_e/e.
 Measured over the second half of the run: the floating wall's mean potential (and its fluctuation: σ and the
-exponential mean ln⟨exp φ_w⟩), the mean potential along the strip against the model's, and the fluxes to the wall. Writes ``history.csv``, ``energy.png`` (with the charge balance),
-``profile.png`` (mean potential and the model's along x, and their difference), particle frames and VTU.
+exponential mean ln⟨exp φ_w⟩), the mean potential along the strip against the model's, and the fluxes to the wall.
+Writes ``history.csv``, ``energy.png`` (with the charge balance), ``profile.png`` (mean potential and the model's
+along x, and their difference), particle frames and VTU.
 """
 
 import math
@@ -37,10 +38,10 @@ from warpfree.run import OutputOptions
 from warpfree.solvers.pic import PICSolver, Species
 from warpfree.solvers.pic.electrodes import Electrode, ElectrodeField
 from warpfree.solvers.pic.emission import Emission, SurfaceSource
-from warpfree.solvers.pic.parameters import OutputEvery
+from warpfree.solvers.pic.parameters import Density, ElectronTemperature, OutputEvery
 from warpfree.solvers.pic.scene_tools import POTENTIAL_FRAMES, plot_history, plot_profile, write_history
 from warpfree.solvers.pic.species import load_in_region, region_positions
-from warpfree.solvers.pic.units import Density, ElectronTemperature, plasma_units
+from warpfree.solvers.pic.units import plasma_units
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import tolerance_check
 from warpfree.validation.pic_sheath import SheathModel
@@ -137,8 +138,8 @@ def build(mass_ratio: Annotated[float, Param("", "ion to electron mass ratio m_i
                    - np.asarray(h["injected_charge"]) + absorbed) / loaded
         result = {"wall_potential": wall, "model_wall_potential": model_of.wall_potential,
                   "wall_potential_error": wall - model_of.wall_potential,
-                  # the electrons the wall draws go as exp(φ_w(t)): the flux balance fixes the exponential mean
-                  # ln⟨exp φ_w⟩, the plain mean lies about σ²/2 below it
+                  # the electrons the wall draws go as exp(φ_w(t)): were its oscillation slow, the flux balance would
+                  # fix the exponential mean ln⟨exp φ_w⟩, the plain mean about σ²/2 below it (README)
                   "wall_potential_std": float(np.std(wall_series)),
                   "wall_flux_potential": float(np.log(np.mean(np.exp(wall_series)))),
                   "bohm_wall_potential": -0.5 * math.log(mass_ratio / (2 * math.pi)),

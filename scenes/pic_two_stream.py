@@ -25,10 +25,10 @@ from warpfree.run import OutputOptions
 from warpfree.galerkin.mls import MLSModel, MLSSettings, SupportScale
 from warpfree.solvers.pic import Gather, PICSolver, PlasmaPoisson, Species, lattice_positions, load_species
 from warpfree.solvers.pic.parameters import (EndTime, FieldSolveAt, LengthY, NodeSpacing, OutputEvery, ParticleGather,
-                                             TimeStep)
+                                             TimeStep, Density, ElectronTemperature)
 from warpfree.solvers.pic.scene_tools import (ENERGY_DRIFT_TARGET, POTENTIAL_FRAMES, lattice_nodes, momentum_change,
                                               periodic_box, plot_growth, plot_history, relative_drift, write_history)
-from warpfree.solvers.pic.units import Density, ElectronTemperature, plasma_units
+from warpfree.solvers.pic.units import plasma_units
 from warpfree.time_loop import TimeLoop
 from warpfree.validation import tolerance_check
 from warpfree.validation.pic_two_stream import GAMMA_MAX, K_V0_FASTEST, growth_rate

@@ -12,7 +12,7 @@ from warpfree.parameters import Param
 from .coupling import FieldSolve, Gather
 
 __all__ = ["NodeSpacing", "TimeStep", "EndTime", "Periods", "LengthY", "OutputEvery",
-           "ParticleGather", "FieldSolveAt"]
+           "ParticleGather", "FieldSolveAt", "Density", "ElectronTemperature"]
 
 NodeSpacing = Annotated[float, Param("λ_D", "spacing of the lattice of EFG nodes", "(0, inf)")]
 TimeStep = Annotated[float, Param("1/ω_pe", "time step Δt of the leapfrog (ω_p Δt < 2)", "(0, inf)")]
@@ -23,3 +23,9 @@ OutputEvery = Annotated[int, Param("", "steps between outputs", "[1, inf)")]
 ParticleGather = Annotated[Gather, Param("", "how the particles take the field from the nodes")]
 FieldSolveAt = Annotated[FieldSolve | None, Param("", "where the field is solved each step (none: host on the CPU, "
                                                       "device on a GPU)")]
+#: a plasma's density and temperature together give the normalised scenes' results in SI (:mod:`.units`)
+Density = Annotated[float | None, Param("1/m³", "electron density n0 of the plasma, with electron_temperature: the "
+                                                "results also in SI (none: normalised units only)", "(0, inf)")]
+ElectronTemperature = Annotated[float | None, Param("eV", "electron temperature T_e of the plasma, with density: the "
+                                                          "results also in SI (none: normalised units only)",
+                                                    "(0, inf)")]

@@ -18,25 +18,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Annotated
-
 from scipy import constants
 
 from warpfree.errors import ParameterError
-from warpfree.parameters import Param
 
-__all__ = ["PlasmaUnits", "plasma_units", "Density", "ElectronTemperature", "DIMENSIONS"]
+__all__ = ["PlasmaUnits", "plasma_units", "DIMENSIONS"]
 
 #: a result's dimension -> its SI unit
 DIMENSIONS = {"length": "m", "time": "s", "rate": "1/s", "angular_frequency": "rad/s", "speed": "m/s",
               "potential": "V", "flux": "1/(m² s)", "current_density": "A/m²", "density": "1/m³"}
-
-Density = Annotated[float | None, Param("1/m³", "electron density n0 of the plasma, with electron_temperature: the "
-                                                "results also in SI (none: normalised units only)", "(0, inf)")]
-ElectronTemperature = Annotated[float | None, Param("eV", "electron temperature T_e of the plasma, with density: the "
-                                                          "results also in SI (none: normalised units only)",
-                                                    "(0, inf)")]
-
 
 @dataclass(frozen=True)
 class PlasmaUnits:
